@@ -1,0 +1,85 @@
+# tribo: one-command set-up, test, demo and benchmarks.
+#
+#   make demo    the main job: the simulated rig on the live graph, recorded,
+#                analysed, reported (sets everything up first if needed)
+#   make test    the test suite (sets everything up first if needed)
+#
+# Other targets: setup, build, bench, lint, clean, distclean.
+# Everything is installed into the project-local virtual environment .venv;
+# nothing is written outside this directory.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+
+ROOT := $(abspath $(dir $(lastword $(MAKEFILE_LIST))))
+VENV := $(ROOT)/.venv
+PY := $(VENV)/bin/python
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+DEPS_STAMP := $(VENV)/.deps-stamp
+BUILD_STAMP := $(ROOT)/install/.build-stamp
+PKG_FILES := $(wildcard src/*/package.xml src/*/setup.py src/*/setup.cfg src/*/CMakeLists.txt \
+	src/tribo_msgs/msg/*.msg src/*/launch/*.py)
+COLCON_ENV := AMENT_PREFIX_PATH=$(VENV) CMAKE_PREFIX_PATH=$(VENV) PATH=$(VENV)/bin:$$PATH
+IN_ENV := source $(ROOT)/env.sh &&
+PYTEST_ARGS ?=
+
+.PHONY: help setup build test lint bench demo clean distclean
+
+help:
+	@echo 'make demo   - run the demo on the simulated rig (main job)'
+	@echo 'make test   - run the tests'
+	@echo 'make setup  - install .venv and build the workspace (done by demo/test as needed)'
+	@echo 'make bench  - run the benchmarks (speed and accuracy figures)'
+	@echo 'make lint   - ruff and mypy'
+
+setup: $(ROOT)/.setup-done
+
+$(ROOT)/.setup-done: $(DEPS_STAMP) $(BUILD_STAMP)
+	@touch $@
+
+$(DEPS_STAMP): requirements.txt constraints.txt tools/fix_ros_wheels.py
+	@echo '[setup] virtual environment and pinned packages (.venv)'
+	@v=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
+	  if [ "$$v" != "3.11" ]; then echo "setup: Python 3.11 is required for the ROS 2 Jazzy wheels (found $$v at $(PYTHON))" >&2; exit 2; fi
+	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
+	@$(PY) -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
+	@$(PY) -m pip install -q --disable-pip-version-check -r requirements.txt -c constraints.txt 2>&1 | grep -v '^WARNING: Location' || true
+	@$(PY) -c 'import rclpy, numba, scipy, rosbags, serial, can, cantools' \
+	  || { echo 'setup: package installation failed (see pip output above)' >&2; exit 2; }
+	@$(PY) tools/fix_ros_wheels.py
+	@touch $@
+
+$(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
+	@echo '[setup] colcon build of the workspace (install/)'
+	@mkdir -p log
+	@$(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
+	  --event-handlers console_direct- summary- \
+	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
+	  || { mkdir -p log; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }
+	@touch $@
+
+build:
+	@rm -f $(BUILD_STAMP)
+	@$(MAKE) -s setup
+
+test: setup
+	@$(IN_ENV) ruff check src tests bench tools
+	@$(IN_ENV) python -m pytest -q --timeout=600 $(PYTEST_ARGS)
+
+lint: setup
+	@$(IN_ENV) ruff check src tests bench tools
+	@$(IN_ENV) mypy src/tribo_estimation/tribo_estimation src/tribo_nvct/tribo_nvct \
+	  src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup
+
+bench: setup
+	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; python $$b; done
+
+demo: setup
+	@$(IN_ENV) python -m tribo_bringup.cli demo
+
+clean:
+	rm -rf build install log .setup-done demo_output
+
+distclean: clean
+	rm -rf $(VENV)

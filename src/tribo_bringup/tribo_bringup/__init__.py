@@ -1,0 +1,1 @@
+"""tribo_bringup package."""

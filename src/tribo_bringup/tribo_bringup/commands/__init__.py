@@ -1,0 +1,1 @@
+"""Subcommands of the tribo CLI (each module: register(subparsers))."""

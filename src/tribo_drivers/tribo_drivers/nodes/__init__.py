@@ -1,0 +1,1 @@
+"""ROS 2 node shells (rclpy lives only here)."""

@@ -1,0 +1,1 @@
+"""tribo_nvct package."""
