@@ -97,7 +97,9 @@ def crc16_ccitt_false(data: bytes | bytearray | memoryview, init: int = 0xFFFF) 
 def crc16_rows(payload: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint16]:
     """CRC-16/CCITT-FALSE of every row of a (n, 2k) uint8 array, vectorised over rows."""
     if payload.ndim != 2 or payload.shape[1] % 2:
-        raise FrameError(f'crc16_rows needs a 2-D array with an even row length, got {payload.shape}')
+        raise FrameError(
+            f'crc16_rows needs a 2-D array with an even row length, got {payload.shape}'
+        )
     words = np.ascontiguousarray(payload).view('>u2')
     crc = np.full(payload.shape[0], 0xFFFF, dtype=np.uint16)
     for j in range(words.shape[1]):
@@ -130,7 +132,9 @@ class DaqScaling:
 
     def to_raw(self, channel: int, value: npt.ArrayLike) -> npt.NDArray[np.int32]:
         """Inverse scaling (for emulators): counts nearest to ``value`` (SI) on ``channel``."""
-        raw = np.rint(np.asarray(value, dtype=np.float64) / self.gain[channel] + self.offset[channel])
+        raw = np.rint(
+            np.asarray(value, dtype=np.float64) / self.gain[channel] + self.offset[channel]
+        )
         if np.any(np.abs(raw) > 2**31 - 1):
             raise FrameError(f'value out of the i32 range of channel {CHANNELS[channel]}')
         return raw.astype(np.int32)
@@ -168,7 +172,11 @@ def encode_frames(
     arr = np.zeros(n, dtype=FRAME_DTYPE)
     arr['sync'] = (0xA5, 0x5A)
     arr['sample_index'] = idx.astype(np.uint32)
-    for name, values in (('torque_raw', torque_raw), ('accel_raw', accel_raw), ('speed_raw', speed_raw)):
+    for name, values in (
+        ('torque_raw', torque_raw),
+        ('accel_raw', accel_raw),
+        ('speed_raw', speed_raw),
+    ):
         v = np.broadcast_to(np.asarray(values, dtype=np.int64), (n,))
         if np.any((v < -(2**31)) | (v > 2**31 - 1)):
             raise FrameError(f'{name} out of the i32 range')
@@ -297,9 +305,7 @@ class DaqDecoder:
         return len(self._tail)
 
 
-def decode_scalar(
-    data: bytes, scaling: DaqScaling
-) -> list[tuple[int, int, float, float, float]]:
+def decode_scalar(data: bytes, scaling: DaqScaling) -> list[tuple[int, int, float, float, float]]:
     """Reference byte-by-byte decoder: (position, sample_index, torque, accel, speed) per frame.
 
     Slow; used to check the vectorised decoder.  At each position it accepts a frame if the

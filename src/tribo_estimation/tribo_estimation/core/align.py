@@ -30,9 +30,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import AlignmentError
+from ..errors import InvalidDataError
 
 FloatArray = npt.NDArray[np.float64]
+
+
+class AlignmentError(InvalidDataError):
+    """A sample block cannot be aligned (unknown channel, bad rate, index or stamp)."""
+
 
 #: Channel names in the order of :class:`AlignedChunk` fields (SampleBlock ``frame_id``).
 CHANNELS: tuple[str, str, str] = ('torsion_moment', 'angular_acceleration', 'speed')

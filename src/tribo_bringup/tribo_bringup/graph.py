@@ -1,0 +1,156 @@
+"""Graph runner: the chosen tribo nodes in one process on a multi-threaded executor.
+
+The stand-in for a launch file on machines without ``ros2 launch`` (the
+packages ship real launch files in ``launch/`` for full ROS installs).
+Parameters come from ROS parameter files (``--params-file``) and from a
+RIG.yaml, whose keys are the rig nodes' parameter names.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+from tribo_common.node_main import spin_background
+
+from tribo_bringup.errors import ConfigError
+
+#: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
+NODES: dict[str, tuple[str, str]] = {
+    'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
+    'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetectorNode'),
+    'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
+    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitorNode'),
+    'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
+}
+
+#: RIG.yaml keys that are parameters of the rig nodes (sim_rig, friction_estimator).
+RIG_KEYS = (
+    'I1',
+    'K1',
+    'C1',
+    'I2',
+    'K2',
+    'C2',
+    'F_N',
+    'R',
+    'mu0',
+    'mu_inf',
+    'k',
+    'nominal_speed',
+)
+#: Further RIG.yaml keys used by the simulated rig only.
+SIM_KEYS = ('ramp_time', 'noise_torque', 'noise_accel', 'noise_speed', 'seed')
+
+
+def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
+    """Parameter values per node from a RIG.yaml (``effects:`` -> ``effects.<name>``)."""
+    path = Path(rig_yaml)
+    try:
+        data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f'{path}: cannot read rig file: {exc}') from exc
+    if not isinstance(data, dict):
+        raise ConfigError(f'{path}: a rig file is a mapping of parameter names to values')
+    missing = [k for k in RIG_KEYS if k not in data]
+    if missing:
+        raise ConfigError(
+            f'{path}: missing key {missing[0]!r} (rig files need {", ".join(RIG_KEYS)})'
+        )
+    common = {k: float(data[k]) for k in RIG_KEYS}
+    sim = dict(common)
+    for k in SIM_KEYS:
+        if k in data:
+            sim[k] = int(data[k]) if k == 'seed' else float(data[k])
+    effects = data.get('effects') or {}
+    if not isinstance(effects, dict):
+        raise ConfigError(f'{path}: effects must be a mapping of extension names to values')
+    for name, value in effects.items():
+        sim[f'effects.{name}'] = float(value)
+    return {'sim_rig': sim, 'friction_estimator': common}
+
+
+@dataclass
+class Graph:
+    """A set of nodes spinning in one process.
+
+    Args:
+        nodes: node names (keys of :data:`NODES`).
+        params_files: ROS 2 parameter files applied to every node (by node name).
+        overrides: per-node parameter overrides (name -> value).
+    """
+
+    nodes: Sequence[str]
+    params_files: Sequence[str | Path] = ()
+    overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
+    extra_nodes: list[Any] = field(default_factory=list)
+    _instances: list[Any] = field(default_factory=list, init=False)
+
+    def start(self, ros_args: Sequence[str] = ()) -> None:
+        """Initialise rclpy and create the nodes."""
+        import rclpy
+        from rclpy.parameter import Parameter
+
+        args = ['tribo-run', '--ros-args']
+        for f in self.params_files:
+            if not Path(f).is_file():
+                raise ConfigError(f'{f}: no such parameter file')
+            args += ['--params-file', str(f)]
+        args += list(ros_args)
+        rclpy.init(args=args)
+        for name in self.nodes:
+            if name not in NODES:
+                raise ConfigError(f'unknown node {name!r}; known: {", ".join(NODES)}')
+            module, cls_name = NODES[name]
+            cls = getattr(importlib.import_module(module), cls_name)
+            over = [Parameter(k, value=v) for k, v in self.overrides.get(name, {}).items()]
+            self._instances.append(cls(parameter_overrides=over))
+
+    def spin(
+        self,
+        duration: float = 0.0,
+        progress: Callable[[float], None] | None = None,
+        stop: threading.Event | None = None,
+    ) -> None:
+        """Spin all nodes until ``duration`` [s] passed (0: until Ctrl-C) or ``stop`` is set."""
+        from rclpy.executors import MultiThreadedExecutor
+
+        executor = MultiThreadedExecutor(num_threads=4)
+        for node in [*self._instances, *self.extra_nodes]:
+            executor.add_node(node)
+        spinner, stop = spin_background(executor, stop)
+        t0 = time.monotonic()
+        last = t0
+        try:
+            while not stop.is_set():
+                now = time.monotonic()
+                if duration and now - t0 >= duration:
+                    break
+                if progress is not None and now - last >= 5.0:
+                    progress(now - t0)
+                    last = now
+                time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            stop.set()
+            spinner.join(timeout=5.0)
+            executor.shutdown(timeout_sec=2.0)
+
+    def close(self) -> None:
+        """Stop and destroy the nodes and shut rclpy down."""
+        import rclpy
+
+        for node in [*self._instances, *self.extra_nodes]:
+            close = getattr(node, 'close', None)
+            if callable(close):
+                close()
+            node.destroy_node()
+        self._instances.clear()
+        rclpy.try_shutdown()

@@ -1,0 +1,168 @@
+"""Recording and replaying the graph's topics (rclpy side of ``tribo record``/``replay``).
+
+Recording subscribes in raw mode (CDR bytes, no deserialisation) with the
+lossless data QoS and writes through :class:`tribo_bringup.bagio.BagWriter`.
+Replay publishes the recorded CDR bytes with their recorded timing, scaled by
+``rate``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from rclpy.node import Node
+from tribo_common.qos import data_qos, status_qos
+
+from tribo_bringup import bagio
+from tribo_bringup.errors import BagError
+
+
+def msg_class(msgtype: str) -> Any:
+    """The rclpy message class of a type name like ``tribo_msgs/msg/SampleBlock``."""
+    pkg, kind, name = msgtype.split('/')
+    try:
+        return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+    except (ImportError, AttributeError) as exc:
+        raise BagError(f'message type {msgtype} is not available in this environment') from exc
+
+
+def _qos_for(topic: str) -> Any:
+    return status_qos() if topic == '/diagnostics' else data_qos()
+
+
+class Recorder(Node):
+    """Subscribe to topics (raw CDR) and write them into a bag.
+
+    Args:
+        writer: an open BagWriter.
+        topics: topics to record with their types (default: the graph's topics).
+        discover: also record any other topic of a known type that appears.
+    """
+
+    def __init__(
+        self,
+        writer: bagio.BagWriter,
+        topics: dict[str, str] | None = None,
+        *,
+        discover: bool = False,
+    ) -> None:
+        super().__init__('tribo_recorder')
+        self._writer = writer
+        self._lock = threading.Lock()
+        self._subs: dict[str, Any] = {}
+        self.received = 0
+        for topic, msgtype in (topics or bagio.TOPIC_TYPES).items():
+            self._subscribe(topic, msgtype)
+        if discover:
+            self.create_timer(1.0, self._discover)
+
+    def _subscribe(self, topic: str, msgtype: str) -> None:
+        if topic in self._subs:
+            return
+        try:
+            cls = msg_class(msgtype)
+        except BagError as exc:
+            self.get_logger().warning(f'not recording {topic}: {exc}')
+            self._subs[topic] = None
+            return
+        if not self._writer.add_topic(topic, msgtype):
+            self._subs[topic] = None
+            return
+        self._subs[topic] = self.create_subscription(
+            cls, topic, self._callback(topic), _qos_for(topic), raw=True
+        )
+
+    def _callback(self, topic: str) -> Callable[[bytes], None]:
+        def on_message(raw: bytes) -> None:
+            stamp = self.get_clock().now().nanoseconds
+            with self._lock:
+                self._writer.write(topic, stamp, raw)
+                self.received += 1
+
+        return on_message
+
+    def _discover(self) -> None:
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self._subs or not types:
+                continue
+            self._subscribe(topic, types[0])
+
+
+class Replayer(Node):
+    """Publish the messages of a bag with their recorded timing.
+
+    Args:
+        bag: bag path.
+        topics: topics to replay (default: all in the bag).
+        rate: playback speed factor (2.0 = twice as fast; 0 = as fast as possible).
+    """
+
+    def __init__(self, bag: str | Path, topics: Iterable[str] | None = None, rate: float = 1.0):
+        super().__init__('tribo_replay')
+        if rate < 0:
+            raise ValueError(f'--rate must be >= 0, got {rate}')
+        self.bag = Path(bag)
+        self.rate = rate
+        self.topics = set(topics) if topics is not None else None
+        self._pubs: dict[str, Any] = {}
+        self.published = 0
+
+    def publisher_for(self, topic: str, msgtype: str) -> Any:
+        """Create (once) the publisher of a topic."""
+        pub = self._pubs.get(topic)
+        if pub is None:
+            pub = self.create_publisher(msg_class(msgtype), topic, _qos_for(topic))
+            self._pubs[topic] = pub
+        return pub
+
+    def wait_for_subscribers(self, topics: Iterable[str], timeout: float) -> bool:
+        """Wait until every listed topic's publisher has a subscriber (or timeout [s])."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if all(p.get_subscription_count() > 0 for t, p in self._pubs.items() if t in topics):
+                return True
+            time.sleep(0.05)
+        return False
+
+    def play(
+        self,
+        wait_subscribers: float = 0.0,
+        progress: Callable[[int, float], None] | None = None,
+        stop: threading.Event | None = None,
+    ) -> int:
+        """Publish the bag; returns the number of messages published."""
+        # create all publishers first so subscribers can match before data flows
+        counts: dict[str, str] = {}
+        for m in bagio.iter_messages(self.bag, self.topics, deserialize=False, on_error='warn'):
+            counts.setdefault(m.topic, m.msgtype)
+            if len(counts) >= len(bagio.TOPIC_TYPES):
+                break
+        for topic, msgtype in counts.items():
+            self.publisher_for(topic, msgtype)
+        if wait_subscribers > 0:
+            self.wait_for_subscribers(counts.keys(), wait_subscribers)
+        t_wall0 = time.monotonic()
+        t_bag0: int | None = None
+        last_report = t_wall0
+        for m in bagio.iter_messages(self.bag, self.topics, deserialize=False):
+            if stop is not None and stop.is_set():
+                break
+            if t_bag0 is None:
+                t_bag0 = m.timestamp_ns
+            if self.rate > 0:
+                due = t_wall0 + (m.timestamp_ns - t_bag0) * 1e-9 / self.rate
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            self.publisher_for(m.topic, m.msgtype).publish(m.msg)
+            self.published += 1
+            now = time.monotonic()
+            if progress is not None and now - last_report >= 2.0:
+                progress(self.published, (m.timestamp_ns - t_bag0) * 1e-9)
+                last_report = now
+        return self.published

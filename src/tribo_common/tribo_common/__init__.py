@@ -1,0 +1,1 @@
+"""rclpy helpers shared by the tribo nodes (this package may import rclpy)."""

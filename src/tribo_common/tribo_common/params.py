@@ -1,0 +1,81 @@
+"""Declaring node parameters with descriptors, units and range checks.
+
+rclpy checks integer/float ranges itself but its message does not say what
+the parameter means; :func:`declare` adds a unit-bearing description, also
+checks exclusive bounds (e.g. an inertia must be > 0) and raises
+:class:`ParameterError` naming the parameter, the value and the allowed range.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import InvalidParameterValueException
+from rclpy.node import Node
+
+
+class ParameterError(ValueError):
+    """A node parameter is out of range or of the wrong type."""
+
+
+def declare(
+    node: Node,
+    name: str,
+    default: Any,
+    description: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_exclusive: bool = False,
+    read_only: bool = False,
+) -> Any:
+    """Declare one parameter and return its (checked) value.
+
+    Args:
+        node: the node.
+        name: parameter name.
+        default: default value (its type fixes the parameter type).
+        description: meaning with the SI unit, e.g. ``'chamber inertia I1 [kg m^2]'``.
+        low, high: inclusive range (``low`` exclusive when ``low_exclusive``).
+        read_only: whether the parameter can change after start.
+    """
+    desc = ParameterDescriptor(description=description, read_only=read_only)
+    if isinstance(default, bool):
+        pass
+    elif isinstance(default, int) and (low is not None or high is not None):
+        desc.integer_range = [
+            IntegerRange(
+                from_value=int(low if low is not None else -(2**63)),
+                to_value=int(high if high is not None else 2**63 - 1),
+                step=1,
+            )
+        ]
+    elif isinstance(default, float) and (low is not None or high is not None):
+        desc.floating_point_range = [
+            FloatingPointRange(
+                from_value=float(low if low is not None else -math.inf),
+                to_value=float(high if high is not None else math.inf),
+                step=0.0,
+            )
+        ]
+    try:
+        value = node.declare_parameter(name, default, desc).value
+    except InvalidParameterValueException as exc:
+        raise ParameterError(
+            f'parameter {name!r} ({description}): value out of range [{low}, {high}]: {exc}'
+        ) from exc
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if not math.isfinite(float(value)):
+            raise ParameterError(f'parameter {name!r} ({description}) must be finite, got {value}')
+        if low is not None and (value < low or (low_exclusive and value == low)):
+            rel = '>' if low_exclusive else '>='
+            raise ParameterError(
+                f'parameter {name!r} ({description}) must be {rel} {low}, got {value}'
+            )
+        if high is not None and value > high:
+            raise ParameterError(
+                f'parameter {name!r} ({description}) must be <= {high}, got {value}'
+            )
+    return value

@@ -1,0 +1,251 @@
+"""Byte and CAN transports: serial port (pyserial), file replay, python-can bus.
+
+Every failure of the underlying library (port absent, unplugged, busy, EIO) is turned into
+:class:`tribo_drivers.errors.TransportError` so the stream layer can close, back off and
+reconnect; a transport never lets a library exception escape.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from pathlib import Path
+from typing import Any, Protocol
+
+from tribo_drivers.errors import ConfigError, TransportError
+
+
+class ByteTransport(Protocol):
+    """A byte stream that can be opened, read with a timeout, written and closed."""
+
+    @property
+    def is_open(self) -> bool: ...
+
+    def open(self) -> None: ...
+
+    def close(self) -> None: ...
+
+    def read(self, timeout: float) -> bytes: ...
+
+    def write(self, data: bytes) -> None: ...
+
+    def describe(self) -> str: ...
+
+
+class SerialTransport:
+    """Serial port through pyserial (USB-serial adapters, pseudo-terminals).
+
+    port: device path or pyserial URL; baudrate [bit/s].  ``read`` waits up to ``timeout``
+    seconds for the first byte and then returns everything already buffered.
+    """
+
+    def __init__(self, port: str, baudrate: int = 2_000_000, max_read: int = 1 << 16) -> None:
+        if not port:
+            raise ConfigError('serial port must not be empty')
+        if baudrate <= 0:
+            raise ConfigError(f'baudrate must be > 0 bit/s, got {baudrate}')
+        self.port = port
+        self.baudrate = baudrate
+        self.max_read = max_read
+        self._serial: Any = None
+
+    @property
+    def is_open(self) -> bool:
+        return self._serial is not None
+
+    def describe(self) -> str:
+        return f'{self.port}@{self.baudrate}'
+
+    def open(self) -> None:
+        import serial
+
+        self.close()
+        try:
+            self._serial = serial.serial_for_url(
+                self.port, baudrate=self.baudrate, timeout=0.1, write_timeout=1.0, exclusive=True
+            )
+        except (serial.SerialException, OSError, ValueError) as exc:
+            self._serial = None
+            raise TransportError(f'cannot open serial port {self.port}: {exc}') from exc
+
+    def close(self) -> None:
+        ser, self._serial = self._serial, None
+        if ser is not None:
+            with contextlib.suppress(Exception):  # closing a dead port must never raise
+                ser.close()
+
+    def read(self, timeout: float) -> bytes:
+        import serial
+
+        ser = self._serial
+        if ser is None:
+            raise TransportError(f'serial port {self.port} is not open')
+        try:
+            ser.timeout = timeout
+            first = ser.read(1)
+            if not first:
+                return b''
+            waiting = ser.in_waiting
+            rest = ser.read(min(waiting, self.max_read)) if waiting else b''
+            return bytes(first + rest)
+        except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+            # TypeError/AttributeError: pyserial internals after a concurrent close.
+            raise TransportError(f'serial port {self.port} failed: {exc}') from exc
+
+    def write(self, data: bytes) -> None:
+        import serial
+
+        ser = self._serial
+        if ser is None:
+            raise TransportError(f'serial port {self.port} is not open')
+        try:
+            ser.write(data)
+            ser.flush()
+        except (serial.SerialException, OSError) as exc:
+            raise TransportError(f'write to {self.port} failed: {exc}') from exc
+
+
+class ReplayTransport:
+    """Replays a recorded byte file in chunks, optionally paced at ``bytes_per_second``.
+
+    At the end of the file ``read`` returns b'' (after ``timeout``), like an idle device.
+    """
+
+    def __init__(
+        self, path: str | Path, chunk_size: int = 4096, bytes_per_second: float | None = None
+    ) -> None:
+        self.path = Path(path)
+        if chunk_size < 1:
+            raise ConfigError(f'replay chunk size must be >= 1, got {chunk_size}')
+        self.chunk_size = chunk_size
+        self.bytes_per_second = bytes_per_second
+        self._fh: Any = None
+        self._start = 0.0
+        self._sent = 0
+        self.written = bytearray()
+
+    @property
+    def is_open(self) -> bool:
+        return self._fh is not None
+
+    def describe(self) -> str:
+        return f'replay:{self.path}'
+
+    def open(self) -> None:
+        try:
+            self._fh = self.path.open('rb')
+        except OSError as exc:
+            raise TransportError(f'cannot open replay file {self.path}: {exc}') from exc
+        self._start = time.monotonic()
+        self._sent = 0
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+        self._fh = None
+
+    def read(self, timeout: float) -> bytes:
+        if self._fh is None:
+            raise TransportError(f'replay file {self.path} is not open')
+        n = self.chunk_size
+        if self.bytes_per_second:
+            due = int((time.monotonic() - self._start) * self.bytes_per_second) - self._sent
+            if due <= 0:
+                time.sleep(min(timeout, self.chunk_size / self.bytes_per_second))
+                return b''
+            n = min(n, due)
+        data = self._fh.read(n)
+        if not data:
+            time.sleep(timeout)
+            return b''
+        self._sent += len(data)
+        return bytes(data)
+
+    def write(self, data: bytes) -> None:
+        self.written.extend(data)
+
+
+class CanTransport:
+    """A python-can bus of any interface (socketcan, slcan, virtual, pcan, ...).
+
+    interface, channel, bitrate [bit/s] and extra keyword arguments go to ``can.Bus``.
+    The special interface ``replay`` plays back a python-can log file (channel = path;
+    .asc, .blf, .csv, .log, ...).
+    """
+
+    def __init__(
+        self,
+        interface: str,
+        channel: str,
+        bitrate: int | None = 500_000,
+        can_filters: list[dict[str, int]] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        if not interface:
+            raise ConfigError('CAN interface must not be empty')
+        if bitrate is not None and bitrate <= 0:
+            raise ConfigError(f'CAN bitrate must be > 0 bit/s, got {bitrate}')
+        self.interface = interface
+        self.channel = channel
+        self.bitrate = bitrate
+        self.can_filters = can_filters
+        self.kwargs = kwargs
+        self._bus: Any = None
+        self._replay: Any = None
+
+    @property
+    def is_open(self) -> bool:
+        return self._bus is not None or self._replay is not None
+
+    def describe(self) -> str:
+        return f'{self.interface}:{self.channel}'
+
+    def open(self) -> None:
+        import can
+
+        self.close()
+        try:
+            if self.interface == 'replay':
+                self._replay = iter(can.LogReader(self.channel))
+                return
+            kwargs = dict(self.kwargs)
+            if self.bitrate is not None and self.interface not in ('virtual',):
+                kwargs['bitrate'] = self.bitrate
+            self._bus = can.Bus(
+                interface=self.interface,
+                channel=self.channel,
+                can_filters=self.can_filters,
+                **kwargs,
+            )
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            self._bus = None
+            raise TransportError(
+                f'cannot open CAN {self.interface} channel {self.channel!r}: {exc}'
+            ) from exc
+
+    def close(self) -> None:
+        bus, self._bus = self._bus, None
+        self._replay = None
+        if bus is not None:
+            with contextlib.suppress(Exception):  # shutting down a dead bus must never raise
+                bus.shutdown()
+
+    def recv(self, timeout: float) -> Any:
+        """Next ``can.Message`` or None after ``timeout`` seconds."""
+        import can
+
+        if self._replay is not None:
+            try:
+                return next(self._replay)
+            except StopIteration:
+                time.sleep(timeout)
+                return None
+            except (ValueError, OSError) as exc:
+                raise TransportError(f'CAN replay {self.channel} failed: {exc}') from exc
+        bus = self._bus
+        if bus is None:
+            raise TransportError(f'CAN {self.interface}:{self.channel} is not open')
+        try:
+            return bus.recv(timeout)
+        except (can.CanError, OSError, ValueError, TypeError, AttributeError) as exc:
+            raise TransportError(f'CAN {self.interface}:{self.channel} failed: {exc}') from exc

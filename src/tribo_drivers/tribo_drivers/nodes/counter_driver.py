@@ -1,0 +1,87 @@
+"""Radiation counter driver (executable ``counter_driver``): one DetectorCounts per dwell.
+
+Lifecycle node (see :mod:`tribo_drivers.nodes.driver_base`).  On open it sets the dwell with
+``$DWELL,<ms>`` and waits for ``$ACK,DWELL,<ms>``; then every ``$CNT`` line (XOR checksum
+checked) becomes a tribo_msgs/DetectorCounts on ``/nvct/counts`` (times in s, counts), the
+input of the nVCT wear evaluation (paper section 3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from tribo_common.msgconv import time_from_ns
+from tribo_common.node_main import run_node
+from tribo_common.params import declare
+
+from tribo_drivers.core.streams import CounterStream, CountMessage, DeviceStream
+from tribo_drivers.core.transports import SerialTransport
+from tribo_drivers.nodes.driver_base import DriverNode, data_qos
+
+
+class CounterDriver(DriverNode):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('counter_driver', **kwargs)
+
+    def declare_driver_parameters(self) -> None:
+        self.port = declare(self, 'port', '/dev/ttyUSB1', 'serial device of the counter')
+        self.baudrate = declare(
+            self, 'baudrate', 115_200, 'serial baud rate [bit/s]', low=300, high=4_000_000
+        )
+        self.dwell = declare(
+            self, 'dwell', 60.0, 'dwell time per count reading [s]', low=0.001, high=86_400.0
+        )
+        self.ack_timeout = declare(
+            self, 'ack_timeout', 1.0, 'wait for $ACK after $DWELL [s]', low=0.01, high=60.0
+        )
+        self.ack_retries = declare(
+            self, 'ack_retries', 3, 'DWELL commands sent before giving up [-]', low=1, high=100
+        )
+        self.topic = declare(self, 'topic', '/nvct/counts', 'DetectorCounts topic')
+        self._pub: Any = None
+
+    def build_stream(self) -> DeviceStream[Any]:
+        return CounterStream(
+            SerialTransport(self.port, self.baudrate),
+            dwell_ms=max(1, round(self.dwell * 1000.0)),
+            ack_timeout=self.ack_timeout,
+            ack_retries=self.ack_retries,
+            backoff=self.backoff,
+        )
+
+    def create_publishers(self) -> None:
+        from tribo_msgs.msg import DetectorCounts
+
+        self._pub = self.create_lifecycle_publisher(DetectorCounts, self.topic, data_qos())
+
+    def destroy_publishers(self) -> None:
+        if self._pub is not None:
+            self.destroy_lifecycle_publisher(self._pub)
+        self._pub = None
+
+    def publish_items(self, items: list[CountMessage]) -> None:
+        from tribo_msgs.msg import DetectorCounts
+
+        for m in items:
+            msg = DetectorCounts()
+            msg.header.stamp = time_from_ns(round(m.stamp * 1e9))
+            msg.header.frame_id = 'nvct_counter'
+            msg.seq = m.seq
+            msg.t_start = m.t_start
+            msg.t_end = m.t_end
+            msg.counts = m.counts
+            msg.live_time = m.live_time
+            if self._pub is not None:
+                self._pub.publish(msg)
+
+    def expected_rate(self) -> float:
+        return 1.0 / float(self.dwell)
+
+
+def main(args: Sequence[str] | None = None) -> None:
+    raise SystemExit(run_node(CounterDriver, args))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,215 @@
+"""Shared lifecycle shell of the hardware drivers (rclpy side; the logic is in core/).
+
+Lifecycle: *configure* reads the parameters, builds the core stream and opens the port
+(a device that is not there yet is retried with back-off once active); *activate* starts the
+reader thread that polls the stream and publishes; *deactivate* stops it and releases the
+port (publishing the partial block first: good data is never dropped); *cleanup* destroys
+the publishers.  ``autostart`` (default true) configures and activates at start for use
+without a lifecycle manager.  ``/diagnostics`` is published in every state.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from abc import abstractmethod
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.lifecycle import Node as LifecycleNode
+from rclpy.lifecycle import State, TransitionCallbackReturn
+from tribo_common.params import ParameterError, declare
+
+from tribo_drivers.core.diagnostics import DriverCounters, driver_status
+from tribo_drivers.core.reconnect import Backoff
+from tribo_drivers.core.streams import DeviceStream
+from tribo_drivers.errors import DriverError
+
+try:
+    from tribo_drivers.qos import data_qos, status_qos
+except ImportError:  # pragma: no cover - qos.py absent: the documented profile inline
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    def data_qos() -> QoSProfile:
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_ALL,
+            depth=10000,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE,
+        )
+
+    def status_qos() -> QoSProfile:
+        return QoSProfile(depth=10)
+
+
+class DriverNode(LifecycleNode):
+    """Base class: subclasses build the stream and publish its items."""
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.autostart = declare(
+            self, 'autostart', True, 'configure and activate at start (no lifecycle manager)'
+        )
+        self.poll_timeout = declare(
+            self, 'poll_timeout', 0.02, 'read timeout of one poll [s]', low=0.001, high=1.0
+        )
+        self.diagnostic_period = declare(
+            self, 'diagnostic_period', 1.0, 'period of /diagnostics [s]', low=0.05, high=60.0
+        )
+        self.backoff_initial = declare(
+            self, 'backoff_initial', 0.1, 'first reconnect delay [s]', low=0.001, high=60.0
+        )
+        self.backoff_max = declare(
+            self, 'backoff_max', 5.0, 'largest reconnect delay [s]', low=0.001, high=600.0
+        )
+        self.hardware_id = declare(self, 'hardware_id', '', 'hardware id shown in /diagnostics')
+        self.declare_driver_parameters()
+        try:
+            self.backoff = Backoff(
+                self.backoff_initial, 2.0, max(self.backoff_max, self.backoff_initial)
+            )
+        except DriverError as exc:
+            raise ParameterError(str(exc)) from exc
+        self.stream: DeviceStream[Any] | None = None
+        self._thread: threading.Thread | None = None
+        self._running = threading.Event()
+        self._prev: DriverCounters | None = None
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', status_qos())
+        self._diag_timer = self.create_timer(self.diagnostic_period, self._publish_diagnostics)
+        if self.autostart:
+            self._autostart_timer = self.create_timer(0.0, self._autostart)
+
+    # --- subclass hooks -----------------------------------------------------------------
+    @abstractmethod
+    def declare_driver_parameters(self) -> None: ...
+
+    @abstractmethod
+    def build_stream(self) -> DeviceStream[Any]: ...
+
+    @abstractmethod
+    def create_publishers(self) -> None: ...
+
+    @abstractmethod
+    def destroy_publishers(self) -> None: ...
+
+    @abstractmethod
+    def publish_items(self, items: list[Any]) -> None: ...
+
+    @abstractmethod
+    def expected_rate(self) -> float:
+        """Nominal items (samples, lines) per second for the rate check [1/s]."""
+
+    # --- lifecycle ----------------------------------------------------------------------
+    def _autostart(self) -> None:
+        self._autostart_timer.cancel()
+        self.trigger_configure()
+        self.trigger_activate()
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        try:
+            self.stream = self.build_stream()
+        except DriverError as exc:
+            self.get_logger().error(f'configuration rejected: {exc}')
+            return TransitionCallbackReturn.FAILURE
+        try:
+            self.stream.open()
+            self.get_logger().info(f'opened {self.stream.describe()}')
+        except DriverError as exc:
+            self.stream.counters.last_error = str(exc)
+            self.get_logger().warning(f'{exc}; will retry with back-off when active')
+        self.create_publishers()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        if self.stream is None:
+            return TransitionCallbackReturn.FAILURE
+        ret = super().on_activate(state)
+        self.stream.resume()
+        self._running.set()
+        self._thread = threading.Thread(target=self._reader, name='driver-reader', daemon=True)
+        self._thread.start()
+        return ret
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self._stop_reader()
+        if self.stream is not None:
+            self.publish_items(self.stream.close())
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        self._stop_reader()
+        if self.stream is not None:
+            self.stream.close()
+        self.stream = None
+        self.destroy_publishers()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        self.close()
+        return TransitionCallbackReturn.SUCCESS
+
+    def close(self) -> None:
+        """Stop the reader and release the port (also called by run_node at exit)."""
+        self._stop_reader()
+        if self.stream is not None:
+            self.stream.close()
+
+    def _stop_reader(self) -> None:
+        self._running.clear()
+        if self.stream is not None:
+            self.stream.stop()
+        if self._thread is not None:
+            self._thread.join(5.0)
+            self._thread = None
+
+    def _reader(self) -> None:
+        stream = self.stream
+        assert stream is not None
+        items = stream.take_pending()
+        if items:
+            self.publish_items(items)
+        was_connected = stream.counters.connected
+        while self._running.is_set():
+            items = stream.poll(self.poll_timeout)
+            if items:
+                self.publish_items(items)
+            if stream.counters.connected != was_connected:
+                was_connected = stream.counters.connected
+                if was_connected:
+                    self.get_logger().info(f'connected to {stream.describe()}')
+                else:
+                    self.get_logger().warning(
+                        f'lost {stream.describe()}: {stream.counters.last_error}'
+                    )
+
+    # --- diagnostics --------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        stream = self.stream
+        name = f'{self.get_name()}: {stream.describe() if stream else "unconfigured"}'
+        if stream is None:
+            status = DiagnosticStatus(
+                level=DiagnosticStatus.STALE, name=name, message='not configured',
+                hardware_id=self.hardware_id,
+            )  # fmt: skip
+        else:
+            counters = stream.counters.copy()
+            st = driver_status(
+                name,
+                self.hardware_id or stream.describe(),
+                counters,
+                stream.rate.rate(time.monotonic()),
+                self.expected_rate() if self._running.is_set() else 0.0,
+                self._prev,
+            )
+            self._prev = counters
+            status = DiagnosticStatus(
+                level=bytes([int(st.level)]),
+                name=st.name,
+                message=st.message if self._running.is_set() else f'inactive; {st.message}',
+                hardware_id=st.hardware_id,
+                values=[KeyValue(key=k, value=v) for k, v in st.values],
+            )
+        arr.status = [status]
+        self._diag_pub.publish(arr)

@@ -1,0 +1,209 @@
+"""Simulated rig driver (executable ``sim_rig``): the core rig model in real time.
+
+Runs :func:`tribo_estimation.core.simulate.simulate` chunk by chunk (state
+carried between chunks, so the stream equals one long simulation) at the
+configured sample rate (10 kHz default) and publishes the three rig channels
+as SampleBlocks of ``block_size`` samples on ``/rig/torsion_moment`` [N m],
+``/rig/angular_acceleration`` [rad/s^2] and ``/rig/speed`` [rad/s].
+
+Stamps: time of the first sample of the block, ``t_start + first_index/fs``
+(no scheduling jitter). If the process falls behind real time it catches up
+by publishing the overdue blocks (never skipping samples); how far it lags is
+logged.
+
+Parameters are the RIG.yaml names (``I1, K1, C1, I2, K2, C2, F_N, R, mu0,
+mu_inf, k, nominal_speed, ramp_time``), the measurement noise
+(``noise_torque, noise_accel, noise_speed``), ``seed``, ``sample_rate``,
+``block_size``, ``duration`` and, for hidden model extensions,
+``effects.<name>`` for every field of
+:class:`tribo_estimation.core.model.Extensions`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+from typing import Any
+
+import numpy as np
+from rclpy.node import Node
+from tribo_common.msgconv import make_sample_block
+from tribo_common.node_main import run_node
+from tribo_common.params import ParameterError, declare
+from tribo_common.qos import data_qos
+from tribo_estimation.core.model import (
+    DriveProfile,
+    Extensions,
+    FrictionLaw,
+    RigParams,
+    RigState,
+)
+from tribo_estimation.core.simulate import NoiseSpec, simulate
+
+#: (topic, channel, unit, SimResult field) of the published channels.
+CHANNELS = (
+    ('/rig/torsion_moment', 'torsion_moment', 'N m', 'torsion_moment'),
+    ('/rig/angular_acceleration', 'angular_acceleration', 'rad/s^2', 'angular_acceleration'),
+    ('/rig/speed', 'speed', 'rad/s', 'speed'),
+)
+
+#: Rig parameters: name -> (default, description, low, low_exclusive, high).
+RIG_PARAMETERS: dict[str, tuple[float, str, float, bool, float | None]] = {
+    'I1': (0.0109, 'chamber inertia I1 [kg m^2] (Tab. 1)', 0.0, True, None),
+    'K1': (0.04034, 'chamber viscous damping K1 [N m s/rad] (Tab. 1)', 0.0, False, None),
+    'C1': (2338.6, 'torsion element stiffness C1 [N m/rad] (Tab. 1)', 0.0, True, None),
+    'I2': (0.0315, 'drive shaft inertia I2 [kg m^2] (Tab. 1)', 0.0, True, None),
+    'K2': (4.0, 'drive viscous damping K2 [N m s/rad] (Tab. 1)', 0.0, False, None),
+    'C2': (5975.0, 'drive stiffness C2 [N m/rad] (Tab. 1)', 0.0, True, None),
+    'F_N': (8000.0, 'total normal force over all friction pairs F_N [N]', 0.0, False, 1e6),
+    'R': (0.08, 'effective friction radius R [m]', 0.0, True, 10.0),
+    'mu0': (0.13, 'static friction coefficient mu0 [-] (Equ. 8)', 0.0, False, 2.0),
+    'mu_inf': (0.10, 'asymptotic friction coefficient mu_inf [-] (Equ. 8)', 0.0, False, 2.0),
+    'k': (2.0, 'Stribeck decay constant k [s/rad] (Equ. 8)', 0.0, False, 1000.0),
+    'nominal_speed': (3.1416, 'nominal drive speed w0 [rad/s]', 0.0, False, 20.0),
+    'ramp_time': (0.5, 'start-up ramp of the drive speed [s]', 0.0, False, 3600.0),
+    'noise_torque': (0.05, 'torsion moment noise, std per sample [N m]', 0.0, False, None),
+    'noise_accel': (2.0, 'angular acceleration noise, std per sample [rad/s^2]', 0.0, False, None),
+    'noise_speed': (0.01, 'shaft speed noise, std per sample [rad/s]', 0.0, False, None),
+}
+
+
+class SimRigNode(Node):
+    """Publishes the simulated rig's sensor streams in real time."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('sim_rig', **kwargs)
+        values = {
+            name: declare(self, name, default, desc, low=low, low_exclusive=excl, high=high)
+            for name, (default, desc, low, excl, high) in RIG_PARAMETERS.items()
+        }
+        self.fs = float(
+            declare(self, 'sample_rate', 10000.0, 'sample rate [Hz]', low=100.0, high=100000.0)
+        )
+        self.block = int(
+            declare(self, 'block_size', 100, 'samples per published block', low=10, high=10000)
+        )
+        self.duration = float(
+            declare(self, 'duration', 0.0, 'simulated time to run [s] (0: until stopped)', low=0.0)
+        )
+        seed = int(declare(self, 'seed', 0, 'seed of the measurement noise', low=0))
+        eff: dict[str, float] = {}
+        for field in dataclasses.fields(Extensions):
+            default = float(field.default)  # type: ignore[arg-type]
+            eff[field.name] = float(
+                declare(self, f'effects.{field.name}', default, f'hidden extension {field.name}')
+            )
+        rate = self.fs / self.block
+        if not 50.0 <= rate <= 1000.0:
+            raise ParameterError(
+                f'sample_rate/block_size = {rate:.0f} blocks/s; choose block_size so that the '
+                'rate is between 50 and 1000 blocks/s (about 100-500 recommended)'
+            )
+        try:
+            self.rig = RigParams(
+                **{n: values[n] for n in ('I1', 'K1', 'C1', 'I2', 'K2', 'C2', 'F_N', 'R')}
+            )
+            self.friction = FrictionLaw(values['mu0'], values['mu_inf'], values['k'])
+            self.drive = DriveProfile(values['nominal_speed'], values['ramp_time'])
+            self.extensions = Extensions(**eff)
+            self.noise = NoiseSpec(
+                values['noise_torque'], values['noise_accel'], values['noise_speed']
+            )
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from exc
+        self.rng = np.random.default_rng(seed)
+        self.state = RigState.at_rest()
+        self.index = 0
+        self.pubs = [self.create_publisher(_msg_type(), t, data_qos()) for t, *_ in CHANNELS]
+        self._stop = threading.Event()
+        self.t_start_ns = 0
+        self._thread = threading.Thread(target=self._loop, name='sim_rig', daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f'simulated rig at {self.fs:.0f} Hz, blocks of {self.block} samples, '
+            f'w0 = {self.drive.nominal_speed:.3f} rad/s, '
+            f'hidden effects: {self._effects_text()}'
+        )
+
+    def _effects_text(self) -> str:
+        on = [
+            f'{f.name}={getattr(self.extensions, f.name)}'
+            for f in dataclasses.fields(Extensions)
+            if f.name != 'bearing_reg_speed' and getattr(self.extensions, f.name) != 0.0
+        ]
+        return ', '.join(on) if on else 'none'
+
+    def step(self) -> None:
+        """Simulate and publish the next block."""
+        res = simulate(
+            self.rig,
+            self.friction,
+            self.drive,
+            self.block / self.fs,
+            self.fs,
+            initial=self.state,
+            extensions=self.extensions,
+            noise=self.noise,
+            seed=self.rng,
+        )
+        self.state = res.final_state
+        stamp = self.t_start_ns + round(self.index * 1e9 / self.fs)
+        for pub, (_topic, channel, unit, field) in zip(self.pubs, CHANNELS, strict=True):
+            pub.publish(
+                make_sample_block(
+                    getattr(res, field),
+                    first_index=self.index,
+                    sample_rate=self.fs,
+                    stamp_ns=stamp,
+                    channel=channel,
+                    unit=unit,
+                )
+            )
+        self.index += self.block
+
+    def _loop(self) -> None:
+        # compile (or load from cache) the numba kernel before the clock starts
+        simulate(self.rig, self.friction, self.drive, 1.0 / self.fs, self.fs)
+        self.t_start_ns = self.get_clock().now().nanoseconds
+        t0 = time.monotonic()
+        last_warn = t0
+        n_total = round(self.duration * self.fs) if self.duration > 0 else None
+        while not self._stop.is_set():
+            if n_total is not None and self.index >= n_total:
+                self.get_logger().info(f'simulated {self.duration} s; stopping the stream')
+                return
+            due = t0 + (self.index + self.block) / self.fs
+            delay = due - time.monotonic()
+            if delay > 0:
+                self._stop.wait(delay)
+                continue
+            if -delay > 0.5 and time.monotonic() - last_warn > 10.0:
+                self.get_logger().warning(f'running {-delay:.2f} s behind real time')
+                last_warn = time.monotonic()
+            try:
+                self.step()
+            except Exception as exc:  # keep the failure visible, stop cleanly
+                self.get_logger().error(f'simulation stopped: {exc}')
+                return
+
+    def close(self) -> None:
+        """Stop the simulation thread."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+
+
+def _msg_type() -> Any:
+    from tribo_msgs.msg import SampleBlock
+
+    return SampleBlock
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point of ``sim_rig``."""
+    raise SystemExit(run_node(SimRigNode, args))
+
+
+if __name__ == '__main__':
+    main()

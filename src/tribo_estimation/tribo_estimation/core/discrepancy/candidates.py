@@ -1,0 +1,326 @@
+"""The library of candidate effects (pluggable).
+
+Each candidate is a named, parameterised, *nested* extension of the paper's rig
+model (Equ. 1-8): its parameters map one-to-one onto fields of
+:class:`tribo_estimation.core.model.Extensions`, and all parameters zero give
+back the baseline. A candidate carries bounds, a typical scale (for the
+optimiser), start values (possibly computed from the data: e.g. the ripple
+frequency from a spectral line) and the localising variable whose residual
+pattern it is expected to explain.
+
+Register a new candidate with :func:`register`; the selection
+(:mod:`.select`) tries every registered candidate that the model's
+``Extensions`` supports.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .stats import FloatArray, fit_sinusoid, spectral_lines
+
+#: Localising variables (names used by :mod:`.localise` and the plots).
+LOCALISERS: tuple[str, ...] = (
+    'preceding_stick_duration',
+    'phase',
+    'slip_speed',
+    'test_time',
+    'spectrum',
+    'breakaway',
+    'chamber_speed',
+    'shaft_angle',
+)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One candidate parameter = one ``Extensions`` field.
+
+    ``lower``/``upper`` bound the fit, ``scale`` is its typical magnitude (the
+    optimiser works on value/scale), ``log`` fits log(value) (for strictly
+    positive time constants). ``unit`` is the SI unit of the value.
+    """
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    scale: float
+    initial: float
+    log: bool = False
+
+    def __post_init__(self) -> None:
+        if not (self.lower <= self.initial <= self.upper):
+            raise ValueError(
+                f'parameter {self.name}: initial {self.initial} outside '
+                f'[{self.lower}, {self.upper}]'
+            )
+        if self.scale <= 0:
+            raise ValueError(f'parameter {self.name}: scale must be > 0, got {self.scale}')
+        if self.log and self.lower <= 0:
+            raise ValueError(f'parameter {self.name}: log scaling needs lower > 0')
+
+
+@dataclass(frozen=True)
+class StartContext:
+    """What a candidate may look at to choose its start values.
+
+    Arrays are the baseline's residuals (measured - simulated) over the whole
+    record: ``torque`` (N m), ``speed`` (rad/s); ``time`` (s), ``fs`` (Hz);
+    ``nominal_speed`` (rad/s); ``stick_durations`` (s, complete stick phases of
+    the baseline simulation); ``drive_frequencies`` (Hz) lines to avoid or use.
+    """
+
+    time: FloatArray
+    fs: float
+    torque: FloatArray
+    speed: FloatArray
+    nominal_speed: float
+    stick_durations: FloatArray
+    friction_moment_scale: float
+
+
+StartFn = Callable[[StartContext], list[dict[str, float]]]
+
+
+def _no_starts(_ctx: StartContext) -> list[dict[str, float]]:
+    return []
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A named candidate effect.
+
+    ``params`` are the fitted ``Extensions`` fields; ``localiser`` the variable
+    its residual signature shows against (one of :data:`LOCALISERS`);
+    ``starts`` computes extra data-driven start points (each a full mapping of
+    parameter name to value) tried besides the defaults.
+    """
+
+    name: str
+    description: str
+    params: tuple[ParamSpec, ...]
+    localiser: str
+    starts: StartFn = field(default=_no_starts)
+
+    def __post_init__(self) -> None:
+        if self.localiser not in LOCALISERS:
+            raise ValueError(f'candidate {self.name}: unknown localiser {self.localiser!r}')
+        names = [p.name for p in self.params]
+        if len(set(names)) != len(names):
+            raise ValueError(f'candidate {self.name}: duplicate parameter names {names}')
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """The ``Extensions`` field names this candidate fits."""
+        return tuple(p.name for p in self.params)
+
+    def default_start(self) -> dict[str, float]:
+        """The default start values."""
+        return {p.name: p.initial for p in self.params}
+
+    def start_points(self, ctx: StartContext | None) -> list[dict[str, float]]:
+        """Default start plus the data-driven ones, clipped to the bounds."""
+        pts = [self.default_start()]
+        if ctx is not None:
+            for extra in self.starts(ctx):
+                pt = self.default_start()
+                pt.update(extra)
+                pts.append(self.clip(pt))
+        return pts
+
+    def clip(self, values: Mapping[str, float]) -> dict[str, float]:
+        """Clip parameter values to their bounds (names must be known)."""
+        out: dict[str, float] = {}
+        for p in self.params:
+            v = float(values[p.name])
+            out[p.name] = min(max(v, p.lower), p.upper)
+        return out
+
+    def to_unit(self, values: Mapping[str, float]) -> FloatArray:
+        """Map values to the optimiser's scaled coordinates."""
+        x = []
+        for p in self.params:
+            v = float(values[p.name])
+            x.append(math.log(max(v, p.lower)) if p.log else v / p.scale)
+        return np.asarray(x, dtype=np.float64)
+
+    def from_unit(self, x: FloatArray) -> dict[str, float]:
+        """Inverse of :meth:`to_unit`."""
+        return {
+            p.name: (math.exp(float(xi)) if p.log else float(xi) * p.scale)
+            for p, xi in zip(self.params, x, strict=True)
+        }
+
+    def unit_bounds(self) -> tuple[FloatArray, FloatArray]:
+        """Bounds in the optimiser's coordinates."""
+        lo = [math.log(p.lower) if p.log else p.lower / p.scale for p in self.params]
+        hi = [math.log(p.upper) if p.log else p.upper / p.scale for p in self.params]
+        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+
+    def units(self) -> dict[str, str]:
+        """Parameter name -> SI unit."""
+        return {p.name: p.unit for p in self.params}
+
+
+_REGISTRY: dict[str, Candidate] = {}
+
+
+def register(candidate: Candidate, *, replace: bool = False) -> Candidate:
+    """Add a candidate to the library (``replace`` to overwrite a name)."""
+    if candidate.name in _REGISTRY and not replace:
+        raise ValueError(f'candidate {candidate.name!r} is already registered')
+    _REGISTRY[candidate.name] = candidate
+    return candidate
+
+
+def get(name: str) -> Candidate:
+    """The registered candidate called ``name``."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise KeyError(f'unknown candidate effect {name!r}; known: {sorted(_REGISTRY)}') from None
+
+
+def names() -> tuple[str, ...]:
+    """Names of the registered candidates, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def all_candidates() -> tuple[Candidate, ...]:
+    """The registered candidates, in registration order."""
+    return tuple(_REGISTRY.values())
+
+
+# --------------------------------------------------------------------------- starts
+
+
+def _stiction_starts(ctx: StartContext) -> list[dict[str, float]]:
+    """Stiction time constants around the observed stick durations."""
+    d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
+    if d.size == 0:
+        return []
+    med = float(np.median(d))
+    return [{'stiction_tau': med * f} for f in (0.3, 1.0, 3.0)]
+
+
+def _ripple_starts(ctx: StartContext) -> list[dict[str, float]]:
+    """Ripple frequency/amplitude/phase from the strongest lines of the speed residual.
+
+    A drive speed ripple ``w0 = nominal + a*sin(2*pi*f*t + p)`` shows first in
+    the shaft speed; the strongest line of the speed residual gives f, and,
+    below the belt resonance, about the amplitude and phase.
+    """
+    out: list[dict[str, float]] = []
+    for resid in (ctx.speed, ctx.torque):
+        if resid.size == 0 or not np.all(np.isfinite(resid)):
+            continue
+        for line in spectral_lines(ctx.time, resid, ctx.fs, max_lines=2, min_prominence=10.0):
+            f, a, p = fit_sinusoid(ctx.time, ctx.speed, line.frequency)
+            amp = a if a > 0 else 0.01 * max(ctx.nominal_speed, 1e-3)
+            out.append({'ripple_freq': f, 'ripple_amp': amp, 'ripple_phase': p})
+    return out
+
+
+def _offset_starts(ctx: StartContext) -> list[dict[str, float]]:
+    """Offset from the mean torque residual."""
+    return [{'torque_offset': float(np.mean(ctx.torque))}] if ctx.torque.size else []
+
+
+def _scaled_starts(name: str, values: tuple[float, ...]) -> StartFn:
+    def fn(ctx: StartContext) -> list[dict[str, float]]:
+        return [{name: v * ctx.friction_moment_scale} for v in values]
+
+    return fn
+
+
+# --------------------------------------------------------------------------- library
+
+register(
+    Candidate(
+        'dwell_time_stiction',
+        'static friction grows with the preceding stick duration: '
+        'mu_s = mu0 + gain*(1 - exp(-t_stick/tau))',
+        (
+            ParamSpec('stiction_gain', '-', 0.0, 0.5, 0.01, 0.01),
+            ParamSpec('stiction_tau', 's', 1e-4, 10.0, 1.0, 0.01, log=True),
+        ),
+        'preceding_stick_duration',
+        _stiction_starts,
+    )
+)
+register(
+    Candidate(
+        'frictional_lag',
+        'friction follows the Stribeck curve (Equ. 8) with a first-order lag tau',
+        (ParamSpec('lag_tau', 's', 1e-5, 0.05, 1.0, 5e-4, log=True),),
+        'phase',
+        lambda ctx: [{'lag_tau': v} for v in (1e-4, 2e-3)],
+    )
+)
+register(
+    Candidate(
+        'viscous_friction',
+        'a friction moment proportional to the slip speed: M += c_v*v',
+        (ParamSpec('viscous', 'N m s/rad', 0.0, 100.0, 1.0, 0.0),),
+        'slip_speed',
+    )
+)
+register(
+    Candidate(
+        'friction_drift',
+        'mu0 and mu_inf drift linearly with test time (e.g. thermal)',
+        (
+            ParamSpec('drift_mu0', '1/s', -0.1, 0.1, 1e-3, 0.0),
+            ParamSpec('drift_mu_inf', '1/s', -0.1, 0.1, 1e-3, 0.0),
+        ),
+        'test_time',
+    )
+)
+register(
+    Candidate(
+        'drive_speed_ripple',
+        'periodic drive speed disturbance w0 = w_nom + a*sin(2*pi*f*t + p) (f fitted)',
+        (
+            ParamSpec('ripple_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
+            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0),
+            ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
+        ),
+        'spectrum',
+        _ripple_starts,
+    )
+)
+register(
+    Candidate(
+        'torque_offset',
+        'zero offset and linear drift of the torsion-moment channel (measurement side)',
+        (
+            ParamSpec('torque_offset', 'N m', -1e3, 1e3, 0.1, 0.0),
+            ParamSpec('torque_offset_drift', 'N m/s', -1e3, 1e3, 0.01, 0.0),
+        ),
+        'test_time',
+        _offset_starts,
+    )
+)
+register(
+    Candidate(
+        'torque_sensor_lag',
+        'first-order lag of the torsion-moment amplifier (measurement side)',
+        (ParamSpec('torque_lag_tau', 's', 1e-6, 0.05, 1.0, 1e-4, log=True),),
+        'breakaway',
+        lambda ctx: [{'torque_lag_tau': v} for v in (1e-5, 1e-3)],
+    )
+)
+register(
+    Candidate(
+        'bearing_friction',
+        'Coulomb friction moment on the test-chamber support: -M_b*sgn(w1) in Equ. 1',
+        (ParamSpec('bearing_moment', 'N m', 0.0, 1e3, 0.1, 0.0),),
+        'chamber_speed',
+        _scaled_starts('bearing_moment', (0.02, 0.1)),
+    )
+)

@@ -1,0 +1,544 @@
+"""Output-error fit of the rig model (+ a candidate effect) to a measured record.
+
+The record is cut into *segments*, each starting inside a measured stick phase
+where the state is known from the measurements (the discs move together:
+``w1 = w2`` = measured shaft speed, ``phi1`` = torsion moment / C1, the belt
+deflection from the stuck system's moment balance, Equ. 6). Each segment is
+simulated with the compiled kernel (:func:`tribo_estimation.core.kernel.integrate`,
+Equ. 1-3, 6, 8 plus the :class:`~tribo_estimation.core.model.Extensions`) from
+that re-initialised state, so long records do not drift. Segments are grouped
+into time blocks, which the cross validation holds out.
+
+The fitted values are a mapping ``name -> value`` of ``mu0``, ``mu_inf`` (Equ. 8,
+-) and ``Extensions`` fields (their SI units, see
+:class:`~tribo_estimation.core.model.Extensions`). The cost is the mean of the
+squared, channel-weighted residuals (measured - simulated) of the torsion
+moment (N m), the angular acceleration (rad/s^2) and the shaft speed (rad/s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+from scipy.optimize import least_squares
+from scipy.signal import lfilter, savgol_filter
+
+from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.model import (
+    DriveProfile,
+    Extensions,
+    FrictionLaw,
+    RigParams,
+    pack_params,
+)
+from tribo_estimation.errors import InvalidDataError, InvalidParameterError, TooShortError
+
+from .candidates import ParamSpec
+from .stats import FloatArray, IntArray
+
+CHANNELS: tuple[str, str, str] = ('torsion_moment', 'angular_acceleration', 'speed')
+CHANNEL_UNITS: dict[str, str] = {
+    'torsion_moment': 'N m',
+    'angular_acceleration': 'rad/s^2',
+    'speed': 'rad/s',
+}
+
+#: Extensions fields that act on the measurement, not on the dynamics.
+MEASUREMENT_FIELDS: frozenset[str] = frozenset(
+    {'torque_offset', 'torque_offset_drift', 'torque_lag_tau'}
+)
+_EXT_FIELDS: frozenset[str] = frozenset(f.name for f in fields(Extensions))
+
+#: Friction parameters of the baseline (Equ. 8), fitted in every model.
+MU0 = ParamSpec('mu0', '-', 0.0, 2.0, 0.01, 0.1)
+MU_INF = ParamSpec('mu_inf', '-', 0.0, 2.0, 0.01, 0.1)
+
+
+@dataclass(frozen=True)
+class Record:
+    """A measured rig record on a uniform time base.
+
+    ``time`` s, ``torsion_moment`` N m, ``angular_acceleration`` rad/s^2,
+    ``speed`` (shaft, w2) rad/s.
+    """
+
+    time: FloatArray
+    torsion_moment: FloatArray
+    angular_acceleration: FloatArray
+    speed: FloatArray
+
+    def __post_init__(self) -> None:
+        n = self.time.size
+        for name in ('time', *CHANNELS):
+            a = getattr(self, name)
+            if a.ndim != 1 or a.size != n:
+                raise InvalidDataError(f'record column {name!r} has shape {a.shape}, expected ({n},)')
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                raise InvalidDataError(
+                    f'record column {name!r} has a non-finite value at sample {int(bad[0])}'
+                )
+        if n < 100:
+            raise TooShortError(f'record has {n} samples; the discrepancy fit needs >= 100')
+        dt = np.diff(self.time)
+        if np.any(dt <= 0):
+            i = int(np.flatnonzero(dt <= 0)[0]) + 1
+            raise InvalidDataError(f'record time is not strictly increasing at sample {i}')
+        med = float(np.median(dt))
+        if np.max(np.abs(dt - med)) > 0.01 * med:
+            i = int(np.argmax(np.abs(dt - med))) + 1
+            raise InvalidDataError(
+                f'record is not uniformly sampled (step {dt[i - 1]:.3g} s at sample {i}, '
+                f'median {med:.3g} s); resample it first'
+            )
+
+    @property
+    def dt(self) -> float:
+        """Sample interval [s]."""
+        return float((self.time[-1] - self.time[0]) / (self.time.size - 1))
+
+    @property
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        return 1.0 / self.dt
+
+    def channel(self, name: str) -> FloatArray:
+        """A measured channel by name (one of :data:`CHANNELS`)."""
+        return np.asarray(getattr(self, name), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Segments:
+    """Simulation segments: ``start``/``stop`` sample indices (stop exclusive),
+    ``stick_time`` the time already spent sticking at the start [s], ``block``
+    the time block each segment belongs to (unit of cross validation)."""
+
+    start: IntArray
+    stop: IntArray
+    stick_time: FloatArray
+    block: IntArray
+
+    @property
+    def n(self) -> int:
+        """Number of segments."""
+        return int(self.start.size)
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of time blocks."""
+        return int(self.block.max()) + 1 if self.block.size else 0
+
+    def mask_blocks(self, blocks: Sequence[int] | npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Boolean segment mask of the segments in the given blocks."""
+        return np.isin(self.block, np.asarray(blocks, dtype=np.int64))
+
+    def sample_mask(self, n: int, seg_mask: npt.NDArray[np.bool_] | None = None) -> npt.NDArray[np.bool_]:
+        """Boolean mask of the samples covered by the (selected) segments."""
+        m = np.zeros(n, dtype=bool)
+        sel = np.ones(self.n, dtype=bool) if seg_mask is None else seg_mask
+        for a, b in zip(self.start[sel], self.stop[sel], strict=True):
+            m[a:b] = True
+        return m
+
+
+def detect_stick_runs(
+    record: Record,
+    C1: float,
+    *,
+    speed_threshold: float | None = None,
+    min_duration: float = 2e-3,
+) -> tuple[IntArray, IntArray]:
+    """Stick phases in measured data: runs where the chamber moves with the shaft.
+
+    The torsion element gives the chamber speed, ``w1 = phi1' = (dM_t/dt)/C1``
+    (M_t = C1*phi1, physics notes section 1); while the discs stick it equals
+    the measured shaft speed w2. ``dM_t/dt`` is a 2 ms Savitzky-Golay derivative.
+    A run counts if ``|w1 - w2|`` stays below ``speed_threshold`` (rad/s;
+    default: 5 % of the median |w2|, at least 5 x the derivative's noise) for
+    ``min_duration`` s. ``C1`` in N m/rad. Returns start and stop (exclusive)
+    sample indices.
+    """
+    fs = record.fs
+    half = max(2, round(1e-3 * fs))
+    w1 = savgol_filter(record.torsion_moment, 2 * half + 1, 2, deriv=1, delta=record.dt) / C1
+    w2 = savgol_filter(record.speed, 2 * half + 1, 2)
+    diff = w1 - w2
+    if speed_threshold is None:
+        d2 = np.diff(record.torsion_moment, 2)
+        noise = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / math.sqrt(6.0)
+        # std of a quadratic SG slope over 2*half+1 points ~ noise*sqrt(12/n^3)/dt
+        n = 2 * half + 1
+        slope_noise = noise * math.sqrt(12.0 / n**3) / record.dt / C1
+        speed_threshold = max(0.05 * float(np.median(np.abs(record.speed))), 5.0 * slope_noise)
+    low = np.abs(diff) < speed_threshold
+    d = np.diff(np.concatenate(([0], low.astype(np.int8), [0])))
+    starts = np.flatnonzero(d == 1)
+    stops = np.flatnonzero(d == -1)
+    keep = (stops - starts) >= max(3, round(min_duration * fs))
+    return starts[keep].astype(np.int64), stops[keep].astype(np.int64)
+
+
+def make_segments(
+    record: Record,
+    C1: float,
+    *,
+    min_length: float = 0.03,
+    block_time: float = 0.25,
+    start_delay: float = 1e-3,
+    runs: tuple[IntArray, IntArray] | None = None,
+) -> Segments:
+    """Cut the record into segments that start ``start_delay`` s into a stick phase.
+
+    Each segment runs to the next segment start (at least ``min_length`` s
+    later); segments are numbered into time blocks of about ``block_time`` s.
+    Raises :class:`TooShortError` when the record has fewer than 3 stick
+    phases (the workflow needs stick-slip; slip-slip records are not supported).
+    """
+    s_start, s_stop = runs if runs is not None else detect_stick_runs(record, C1)
+    fs = record.fs
+    delay = round(start_delay * fs)
+    cand = [(int(a) + min(delay, (int(b) - int(a)) // 2)) for a, b in zip(s_start, s_stop, strict=True)]
+    if len(cand) < 3:
+        raise TooShortError(
+            f'found {len(cand)} stick phases in the record; the discrepancy workflow '
+            'needs a stick-slip record with at least 3'
+        )
+    min_len = round(min_length * fs)
+    starts = [cand[0]]
+    for c in cand[1:]:
+        if c - starts[-1] >= min_len:
+            starts.append(c)
+    stops = [*starts[1:], record.time.size]
+    # the last segment only if it reaches the next stick phase... keep it if long enough
+    if stops[-1] - starts[-1] < min_len:
+        starts, stops = starts[:-1], stops[:-1]
+    start_arr = np.asarray(starts, dtype=np.int64)
+    stop_arr = np.asarray(stops, dtype=np.int64)
+    run_start_of = {int(a) + min(delay, (int(b) - int(a)) // 2): int(a) for a, b in zip(s_start, s_stop, strict=True)}
+    stick_time = np.asarray([(s - run_start_of[int(s)]) / fs for s in start_arr], dtype=np.float64)
+    t_rel = (start_arr - start_arr[0]) / fs
+    n_blocks = max(2, round((stop_arr[-1] - start_arr[0]) / fs / block_time))
+    block = np.minimum((t_rel / block_time).astype(np.int64), n_blocks - 1)
+    # renumber so that block ids are 0..B-1 without gaps
+    _, block = np.unique(block, return_inverse=True)
+    return Segments(start_arr, stop_arr, stick_time, block.astype(np.int64))
+
+
+@njit(cache=True)
+def _run_segments(
+    p: np.ndarray,
+    states: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    dt: float,
+    n_sub: int,
+    out: np.ndarray,
+) -> int:
+    """Integrate every segment from its state with the kernel; write into ``out``."""
+    max_len = 0
+    for k in range(starts.shape[0]):
+        max_len = max(max_len, stops[k] - starts[k])
+    buf = np.empty((kn.N_CH, max_len))
+    n_ev = 0
+    for k in range(starts.shape[0]):
+        s = states[k].copy()
+        n = stops[k] - starts[k]
+        n_ev += kn.integrate(p, s, n, dt, n_sub, buf)
+        for c in range(kn.N_CH):
+            for i in range(n):
+                out[c, starts[k] + i] = buf[c, i]
+    return n_ev
+
+
+@njit(cache=True)
+def _stick_states(
+    p: np.ndarray,
+    t: np.ndarray,
+    torque: np.ndarray,
+    speed: np.ndarray,
+    accel: np.ndarray,
+    stick_time: np.ndarray,
+) -> np.ndarray:
+    """Kernel states (``kernel.S_*``) of stuck discs from measured quantities.
+
+    ``torque`` is the true torsion moment C1*phi1 [N m]; the belt deflection
+    phi2 - phi0 follows from the stuck system's moment balance
+    ``(I1 + I2)*w' = Q1 + Q2`` using the kernel's own Q1, Q2 (Q2 is affine in phi2).
+    """
+    n = t.shape[0]
+    states = np.zeros((n, kn.NS))
+    for k in range(n):
+        phi1 = torque[k] / p[kn.P_C1]
+        w = speed[k]
+        q1 = kn.chamber_moment(p, phi1, w)
+        phi0 = kn.drive_angle(p, t[k])
+        qa = kn.shaft_moment(p, t[k], phi0, w)
+        qb = kn.shaft_moment(p, t[k], phi0 + 1e-3, w)
+        slope = (qb - qa) / 1e-3
+        target = (p[kn.P_I1] + p[kn.P_I2]) * accel[k] - q1
+        phi2 = phi0 + (target - qa) / slope
+        states[k, kn.S_T] = t[k]
+        states[k, kn.S_PHI1] = phi1
+        states[k, kn.S_W1] = w
+        states[k, kn.S_PHI2] = phi2
+        states[k, kn.S_W2] = w
+        states[k, kn.S_LAG] = p[kn.P_MU0]
+        states[k, kn.S_STUCK] = 1.0
+        states[k, kn.S_DIR] = 1.0
+        states[k, kn.S_TSTICK] = stick_time[k]
+    return states
+
+
+def _local_line(y: FloatArray, idx: IntArray, half: int, dt: float) -> tuple[FloatArray, FloatArray]:
+    """Value and slope of a least-squares line through y[i-half : i+half+1] at each i."""
+    n = y.size
+    vals = np.empty(idx.size)
+    slopes = np.empty(idx.size)
+    for j, i in enumerate(idx):
+        a = max(0, int(i) - half)
+        b = min(n, int(i) + half + 1)
+        x = (np.arange(a, b) - int(i)) * dt
+        if b - a < 3:
+            vals[j], slopes[j] = y[int(i)], 0.0
+            continue
+        c = np.polyfit(x, y[a:b], 1)
+        vals[j], slopes[j] = c[1], c[0]
+    return vals, slopes
+
+
+@dataclass(frozen=True)
+class SimulatedRecord:
+    """Model output on the record's time base (NaN outside the segments).
+
+    Channels as :class:`Record` (the torsion moment after the measurement-side
+    extensions) plus ``friction_moment`` N m, ``slip_speed`` rad/s, ``stick``
+    (1.0 while sticking) and ``chamber_speed`` rad/s; ``covered`` marks the
+    samples inside the simulated segments.
+    """
+
+    torsion_moment: FloatArray
+    angular_acceleration: FloatArray
+    speed: FloatArray
+    friction_moment: FloatArray
+    slip_speed: FloatArray
+    stick: FloatArray
+    chamber_speed: FloatArray
+    covered: npt.NDArray[np.bool_]
+
+    def channel(self, name: str) -> FloatArray:
+        """A simulated channel by name."""
+        return np.asarray(getattr(self, name), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """Result of :meth:`Problem.fit`: fitted values (all free and fixed names),
+    mean weighted squared residual ``cost`` (-) over the fitted segments, the
+    number of function evaluations and whether the optimiser converged."""
+
+    values: dict[str, float]
+    cost: float
+    nfev: int
+    converged: bool
+
+
+class Problem:
+    """A record, its segments, the known rig and drive: simulate and fit models.
+
+    ``rig`` (Tab. 1 values, F_N, R), ``k`` (Equ. 8, s/rad) and ``drive``
+    (nominal speed, ramp) are known; ``mu0``, ``mu_inf`` and extension fields
+    are the model values passed to :meth:`simulate` / :meth:`fit`.
+    """
+
+    def __init__(
+        self,
+        record: Record,
+        rig: RigParams,
+        drive: DriveProfile,
+        *,
+        k: float = 2.0,
+        segments: Segments | None = None,
+        weights: Mapping[str, float] | None = None,
+    ) -> None:
+        self.record = record
+        self.rig = rig
+        self.drive = drive
+        self.k = float(k)
+        self.segments = segments if segments is not None else make_segments(record, rig.C1)
+        self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
+        self.n_evals = 0
+        i = self.segments.start
+        half = max(2, round(1e-3 * record.fs))
+        self._t0 = record.time[i].astype(np.float64)
+        self._m_val, self._m_slope = _local_line(record.torsion_moment, i, half, record.dt)
+        a_val, _ = _local_line(record.angular_acceleration, i, half, record.dt)
+        w_val, _ = _local_line(record.speed, i, half, record.dt)
+        self._a0 = a_val
+        self._w0 = w_val
+
+    # ------------------------------------------------------------------ weights
+    def signal_weights(self) -> dict[str, float]:
+        """Channel weights 1/std(measured channel) (a start before any fit)."""
+        out = {}
+        for c in CHANNELS:
+            s = float(np.std(self.record.channel(c)))
+            out[c] = 1.0 / s if s > 0 else 0.0
+        return out
+
+    def set_residual_weights(self, sim: SimulatedRecord, floor: Mapping[str, float]) -> None:
+        """Weights 1/rms(residual) per channel (each channel then contributes
+        equally to the cost of that model), never above 1/floor[c]."""
+        cov = sim.covered
+        for c in CHANNELS:
+            r = self.record.channel(c)[cov] - sim.channel(c)[cov]
+            s = max(float(np.sqrt(np.mean(r * r))), floor.get(c, 0.0))
+            self.weights[c] = 1.0 / s if s > 0 else 0.0
+
+    # --------------------------------------------------------------- simulation
+    def model_objects(self, values: Mapping[str, float]) -> tuple[FrictionLaw, Extensions]:
+        """FrictionLaw and Extensions of a value mapping (unknown names rejected)."""
+        ext_vals = {k: float(v) for k, v in values.items() if k not in ('mu0', 'mu_inf')}
+        unknown = set(ext_vals) - _EXT_FIELDS
+        if unknown:
+            raise InvalidParameterError(f'unknown model parameter(s) {sorted(unknown)}')
+        fr = FrictionLaw(
+            max(float(values.get('mu0', MU0.initial)), 0.0),
+            max(float(values.get('mu_inf', MU_INF.initial)), 0.0),
+            self.k,
+        )
+        return fr, replace(Extensions(), **ext_vals)
+
+    def simulate(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> SimulatedRecord:
+        """Simulate the (selected) segments with the model ``values``."""
+        fr, ext = self.model_objects(values)
+        p = pack_params(self.rig, fr, self.drive, ext)
+        rec = self.record
+        seg = self.segments
+        sel = np.ones(seg.n, dtype=bool) if seg_mask is None else seg_mask
+        # measured torsion at the segment starts -> true C1*phi1 (invert the
+        # measurement-side extensions: offset, then first-order lag)
+        t0 = self._t0[sel]
+        m_lagged = self._m_val[sel] - ext.torque_offset - ext.torque_offset_drift * t0
+        m_true = m_lagged + ext.torque_lag_tau * (self._m_slope[sel] - ext.torque_offset_drift)
+        states = _stick_states(
+            p, t0, m_true, self._w0[sel], self._a0[sel], seg.stick_time[sel]
+        )
+        n = rec.time.size
+        out = np.full((kn.N_CH, n), np.nan)
+        n_sub = kn.substeps_for(p, rec.dt)
+        _run_segments(p, states, seg.start[sel], seg.stop[sel], rec.dt, n_sub, out)
+        self.n_evals += 1
+        torsion = out[kn.OUT_TORSION].copy()
+        if ext.torque_lag_tau > 0.0:
+            # the same exact first-order discretisation as simulate.simulate, per segment
+            a = math.exp(-rec.dt / ext.torque_lag_tau)
+            for k, (i0, i1) in enumerate(zip(seg.start[sel], seg.stop[sel], strict=True)):
+                y0 = m_lagged[k]
+                f, _ = lfilter([1.0 - a], [1.0, -a], torsion[i0:i1], zi=np.array([a * y0]))
+                torsion[i0:i1] = f
+        if ext.torque_offset != 0.0 or ext.torque_offset_drift != 0.0:
+            torsion = torsion + ext.torque_offset + ext.torque_offset_drift * rec.time
+        covered = np.isfinite(out[kn.OUT_TORSION])
+        return SimulatedRecord(
+            torsion_moment=torsion,
+            angular_acceleration=out[kn.OUT_ACCEL],
+            speed=out[kn.OUT_SPEED],
+            friction_moment=out[kn.OUT_FRICTION],
+            slip_speed=out[kn.OUT_SLIP],
+            stick=out[kn.OUT_STICK],
+            chamber_speed=out[kn.OUT_W1],
+            covered=covered,
+        )
+
+    def residual_vector(self, sim: SimulatedRecord) -> FloatArray:
+        """Weighted residuals of all channels over the covered samples (-)."""
+        cov = sim.covered
+        parts = []
+        for c in CHANNELS:
+            w = self.weights.get(c, 0.0)
+            if w > 0:
+                r = self.record.channel(c)[cov] - sim.channel(c)[cov]
+                parts.append(w * r)
+        v = np.concatenate(parts)
+        # a diverged simulation (NaN) is a very bad fit, not a crash of the optimiser
+        return np.where(np.isfinite(v), v, 1e3)
+
+    def cost(self, sim: SimulatedRecord) -> float:
+        """Mean squared weighted residual per sample (-), summed over channels."""
+        v = self.residual_vector(sim)
+        n = int(np.count_nonzero(sim.covered))
+        return float(v @ v) / max(n, 1)
+
+    def torque_rms(self, sim: SimulatedRecord) -> float:
+        """Rms of the torsion-moment residual (measured - simulated) [N m]."""
+        cov = sim.covered
+        r = self.record.torsion_moment[cov] - sim.torsion_moment[cov]
+        return float(np.sqrt(np.mean(r * r)))
+
+    # --------------------------------------------------------------------- fit
+    def fit(
+        self,
+        free: Sequence[ParamSpec],
+        start: Mapping[str, float],
+        *,
+        fixed: Mapping[str, float] | None = None,
+        seg_mask: npt.NDArray[np.bool_] | None = None,
+        max_nfev: int = 60,
+    ) -> FitOutcome:
+        """Least-squares output-error fit of the ``free`` parameters.
+
+        ``start`` gives their start values, ``fixed`` further model values held
+        constant. Uses a bounded trust-region method on value/scale coordinates
+        (log for time constants) with finite-difference Jacobians.
+        """
+        fixed_vals = dict(fixed or {})
+        names = [p.name for p in free]
+
+        def to_x(vals: Mapping[str, float]) -> FloatArray:
+            return np.asarray(
+                [
+                    math.log(min(max(float(vals[p.name]), p.lower), p.upper))
+                    if p.log
+                    else min(max(float(vals[p.name]), p.lower), p.upper) / p.scale
+                    for p in free
+                ]
+            )
+
+        def from_x(x: FloatArray) -> dict[str, float]:
+            out = dict(fixed_vals)
+            for p, xi in zip(free, x, strict=True):
+                out[p.name] = math.exp(float(xi)) if p.log else float(xi) * p.scale
+            return out
+
+        lo = np.asarray([math.log(p.lower) if p.log else p.lower / p.scale for p in free])
+        hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
+        x0 = np.clip(to_x(start), lo, hi)
+
+        def fun(x: FloatArray) -> FloatArray:
+            return self.residual_vector(self.simulate(from_x(x), seg_mask))
+
+        if not names:
+            sim = self.simulate(fixed_vals, seg_mask)
+            return FitOutcome(dict(fixed_vals), self.cost(sim), 1, True)
+        res = least_squares(
+            fun,
+            x0,
+            bounds=(lo, hi),
+            method='trf',
+            diff_step=1e-4,
+            x_scale=1.0,
+            max_nfev=max_nfev,
+            xtol=1e-6,
+            ftol=1e-6,
+        )
+        vals = from_x(res.x)
+        n = int(np.count_nonzero(self.segments.sample_mask(self.record.time.size, seg_mask)))
+        cost = float(2.0 * res.cost) / max(n, 1)
+        return FitOutcome(vals, cost, int(res.nfev), bool(res.success))

@@ -1,0 +1,97 @@
+"""PNG plots of the discrepancy workflow (matplotlib, Agg backend, no display).
+
+* ``residual_<localiser>.png``: torsion-moment residual (N m) before (baseline)
+  and after (final model) against the localising variable of each added
+  effect (binned mean and rms), or against time if nothing was added.
+* ``traces.png``: measured vs simulated torsion moment and angular
+  acceleration over a short window, baseline and final model.
+* ``spectrum.png``: residual amplitude spectra before and after.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy import signal  # noqa: E402
+
+from .stats import BinnedResidual, FloatArray  # noqa: E402
+
+
+def plot_binned(
+    before: BinnedResidual, after: BinnedResidual, path: str | Path, *, title: str
+) -> Path:
+    """Binned residual mean and rms before/after against one variable."""
+    p = Path(path)
+    fig, ax = plt.subplots(figsize=(7.0, 4.0), dpi=100)
+    for b, colour, label in ((before, 'tab:red', 'baseline'), (after, 'tab:blue', 'final')):
+        if b.centres:
+            ax.plot(b.centres, b.rms, 'o-', color=colour, label=f'{label} rms')
+            ax.plot(b.centres, b.mean, 's--', color=colour, alpha=0.6, label=f'{label} mean')
+    ax.axhline(0.0, color='k', lw=0.5)
+    ax.set_xlabel(f'{before.variable} [{before.unit}]')
+    ax.set_ylabel('torsion-moment residual [N m]')
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(p)
+    plt.close(fig)
+    return p
+
+
+def plot_traces(
+    time: FloatArray,
+    measured: dict[str, FloatArray],
+    baseline: dict[str, FloatArray],
+    final: dict[str, FloatArray],
+    path: str | Path,
+    *,
+    window: tuple[float, float],
+) -> Path:
+    """Measured vs simulated torsion moment (N m) and acceleration (rad/s^2)."""
+    p = Path(path)
+    sel = (time >= window[0]) & (time <= window[1])
+    channels = [('torsion_moment', 'N m'), ('angular_acceleration', 'rad/s^2')]
+    fig, axes = plt.subplots(len(channels), 2, figsize=(11.0, 6.0), dpi=100, sharex=True)
+    for row, (ch, unit) in enumerate(channels):
+        for col, (sim, label) in enumerate(((baseline, 'baseline'), (final, 'final'))):
+            ax = axes[row, col]
+            ax.plot(time[sel], measured[ch][sel], color='k', lw=0.8, label='measured')
+            ax.plot(time[sel], sim[ch][sel], color='tab:orange', lw=0.8, label=f'{label} model')
+            ax.set_ylabel(f'{ch} [{unit}]')
+            ax.grid(alpha=0.3)
+            if row == 0:
+                ax.set_title(f'{label} model')
+                ax.legend(fontsize=8, loc='upper right')
+            if row == len(channels) - 1:
+                ax.set_xlabel('time [s]')
+    fig.tight_layout()
+    fig.savefig(p)
+    plt.close(fig)
+    return p
+
+
+def plot_spectrum(
+    before: FloatArray, after: FloatArray, fs: float, path: str | Path
+) -> Path:
+    """Amplitude spectral density of the torque residual before/after (N m/sqrt(Hz))."""
+    p = Path(path)
+    fig, ax = plt.subplots(figsize=(7.0, 4.0), dpi=100)
+    for r, colour, label in ((before, 'tab:red', 'baseline'), (after, 'tab:blue', 'final')):
+        n = int(min(r.size, 8192))
+        f, psd = signal.welch(r - np.mean(r), fs=fs, nperseg=n)
+        ax.semilogy(f[1:], np.sqrt(psd[1:]), color=colour, lw=0.8, label=label)
+    ax.set_xlim(0, min(fs / 2, 500.0))
+    ax.set_xlabel('frequency [Hz]')
+    ax.set_ylabel('residual ASD [N m/sqrt(Hz)]')
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(p)
+    plt.close(fig)
+    return p

@@ -1,0 +1,90 @@
+"""``discrepancy.json``: the report of the missing-physics workflow.
+
+Layout (rms values are of the torsion-moment residual, measured - simulated, N m)::
+
+    {"baseline": {"rms": ..., "params": {"mu0": ..., "mu_inf": ...}, ...},
+     "added": [{"effect": NAME, "params": {...}, "units": {...},
+                "rms_before": ..., "rms_after": ..., "delta_bic": ..., ...}, ...],
+     "final": {"rms": ..., "params": {...}},
+     "unexplained": [{"kind": ..., "where": ..., "size": ..., "frequency": ...}, ...],
+     ...}
+
+Further keys: ``noise_floor`` (N m), ``rounds`` (every candidate's score per
+selection round), ``proposed_terms`` (sparse regression on the final residual),
+``localisation`` (baseline and final residual statistics), ``settings``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from .select import DiscrepancyResult
+
+
+def _clean(obj: Any) -> Any:
+    """Make ``obj`` strict-JSON: NaN/inf become None, tuples lists."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if hasattr(obj, 'item') and callable(obj.item):  # numpy scalar
+        return _clean(obj.item())
+    return obj
+
+
+def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
+    """The report as a JSON-ready mapping (see module docstring)."""
+    d: dict[str, Any] = {
+        'baseline': {
+            'rms': result.baseline.rms,
+            'params': dict(result.baseline.params),
+            'cv_rms': result.baseline.cv_rms,
+        },
+        'added': [
+            {
+                'effect': a.effect,
+                'params': dict(a.params),
+                'units': dict(a.units),
+                'rms_before': a.rms_before,
+                'rms_after': a.rms_after,
+                'delta_bic': a.delta_bic,
+                'cv_rms_before': a.cv_rms_before,
+                'cv_rms_after': a.cv_rms_after,
+                'localiser': a.localiser,
+            }
+            for a in result.added
+        ],
+        'final': {
+            'rms': result.final.rms,
+            'params': dict(result.final.params),
+            'cv_rms': result.final.cv_rms,
+        },
+        'unexplained': [u.as_dict() for u in result.unexplained],
+        'noise_floor': result.noise_floor,
+        'rounds': [[s.as_dict() for s in rnd] for rnd in result.rounds],
+        'proposed_terms': [
+            {'term': t.name, 'coefficient': t.coefficient, 'contribution_rms': t.contribution_rms}
+            for t in result.proposed_terms
+        ],
+        'localisation': {
+            'baseline': result.localisation_before,
+            'final': result.localisation_after,
+        },
+        'settings': dict(result.settings),
+    }
+    return _clean(d)
+
+
+def write_json(result: DiscrepancyResult, path: str | Path) -> Path:
+    """Write ``discrepancy.json`` (strict JSON, indented); returns the path."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_suffix(p.suffix + '.tmp')
+    tmp.write_text(json.dumps(to_dict(result), indent=2, allow_nan=False) + '\n')
+    tmp.replace(p)
+    return p

@@ -1,0 +1,352 @@
+"""Rig model of the disc-on-disc stick-slip tribometer (paper section 2.3-2.4).
+
+Typed parameter objects and Python entry points to the equations of motion.
+The equations themselves are written once, as compiled functions in
+:mod:`tribo_estimation.core.kernel`; this module only packs the dataclasses into
+the kernel's flat vectors and wraps the compiled functions.
+
+Units (SI): inertia kg m^2, damping K N m s/rad, stiffness C N m/rad, force N,
+radius m, angle rad, speed rad/s, time s. Paper naming: K = viscous damping,
+C = torsional stiffness.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from tribo_estimation.core import kernel as kn
+from tribo_estimation.errors import InvalidParameterError
+
+
+def _check_finite(obj: object) -> None:
+    for f in fields(obj):  # type: ignore[arg-type]
+        val = getattr(obj, f.name)
+        if isinstance(val, bool):
+            continue
+        if isinstance(val, int | float) and not math.isfinite(float(val)):
+            raise InvalidParameterError(
+                f'{type(obj).__name__}.{f.name} must be finite, got {val!r}'
+            )
+
+
+def _require(cond: bool, obj: object, name: str, what: str) -> None:
+    if not cond:
+        raise InvalidParameterError(
+            f'{type(obj).__name__}.{name} must be {what}, got {getattr(obj, name)!r}'
+        )
+
+
+@dataclass(frozen=True)
+class RigParams:
+    """Mechanical parameters of the rig (paper Tab. 1 and section 2.3).
+
+    I1 chamber inertia [kg m^2], K1 chamber damping [N m s/rad], C1 torsion element
+    stiffness [N m/rad], I2 drive shaft inertia [kg m^2], K2 drive damping
+    [N m s/rad], C2 drive stiffness [N m/rad], F_N total normal force summed over
+    all friction pairs [N] (0 = no contact, free decay), R effective friction radius [m].
+    """
+
+    I1: float
+    K1: float
+    C1: float
+    I2: float
+    K2: float
+    C2: float
+    F_N: float
+    R: float
+
+    def __post_init__(self) -> None:
+        _check_finite(self)
+        for name in ('I1', 'C1', 'I2', 'C2', 'R'):
+            _require(getattr(self, name) > 0.0, self, name, '> 0')
+        for name in ('K1', 'K2', 'F_N'):
+            _require(getattr(self, name) >= 0.0, self, name, '>= 0')
+
+    @classmethod
+    def tab1(cls, F_N: float = 8000.0, R: float = 0.08) -> RigParams:
+        """The paper's Tab. 1 rig with the given contact load [N] and radius [m]."""
+        return cls(
+            I1=0.0109, K1=0.04034, C1=2338.6, I2=0.0315, K2=4.0, C2=5975.0, F_N=F_N, R=R
+        )
+
+    @property
+    def natural_frequency_hz(self) -> float:
+        """Undamped natural frequency of the chamber alone, sqrt(C1/I1)/(2 pi) [Hz]."""
+        return math.sqrt(self.C1 / self.I1) / (2.0 * math.pi)
+
+    @property
+    def damping_ratio(self) -> float:
+        """Damping ratio of the chamber alone, K1/(2 sqrt(C1 I1)) [-] (Equ. 7)."""
+        return self.K1 / (2.0 * math.sqrt(self.C1 * self.I1))
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Friction law of the paper, Equ. 8, with its deceleration rule.
+
+    ``mu(|v|) = (mu0 - mu_inf)*exp(-k*|v|) + mu_inf`` [-]; static coefficient
+    ``mu_s = mu0``; within a sliding phase, after the slip-speed peak,
+    ``mu = mu_inf`` until the phase ends. ``k`` in s/rad (paper preset 2).
+    """
+
+    mu0: float
+    mu_inf: float
+    k: float = 2.0
+
+    def __post_init__(self) -> None:
+        _check_finite(self)
+        _require(self.mu0 >= 0.0, self, 'mu0', '>= 0')
+        _require(self.mu_inf >= 0.0, self, 'mu_inf', '>= 0')
+        _require(self.k >= 0.0, self, 'k', '>= 0 s/rad')
+
+    def mu(self, v_abs: np.ndarray | float, peak_passed: bool = False) -> np.ndarray:
+        """Friction coefficient at slip speed |v| [rad/s] (Equ. 8), vectorised [-]."""
+        p = pack_params(RigParams.tab1(), self, DriveProfile(0.0))
+        arr = np.atleast_1d(np.asarray(v_abs, dtype=float))
+        return kn.friction_coefficient_array(p, 0.0, np.abs(arr), bool(peak_passed))
+
+
+@dataclass(frozen=True)
+class DriveProfile:
+    """Drive motor speed profile: w0(t) ramps linearly from 0 to ``nominal_speed``
+    [rad/s] over ``ramp_time`` [s] (0 = starts at full speed), then stays constant;
+    phi0(t) is its integral [rad]."""
+
+    nominal_speed: float
+    ramp_time: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_finite(self)
+        _require(self.ramp_time >= 0.0, self, 'ramp_time', '>= 0 s')
+
+    def speed(
+        self, t: np.ndarray | float, extensions: Extensions | None = None
+    ) -> np.ndarray:
+        """w0(t) [rad/s] (with the drive-ripple extension if given)."""
+        p = pack_params(RigParams.tab1(), FrictionLaw(0.1, 0.1), self, extensions)
+        return kn.drive_speed_array(p, np.atleast_1d(np.asarray(t, dtype=float)))
+
+    def angle(
+        self, t: np.ndarray | float, extensions: Extensions | None = None
+    ) -> np.ndarray:
+        """phi0(t) [rad] (with the drive-ripple extension if given)."""
+        p = pack_params(RigParams.tab1(), FrictionLaw(0.1, 0.1), self, extensions)
+        return kn.drive_angle_array(p, np.atleast_1d(np.asarray(t, dtype=float)))
+
+
+@dataclass(frozen=True)
+class Extensions:
+    """Model extensions beyond the paper (used by the discrepancy workflow).
+
+    All zero (the default) is exactly the paper's model; each extension is
+    nested (its zero value switches it off). Kernel-side (change the dynamics):
+
+    - ``stiction_gain`` [-], ``stiction_tau`` [s]: dwell-time stiction,
+      ``mu_s = mu0 + gain*(1 - exp(-t_stick/tau))`` (tau = 0: instantaneous).
+    - ``lag_tau`` [s]: frictional lag; the sliding coefficient follows Equ. 8
+      through a first-order lag, starting at mu_s at breakaway.
+    - ``viscous`` [N m s/rad]: viscous friction in the contact, ``M += viscous*v``.
+    - ``drift_mu0``, ``drift_mu_inf`` [1/s]: linear drift of mu0, mu_inf with test time.
+    - ``ripple_amp`` [rad/s], ``ripple_freq`` [Hz], ``ripple_phase`` [rad]: drive
+      speed ripple ``w0 += amp*sin(2 pi f t + phase)``.
+    - ``bearing_moment`` [N m]: Coulomb moment of the chamber support, regularised as
+      ``M_b*w1/sqrt(w1^2 + w_reg^2)`` with ``w_reg`` = ``bearing_reg_speed`` [rad/s].
+
+    Measurement-side (applied to the torsion output only):
+
+    - ``torque_offset`` [N m], ``torque_offset_drift`` [N m/s]: sensor offset and its drift.
+    - ``torque_lag_tau`` [s]: first-order lag of the torque sensor.
+    """
+
+    stiction_gain: float = 0.0
+    stiction_tau: float = 0.0
+    lag_tau: float = 0.0
+    viscous: float = 0.0
+    drift_mu0: float = 0.0
+    drift_mu_inf: float = 0.0
+    ripple_amp: float = 0.0
+    ripple_freq: float = 0.0
+    ripple_phase: float = 0.0
+    bearing_moment: float = 0.0
+    bearing_reg_speed: float = kn.BEARING_REG_SPEED
+    torque_offset: float = 0.0
+    torque_offset_drift: float = 0.0
+    torque_lag_tau: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_finite(self)
+        for name in (
+            'stiction_tau',
+            'lag_tau',
+            'viscous',
+            'ripple_freq',
+            'bearing_moment',
+            'torque_lag_tau',
+        ):
+            _require(getattr(self, name) >= 0.0, self, name, '>= 0')
+        _require(self.bearing_reg_speed > 0.0, self, 'bearing_reg_speed', '> 0 rad/s')
+
+    @property
+    def is_baseline(self) -> bool:
+        """True when every extension is switched off (the paper's model)."""
+        return all(
+            getattr(self, f.name) == 0.0 for f in fields(self) if f.name != 'bearing_reg_speed'
+        )
+
+
+@dataclass(frozen=True)
+class RigState:
+    """Complete simulation state, enough to continue a run seamlessly.
+
+    t [s], phi1 [rad], w1 [rad/s], phi2 [rad], w2 [rad/s]; ``stuck`` sticking flag;
+    ``slip_dir`` sgn(v) of the current sliding phase; ``peak_passed`` the deceleration
+    rule flag; ``v_max`` max |v| of the current sliding phase [rad/s]; ``stick_time``
+    duration of the current stick [s]; ``lag`` lagged friction coefficient [-]
+    (frictional-lag extension); ``sensor_lag`` torque-sensor filter state [N m]
+    (NaN until the first sample).
+    """
+
+    t: float = 0.0
+    phi1: float = 0.0
+    w1: float = 0.0
+    phi2: float = 0.0
+    w2: float = 0.0
+    stuck: bool = True
+    slip_dir: int = 1
+    peak_passed: bool = False
+    v_max: float = 0.0
+    stick_time: float = 0.0
+    lag: float = 0.0
+    sensor_lag: float = math.nan
+
+    def __post_init__(self) -> None:
+        for name in ('t', 'phi1', 'w1', 'phi2', 'w2', 'v_max', 'stick_time', 'lag'):
+            if not math.isfinite(getattr(self, name)):
+                raise InvalidParameterError(
+                    f'RigState.{name} must be finite, got {getattr(self, name)!r}'
+                )
+        if self.slip_dir not in (1, -1):
+            raise InvalidParameterError(f'RigState.slip_dir must be +1 or -1, got {self.slip_dir}')
+
+    @classmethod
+    def at_rest(cls, t: float = 0.0) -> RigState:
+        """Both bodies at rest, unloaded, sticking, at time t [s]."""
+        return cls(t=t)
+
+    def to_vector(self) -> np.ndarray:
+        """Kernel state vector (indices ``kernel.S_*``)."""
+        s = np.zeros(kn.NS)
+        s[kn.S_T] = self.t
+        s[kn.S_PHI1] = self.phi1
+        s[kn.S_W1] = self.w1
+        s[kn.S_PHI2] = self.phi2
+        s[kn.S_W2] = self.w2
+        s[kn.S_LAG] = self.lag
+        s[kn.S_STUCK] = 1.0 if self.stuck else 0.0
+        s[kn.S_DIR] = float(self.slip_dir)
+        s[kn.S_PEAK] = 1.0 if self.peak_passed else 0.0
+        s[kn.S_VMAX] = self.v_max
+        s[kn.S_TSTICK] = self.stick_time
+        s[kn.S_SENSOR] = self.sensor_lag
+        return s
+
+    @classmethod
+    def from_vector(cls, s: np.ndarray) -> RigState:
+        """Inverse of :meth:`to_vector`."""
+        return cls(
+            t=float(s[kn.S_T]),
+            phi1=float(s[kn.S_PHI1]),
+            w1=float(s[kn.S_W1]),
+            phi2=float(s[kn.S_PHI2]),
+            w2=float(s[kn.S_W2]),
+            stuck=bool(s[kn.S_STUCK] > 0.5),
+            slip_dir=1 if s[kn.S_DIR] >= 0.0 else -1,
+            peak_passed=bool(s[kn.S_PEAK] > 0.5),
+            v_max=float(s[kn.S_VMAX]),
+            stick_time=float(s[kn.S_TSTICK]),
+            lag=float(s[kn.S_LAG]),
+            sensor_lag=float(s[kn.S_SENSOR]),
+        )
+
+
+def pack_params(
+    rig: RigParams,
+    friction: FrictionLaw,
+    drive: DriveProfile,
+    extensions: Extensions | None = None,
+) -> np.ndarray:
+    """Flat kernel parameter vector (indices ``kernel.P_*``) from the dataclasses."""
+    ext = extensions if extensions is not None else Extensions()
+    p = np.zeros(kn.NP)
+    p[kn.P_I1] = rig.I1
+    p[kn.P_K1] = rig.K1
+    p[kn.P_C1] = rig.C1
+    p[kn.P_I2] = rig.I2
+    p[kn.P_K2] = rig.K2
+    p[kn.P_C2] = rig.C2
+    p[kn.P_FN] = rig.F_N
+    p[kn.P_R] = rig.R
+    p[kn.P_MU0] = friction.mu0
+    p[kn.P_MUINF] = friction.mu_inf
+    p[kn.P_K] = friction.k
+    p[kn.P_W0] = drive.nominal_speed
+    p[kn.P_RAMP] = drive.ramp_time
+    p[kn.P_ST_GAIN] = ext.stiction_gain
+    p[kn.P_ST_TAU] = ext.stiction_tau
+    p[kn.P_LAG_TAU] = ext.lag_tau
+    p[kn.P_VISC] = ext.viscous
+    p[kn.P_DRIFT_MU0] = ext.drift_mu0
+    p[kn.P_DRIFT_MUINF] = ext.drift_mu_inf
+    p[kn.P_RIP_AMP] = ext.ripple_amp
+    p[kn.P_RIP_FREQ] = ext.ripple_freq
+    p[kn.P_RIP_PHASE] = ext.ripple_phase
+    p[kn.P_BEARING] = ext.bearing_moment
+    p[kn.P_BEARING_REG] = ext.bearing_reg_speed
+    return p
+
+
+def stick_moment(
+    rig: RigParams,
+    drive: DriveProfile,
+    t: float,
+    phi1: float,
+    w: float,
+    phi2: float,
+    extensions: Extensions | None = None,
+) -> float:
+    """Moment that keeps the discs together while sticking, Equ. 6 (corrected) [N m]."""
+    p = pack_params(rig, FrictionLaw(0.0, 0.0), drive, extensions)
+    return float(kn.stick_moment(p, t, phi1, w, phi2))
+
+
+def derivatives(
+    rig: RigParams,
+    friction: FrictionLaw,
+    drive: DriveProfile,
+    state: RigState,
+    extensions: Extensions | None = None,
+) -> tuple[float, float, float, float, float, float]:
+    """Equations of motion (Equ. 1-3, 6, 8) at ``state``.
+
+    Returns ``(phi1', w1', phi2', w2', lag', M)`` in rad/s, rad/s^2, rad/s, rad/s^2,
+    1/s, N m (M = friction moment on the chamber).
+    """
+    p = pack_params(rig, friction, drive, extensions)
+    return tuple(  # type: ignore[return-value]
+        float(x)
+        for x in kn.derivatives(
+            p,
+            state.t,
+            state.phi1,
+            state.w1,
+            state.phi2,
+            state.w2,
+            state.lag,
+            state.stuck,
+            float(state.slip_dir),
+            state.peak_passed,
+        )
+    )

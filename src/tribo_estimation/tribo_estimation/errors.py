@@ -1,0 +1,55 @@
+"""Specific exceptions of tribo_estimation (rig model, simulator, identification, fits).
+
+Every error names the problem (parameter, column, key, line, value). The ``tribo`` CLI
+answers any :class:`EstimationError` with one line on stderr and exit code 2.
+Other modules may append further subclasses at the end of this file.
+"""
+
+from __future__ import annotations
+
+
+class EstimationError(Exception):
+    """Base class of all tribo_estimation errors."""
+
+
+class InvalidParameterError(EstimationError, ValueError):
+    """A model or algorithm parameter is out of range (e.g. zero or negative inertia)."""
+
+
+class InvalidDataError(EstimationError, ValueError):
+    """Measured or simulated data are unusable (NaN/inf, wrong shape, wrong units)."""
+
+
+class NonMonotonicTimeError(InvalidDataError):
+    """A time vector is not strictly increasing (names the first offending sample)."""
+
+
+class TooShortError(InvalidDataError):
+    """A record is too short for the requested analysis."""
+
+
+class NoOscillationError(InvalidDataError):
+    """A free-decay record shows no (under-damped) oscillation to identify."""
+
+
+class MissingKeyError(EstimationError, KeyError):
+    """A required key is missing from a configuration file (names the key and file)."""
+
+    def __str__(self) -> str:  # KeyError would print the repr with quotes
+        return str(self.args[0]) if self.args else 'missing key'
+
+
+class MissingColumnError(InvalidDataError):
+    """A data file lacks a required column (names the column and file)."""
+
+
+class UnitError(InvalidDataError):
+    """A signal's magnitude indicates wrong units (e.g. a speed in rpm instead of rad/s)."""
+
+
+class ConfigFileError(EstimationError, ValueError):
+    """A configuration file cannot be read or parsed (names the file)."""
+
+
+class SimulationError(EstimationError, RuntimeError):
+    """The simulator failed (non-finite state, event location did not converge)."""
