@@ -57,6 +57,7 @@ $(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
 	  --event-handlers console_direct- summary- \
 	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
 	  || { mkdir -p log; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }
+	@$(IN_ENV) python tools/warmup.py
 	@touch $@
 
 build:

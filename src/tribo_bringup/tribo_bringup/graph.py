@@ -17,9 +17,9 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from tribo_common.node_main import spin_background
 
 from tribo_bringup.errors import ConfigError
+from tribo_common.node_main import spin_background
 
 #: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
 NODES: dict[str, tuple[str, str]] = {

@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
-from tribo_common.qos import data_qos, status_qos
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError
+from tribo_common.qos import data_qos, status_qos
 
 
 def msg_class(msgtype: str) -> Any:

@@ -8,6 +8,7 @@ from pathlib import Path
 import can
 import numpy as np
 import pytest
+
 from tribo_drivers.core.can_protocol import ACCEL_ID, FORCE_TEMP_ID, SPEED_ID, CanCodec
 from tribo_drivers.core.emulators import CanEmulator, SlcanPtyDevice, default_can_signal
 from tribo_drivers.core.gaps import SampleBlock

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import pytest
+
 from tribo_drivers.core import counter_protocol as cp
 from tribo_drivers.core.emulators import CounterEmulator
 from tribo_drivers.core.reconnect import Backoff

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from tribo_drivers.core.daq_protocol import (
     FRAME_SIZE,
     DaqDecoder,

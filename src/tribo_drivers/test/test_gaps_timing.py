@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+
 from tribo_drivers.core.daq_protocol import DaqScaling
 from tribo_drivers.core.gaps import BlockBatcher, IndexTracker
 from tribo_drivers.core.reconnect import Backoff

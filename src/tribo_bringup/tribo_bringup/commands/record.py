@@ -33,10 +33,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f'--duration must be >= 0, got {args.duration}')
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
-    from tribo_common.node_main import spin_background
 
     from tribo_bringup import bagio
     from tribo_bringup.recorder import Recorder
+    from tribo_common.node_main import spin_background
 
     topics = None
     if args.topics:

@@ -32,9 +32,9 @@ def run(args: argparse.Namespace) -> int:
     """Replay the bag once."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
-    from tribo_common.node_main import spin_background
 
     from tribo_bringup.recorder import Replayer
+    from tribo_common.node_main import spin_background
 
     rclpy.init()
     try:

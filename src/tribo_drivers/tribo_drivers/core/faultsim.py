@@ -149,9 +149,9 @@ def _account(
     value_errors = 0
     if idx.size:
         t_raw, a_raw, s_raw = default_daq_signal(idx)
-        for blist, raw, c in ((torque, t_raw, 0), (accel, a_raw, 1), (speed, s_raw, 2)):
+        for blist, raw, ch in ((torque, t_raw, 0), (accel, a_raw, 1), (speed, s_raw, 2)):
             got = np.concatenate([b.data for b in blist])
-            want = (raw.astype(np.float64) - scaling.offset[c]) * scaling.gain[c]
+            want = (raw.astype(np.float64) - scaling.offset[ch]) * scaling.gain[ch]
             # tolerance: float64 rounding of (raw - offset) * gain only
             value_errors += int(np.count_nonzero(~np.isclose(got, want, rtol=1e-12, atol=0.0)))
     bridged = 0

@@ -17,7 +17,6 @@ from typing import Any
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-
 from tribo_drivers.core.can_protocol import CanCodec
 from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import CanStream, DeviceStream

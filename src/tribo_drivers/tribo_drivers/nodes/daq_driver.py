@@ -15,7 +15,6 @@ from typing import Any
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-
 from tribo_drivers.core.daq_protocol import DaqScaling
 from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import DaqStream, DeviceStream

@@ -18,8 +18,8 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from tribo_common.params import ParameterError, declare
 
+from tribo_common.params import ParameterError, declare
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DeviceStream

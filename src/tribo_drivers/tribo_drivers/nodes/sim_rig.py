@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 from rclpy.node import Node
+
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -166,6 +167,7 @@ class SimRigNode(Node):
         # compile (or load from cache) the numba kernel before the clock starts
         simulate(self.rig, self.friction, self.drive, 1.0 / self.fs, self.fs)
         self.t_start_ns = self.get_clock().now().nanoseconds
+        self.get_logger().info('streaming started')
         t0 = time.monotonic()
         last_warn = t0
         n_total = round(self.duration * self.fs) if self.duration > 0 else None

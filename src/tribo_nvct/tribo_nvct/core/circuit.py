@@ -118,8 +118,11 @@ class OilCircuit:
     def lag(self) -> float:
         """Mean delay of the mixed reading behind the release [s]: t - integral_0^t R."""
         # Each pulse (area T) arrives at transit + n T: the integral of the pulse
-        # train trails the unit ramp by transit - T/2 on average.
-        return self.transit - 0.5 * self.circulation_time
+        # train trails the unit ramp by transit - T/2 on average; the growing width
+        # (d sigma^2/dn = s^2) shifts the running sum of the Gaussian CDFs by a further
+        # -s^2/(2T) (Euler-Maclaurin). May be negative (the first slug arrives early).
+        T = self.circulation_time
+        return self.transit - 0.5 * T - 0.5 * self.dispersion_fraction**2 * T
 
     def detector_activity(self, t: FloatArray, released: FloatArray) -> FloatArray:
         """Reading A_det(t) [Bq] for a released-activity history on a uniform grid ``t`` [s].

@@ -263,8 +263,11 @@ class Evaluation:
         return out
 
 
-def evaluate(points: Sequence[WearPoint], cfg: NvctConfig) -> Evaluation:
-    """Evaluate running-in and progressive wear from the wear points of a test."""
+def evaluate(points: Sequence[WearPoint], cfg: NvctConfig, fit_model: bool = True) -> Evaluation:
+    """Evaluate running-in and progressive wear from the wear points of a test.
+
+    fit_model: also fit the exponential running-in model (skipped when False).
+    """
     lag = cfg.circuit.lag if cfg.circuit is not None else 0.0
     use = [p for p in points if p.usable and math.isfinite(p.volume_se) and p.volume_se > 0]
     t = np.array([p.t_mid - lag for p in use])
@@ -303,8 +306,8 @@ def evaluate(points: Sequence[WearPoint], cfg: NvctConfig) -> Evaluation:
     guess = rate if line is not None else None
     ef = (
         fit_exponential(t, v, se, guess)
-        if t.size
-        else ExpFit(nan, nan, nan, nan, nan, nan, nan, False, 'no data')
+        if t.size and fit_model
+        else ExpFit(nan, nan, nan, nan, nan, nan, nan, False, 'not fitted')
     )
     return Evaluation(
         total_volume=V180,

@@ -102,9 +102,9 @@ class WearEvaluator:
         self._points.append(point)
         return point
 
-    def evaluation(self) -> Evaluation:
-        """Running-in/progressive evaluation of the points so far."""
-        return evaluate(self._points, self.cfg)
+    def evaluation(self, fit_model: bool = True) -> Evaluation:
+        """Running-in/progressive evaluation of the points so far (model fit optional)."""
+        return evaluate(self._points, self.cfg, fit_model)
 
     def current_rate(self) -> RateEstimate:
         """Wear rate over the last ``rate_window_s`` [m^3/s]."""

@@ -1,0 +1,106 @@
+"""Shared fixtures of the cross-package tests.
+
+Tests that use DDS get their own ROS_DOMAIN_ID (derived from the pid, so
+parallel runs do not see each other) and localhost-only discovery.
+Processes started for a test run in their own session and are stopped with
+SIGINT to the process group, then waited for.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+
+
+def have_ros() -> bool:
+    """True when rclpy and the built tribo_msgs are importable (env.sh sourced)."""
+    try:
+        import rclpy  # noqa: F401
+
+        import tribo_msgs.msg  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+requires_ros = pytest.mark.skipif(
+    not have_ros(), reason='needs rclpy and the built workspace: run under `make test`'
+)
+
+
+class Proc:
+    """A process started in its own session; stopped with SIGINT to its group."""
+
+    def __init__(self, args: list[str], log: Path, env: dict[str, str] | None = None) -> None:
+        self.log_path = log
+        self._log = log.open('wb')
+        self.popen = subprocess.Popen(
+            args,
+            stdout=self._log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            env={**os.environ, **(env or {})},
+            cwd=ROOT,
+        )
+
+    def stop(self, timeout: float = 20.0) -> int:
+        """SIGINT the process group, wait; SIGKILL if it does not end."""
+        if self.popen.poll() is None:
+            try:
+                os.killpg(self.popen.pid, signal.SIGINT)
+            except ProcessLookupError:
+                pass
+            try:
+                self.popen.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.popen.pid, signal.SIGKILL)
+                self.popen.wait()
+        self._log.close()
+        return int(self.popen.returncode)
+
+    def wait(self, timeout: float) -> int:
+        """Wait for the process to end by itself."""
+        try:
+            return int(self.popen.wait(timeout=timeout))
+        finally:
+            self._log.close()
+
+    def output(self) -> str:
+        """Everything the process printed so far."""
+        return self.log_path.read_text(errors='replace')
+
+
+@pytest.fixture
+def procs(tmp_path: Path) -> Iterator[list[Proc]]:
+    """Start processes with ``procs.append(Proc(...))``; all are stopped at the end."""
+    started: list[Proc] = []
+    yield started
+    for p in reversed(started):
+        p.stop()
+
+
+def tribo_cmd(*args: str) -> list[str]:
+    """Command line of the tribo CLI in this interpreter."""
+    return [sys.executable, '-m', 'tribo_bringup.cli', *args]
+
+
+def wait_for(pred, timeout: float, interval: float = 0.1) -> bool:  # type: ignore[no-untyped-def]
+    """Poll ``pred()`` until true or ``timeout`` [s]."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if pred():
+            return True
+        time.sleep(interval)
+    return False

@@ -1,0 +1,101 @@
+"""The install space has the layout `ros2 run` expects on a full ROS install."""
+
+from __future__ import annotations
+
+import ast
+import os
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+INSTALL = ROOT / 'install'
+PACKAGES = (
+    'tribo_msgs',
+    'tribo_common',
+    'tribo_drivers',
+    'tribo_estimation',
+    'tribo_nvct',
+    'tribo_bringup',
+)
+
+
+def console_scripts(pkg: str) -> list[str]:
+    """Executable names declared in a package's setup.py."""
+    tree = ast.parse((ROOT / 'src' / pkg / 'setup.py').read_text())
+    names: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and ' = ' in node.value:
+            name, target = node.value.split(' = ', 1)
+            if ':' in target:
+                names.append(name.strip())
+    return names
+
+
+pytestmark = pytest.mark.skipif(not INSTALL.is_dir(), reason='workspace not built (make setup)')
+
+
+@pytest.mark.parametrize('pkg', PACKAGES)
+def test_ament_index_marker(pkg: str) -> None:
+    marker = INSTALL / pkg / 'share' / 'ament_index' / 'resource_index' / 'packages' / pkg
+    assert marker.is_file(), f'missing ament index marker {marker}'
+    assert (INSTALL / pkg / 'share' / pkg / 'package.xml').is_file()
+
+
+EXPECTED = {
+    'tribo_drivers': {'sim_rig', 'sim_detector', 'daq_driver', 'counter_driver', 'can_driver'},
+    'tribo_estimation': {'friction_estimator'},
+    'tribo_nvct': {'wear_monitor'},
+    'tribo_bringup': {'tribo', 'live_bridge'},
+}
+
+
+@pytest.mark.parametrize('pkg', sorted(EXPECTED))
+def test_executables_in_lib_pkg(pkg: str) -> None:
+    declared = set(console_scripts(pkg))
+    assert EXPECTED[pkg] <= declared, f'{pkg}: setup.py lacks {EXPECTED[pkg] - declared}'
+    for exe in sorted(declared):
+        path = INSTALL / pkg / 'lib' / pkg / exe
+        assert path.is_file(), f'{path} missing (ros2 run {pkg} {exe} would fail)'
+        assert os.access(path, os.X_OK), f'{path} is not executable'
+
+
+@pytest.mark.parametrize('pkg', sorted(EXPECTED))
+def test_entry_points_resolve(pkg: str) -> None:
+    """Each console script's target module exists and defines main()."""
+    tree = ast.parse((ROOT / 'src' / pkg / 'setup.py').read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and ' = ' in node.value:
+            _, target = node.value.split(' = ', 1)
+            if ':' not in target:
+                continue
+            module, func = target.split(':')
+            src = ROOT / 'src' / pkg / (module.replace('.', '/') + '.py')
+            assert src.is_file(), f'{target}: {src} missing'
+            defs = {
+                n.name for n in ast.parse(src.read_text()).body if isinstance(n, ast.FunctionDef)
+            }
+            assert func in defs, f'{target}: no function {func}() in {src}'
+
+
+def test_messages_built() -> None:
+    share = INSTALL / 'tribo_msgs' / 'share' / 'tribo_msgs' / 'msg'
+    for name in ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState'):
+        assert (share / f'{name}.msg').is_file(), f'{name}.msg not installed'
+
+
+def test_cores_never_import_rclpy() -> None:
+    """Core modules (physics, estimation, decoding) are plain Python."""
+    offenders = []
+    for core in ROOT.glob('src/*/*/core'):
+        for py in core.rglob('*.py'):
+            tree = ast.parse(py.read_text())
+            for node in ast.walk(tree):
+                mods = []
+                if isinstance(node, ast.Import):
+                    mods = [a.name for a in node.names]
+                elif isinstance(node, ast.ImportFrom) and node.module:
+                    mods = [node.module]
+                if any(m.split('.')[0] in ('rclpy', 'tribo_msgs', 'tribo_common') for m in mods):
+                    offenders.append(str(py.relative_to(ROOT)))
+    assert not offenders, f'core modules import rclpy/messages: {offenders}'
