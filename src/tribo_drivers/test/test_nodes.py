@@ -23,6 +23,7 @@ from tribo_drivers.core.emulators import (
 )
 
 pytestmark = pytest.mark.ros
+pytest.importorskip('tribo_msgs', reason='needs the built workspace: source env.sh')
 
 ROOT = Path(__file__).resolve().parents[3]
 DOMAIN = '67'

@@ -42,6 +42,7 @@ def _ellipsoid_curvature(a: float, b: float, p0: float, along_a: bool) -> float:
     p0*sqrt(1 - x^2/a^2 - y^2/b^2) is quadratic with coefficients
     (p0 a b / (2 E*)) * int_0^inf dw / ((a^2+w or b^2+w) sqrt((a^2+w)(b^2+w) w)).
     """
+
     def f(w: float) -> float:
         d = math.sqrt((a * a + w) * (b * b + w) * w)
         return 1.0 / (((a * a) if along_a else (b * b)) + w) / d
@@ -68,7 +69,9 @@ def test_line_contact_closed_form_and_load_scaling() -> None:
     Rr = relative_radius(0.0415, 0.042)
     assert Rr == pytest.approx(0.0415 * 0.042 / 0.0005)
     r1 = line_contact(100.0, Rr, 1.2e-3, E_STAR)
-    assert r1.half_width_circ == pytest.approx(math.sqrt(4 * 100 * Rr / (math.pi * 1.2e-3 * E_STAR)))
+    assert r1.half_width_circ == pytest.approx(
+        math.sqrt(4 * 100 * Rr / (math.pi * 1.2e-3 * E_STAR))
+    )
     # Equilibrium: semi-elliptical pressure integrates to the load.
     assert math.pi / 2 * r1.half_width_circ * r1.p_max * 1.2e-3 == pytest.approx(100.0)
     assert r1.p_mean == pytest.approx(math.pi / 4 * r1.p_max)

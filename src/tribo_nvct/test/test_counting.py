@@ -42,8 +42,10 @@ def test_dead_time_correction_from_live_time_is_unbiased() -> None:
     # 20 % dead-time fraction: true rate 5000/s, tau 50 us.
     rng = np.random.default_rng(7)
     rate, T, tau = 5000.0, 2.0, 50e-6
-    est = [counts_to_activity(nonparalysable(rng, rate, T, tau), Background(0.0), 1.0, 0.0, 0.0)
-           for _ in range(40)]
+    est = [
+        counts_to_activity(nonparalysable(rng, rate, T, tau), Background(0.0), 1.0, 0.0, 0.0)
+        for _ in range(40)
+    ]
     mean = np.mean([e.net_rate for e in est])
     # 40 x 10^4 true events: relative sd of the mean ~ 0.2 %; naive counts/T would be 20 % low.
     assert mean == pytest.approx(rate, rel=0.01)

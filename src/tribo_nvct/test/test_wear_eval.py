@@ -11,7 +11,7 @@ import yaml
 
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
-from tribo_nvct.core.evaluation import evaluate, fit_exponential
+from tribo_nvct.core.evaluation import fit_exponential
 from tribo_nvct.core.profile import DepthProfile
 from tribo_nvct.core.simulate import ForwardSimulator, SimSettings, TrueWear
 from tribo_nvct.core.streaming import WearEvaluator
@@ -37,11 +37,16 @@ def test_known_truth_over_seeds(simulator: ForwardSimulator) -> None:
         e = run(simulator, seed).evaluation()
         rows.append(
             [
-                e.total_volume, e.total_volume_se,
-                e.progressive_rate, e.progressive_rate_se,
-                e.running_in_volume, e.running_in_volume_se,
-                e.exp_fit.w, e.exp_fit.w_se,
-                e.exp_fit.V_r, e.exp_fit.V_r_se,
+                e.total_volume,
+                e.total_volume_se,
+                e.progressive_rate,
+                e.progressive_rate_se,
+                e.running_in_volume,
+                e.running_in_volume_se,
+                e.exp_fit.w,
+                e.exp_fit.w_se,
+                e.exp_fit.V_r,
+                e.exp_fit.V_r_se,
             ]
         )
     r = np.array(rows)
@@ -69,8 +74,11 @@ def test_early_points_flagged_not_mixed(simulator: ForwardSimulator) -> None:
         assert ('not_mixed' in p.flags) == (p.t_end < mix)
     # Later points agree with the truth within 5 sigma (counting statistics only).
     late = [p for p in ev.points if p.t_end > 3600.0]
-    z = [(p.volume - float(simulator.true_volume(p.t_mid - simulator.cfg.circuit.lag)))  # type: ignore[union-attr]
-         / p.volume_se for p in late]
+    z = [
+        (p.volume - float(simulator.true_volume(p.t_mid - simulator.cfg.circuit.lag)))  # type: ignore[union-attr]
+        / p.volume_se
+        for p in late
+    ]
     assert max(abs(x) for x in z) < 5.0
 
 

@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 from rclpy.node import Node
+
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-
 from tribo_drivers.qos import data_qos
 from tribo_nvct.core.simulate import ForwardSimulator, load_sim_config
 from tribo_nvct.errors import NvctError

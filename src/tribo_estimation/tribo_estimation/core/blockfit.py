@@ -429,15 +429,19 @@ class FitOutcome:
     w0: float
 
 
-def _smooth_line(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
-    """Least-squares line through y[lo:hi]; value at j and slope per sample."""
+def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
+    """Value at sample j and slope per sample of a local quadratic through y[lo:hi]."""
     n = hi - lo
-    if n < 3:
+    if n < 4:
         return float(y[j]), math.nan
     x = np.arange(lo, hi, dtype=float) - j
-    A = np.vstack((np.ones(n), x)).T
+    A = np.vstack((np.ones(n), x, x * x)).T
     coef, *_ = np.linalg.lstsq(A, y[lo:hi], rcond=None)
     return float(coef[0]), float(coef[1])
+
+
+#: Half width of the local polynomial that gives phi1 and w1 = phi1' [samples].
+_HALF = 5
 
 
 def _stuck_state(
@@ -445,15 +449,15 @@ def _stuck_state(
 ) -> np.ndarray:
     """Full kernel state at sample j of a stick phase [lo, hi) from the measurements.
 
-    Sticking (Equ. 4): w1 = w2 = w. phi1 = M_t/C1 (line through the stick phase,
-    which also gives w = (dM_t/dt)/C1 when the phase is long enough; else the
-    observer's w1). The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a:
+    Sticking (Equ. 4): w1 = w2 = w. phi1 = M_t/C1 and w = phi1' = (dM_t/dt)/C1
+    from a local quadratic through the stick samples around j (the observer's
+    w1 when the phase is too short). The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a:
     ``Q2 = (I1 + I2)*a - Q1``, ``Q1 = -K1*w - C1*phi1``,
     ``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (phi0 = 0 at the segment start).
     """
     c1 = p[kn.P_C1]
-    mt, slope = _smooth_line(d.torsion, j, lo, hi)
-    if hi - lo >= 6 and math.isfinite(slope):
+    mt, slope = _local_poly(d.torsion, j, max(lo, j - _HALF), min(hi, j + _HALF + 1))
+    if math.isfinite(slope):
         w = slope * d.fs / c1
     else:
         w = float(d.chamber_speed[j])

@@ -115,7 +115,7 @@ EV_BREAKAWAY = 3
 
 
 # ================================================================ drive and friction law
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def drive_speed(p: np.ndarray, t: float) -> float:
     """Drive speed w0(t) [rad/s]: linear start-up ramp to the nominal speed plus ripple."""
     w0n = p[P_W0]
@@ -129,7 +129,7 @@ def drive_speed(p: np.ndarray, t: float) -> float:
     return w
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def drive_angle(p: np.ndarray, t: float) -> float:
     """Drive angle phi0(t) = integral_0^t w0 dt' [rad] (closed form of :func:`drive_speed`)."""
     w0n = p[P_W0]
@@ -152,13 +152,13 @@ def drive_angle(p: np.ndarray, t: float) -> float:
     return a
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def friction_levels(p: np.ndarray, t: float) -> tuple[float, float]:
     """(mu0(t), mu_inf(t)) including the linear drift with test time t [s]."""
     return p[P_MU0] + p[P_DRIFT_MU0] * t, p[P_MUINF] + p[P_DRIFT_MUINF] * t
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def friction_coefficient(p: np.ndarray, t: float, v_abs: float, peak_passed: bool) -> float:
     """Friction coefficient of Equ. 8 with the paper's deceleration rule.
 
@@ -171,7 +171,7 @@ def friction_coefficient(p: np.ndarray, t: float, v_abs: float, peak_passed: boo
     return (mu0 - muinf) * math.exp(-p[P_K] * v_abs) + muinf
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def static_coefficient(p: np.ndarray, t: float, t_stick: float) -> float:
     """Static friction coefficient mu_s = mu0(t) + gain*(1 - exp(-t_stick/tau)) [-].
 
@@ -189,7 +189,7 @@ def static_coefficient(p: np.ndarray, t: float, t_stick: float) -> float:
 
 
 # ================================================================ equations of motion
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def bearing_moment(p: np.ndarray, w1: float) -> float:
     """Regularised Coulomb moment of the chamber bearing, opposing w1 [N m]."""
     mb = p[P_BEARING]
@@ -199,19 +199,19 @@ def bearing_moment(p: np.ndarray, w1: float) -> float:
     return mb * w1 / math.sqrt(w1 * w1 + reg * reg)
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def chamber_moment(p: np.ndarray, phi1: float, w1: float) -> float:
     """External moment on the chamber except friction, Q1 = -K1*w1 - C1*phi1 - M_b [N m]."""
     return -p[P_K1] * w1 - p[P_C1] * phi1 - bearing_moment(p, w1)
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def shaft_moment(p: np.ndarray, t: float, phi2: float, w2: float) -> float:
     """External moment on the shaft except friction, Q2 = -K2*(w2-w0) - C2*(phi2-phi0) [N m]."""
     return -p[P_K2] * (w2 - drive_speed(p, t)) - p[P_C2] * (phi2 - drive_angle(p, t))
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def stick_moment(p: np.ndarray, t: float, phi1: float, w: float, phi2: float) -> float:
     """Moment that keeps the discs together while sticking (Equ. 6, corrected) [N m].
 
@@ -225,7 +225,7 @@ def stick_moment(p: np.ndarray, t: float, phi1: float, w: float, phi2: float) ->
     return (i1 * q2 - i2 * q1) / (i1 + i2)
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def slip_friction_moment(
     p: np.ndarray, t: float, v: float, direction: float, peak_passed: bool, lag: float
 ) -> float:
@@ -241,7 +241,7 @@ def slip_friction_moment(
     return p[P_FN] * p[P_R] * direction * mu + p[P_VISC] * v
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def derivatives(
     p: np.ndarray,
     t: float,
@@ -278,7 +278,7 @@ def derivatives(
 
 
 # ================================================================ integrator
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def _rk4(
     p: np.ndarray,
     t: float,
@@ -341,7 +341,7 @@ def _rk4(
     )
 
 
-@njit(cache=True, error_model='numpy', fastmath=True, inline='always')
+@njit(cache=True, error_model='numpy', inline='always')
 def _event_value(
     p: np.ndarray,
     which: int,
@@ -363,7 +363,7 @@ def _event_value(
     return p[P_FN] * p[P_R] * static_coefficient(p, t, t_stick) - abs(ms)
 
 
-@njit(cache=True, error_model='numpy', fastmath=True)
+@njit(cache=True, error_model='numpy')
 def _locate(
     p: np.ndarray,
     which: int,
@@ -413,7 +413,7 @@ def _locate(
     return b
 
 
-@njit(cache=True, error_model='numpy', fastmath=True)
+@njit(cache=True, error_model='numpy')
 def integrate(
     p: np.ndarray, s: np.ndarray, n_out: int, dt: float, n_sub: int, out: np.ndarray
 ) -> int:
@@ -557,7 +557,7 @@ def integrate(
     return n_events
 
 
-@njit(cache=True, error_model='numpy', fastmath=True)
+@njit(cache=True, error_model='numpy')
 def drive_speed_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Vectorised :func:`drive_speed` [rad/s]."""
     out = np.empty(t.shape[0])
@@ -566,7 +566,7 @@ def drive_speed_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model='numpy', fastmath=True)
+@njit(cache=True, error_model='numpy')
 def drive_angle_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Vectorised :func:`drive_angle` [rad]."""
     out = np.empty(t.shape[0])
@@ -575,7 +575,7 @@ def drive_angle_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model='numpy', fastmath=True)
+@njit(cache=True, error_model='numpy')
 def friction_coefficient_array(
     p: np.ndarray, t: float, v_abs: np.ndarray, peak_passed: bool
 ) -> np.ndarray:

@@ -79,7 +79,9 @@ class OilCircuit:
 
     def _widths(self, n: FloatArray) -> FloatArray:
         T = self.circulation_time
-        return np.sqrt((self.first_width_fraction * T) ** 2 + n * (self.dispersion_fraction * T) ** 2)
+        return np.sqrt(
+            (self.first_width_fraction * T) ** 2 + n * (self.dispersion_fraction * T) ** 2
+        )
 
     def response(self, t: FloatArray) -> FloatArray:
         """R(t): detector reading per unit released activity relative to mixed [-]."""

@@ -151,9 +151,7 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
     if not isinstance(raw, dict):
         raise NvctConfigError(f'{src}: top level must be a mapping')
     if 'half_life_days' in raw:
-        nuc = custom_nuclide(
-            _num(raw, 'half_life_days', src), str(raw.get('nuclide', 'custom'))
-        )
+        nuc = custom_nuclide(_num(raw, 'half_life_days', src), str(raw.get('nuclide', 'custom')))
     elif 'nuclide' in raw:
         nuc = get_nuclide(str(raw['nuclide']))
     else:

@@ -136,8 +136,14 @@ def ellipse_from_curvatures(load: float, A: float, B: float, E_star: float) -> C
             raise ContactError(
                 f'curvature ratio {ratio:g} too large for an elliptical contact: use line contact'
             )
-        lp = brentq(lambda x: _curvature_ratio(math.exp(x)) - ratio, math.log(1e-30), -1e-12,
-                    xtol=1e-14, rtol=1e-14, maxiter=500)
+        lp = brentq(
+            lambda x: _curvature_ratio(math.exp(x)) - ratio,
+            math.log(1e-30),
+            -1e-12,
+            xtol=1e-14,
+            rtol=1e-14,
+            maxiter=500,
+        )
         p = math.exp(lp)
         m = 1.0 - p
         K = float(ellipkm1(p))

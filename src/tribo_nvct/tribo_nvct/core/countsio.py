@@ -19,7 +19,9 @@ def read_counts_csv(path: str | Path) -> list[Dwell]:
         lines = p.read_text(encoding='utf-8').splitlines()
     except OSError as exc:
         raise CountsFileError(f'cannot read counts file {p}: {exc.strerror}') from None
-    body = [(n, ln) for n, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith('#')]
+    body = [
+        (n, ln) for n, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith('#')
+    ]
     if not body:
         raise CountsFileError(f'{p}: no header and no data')
     header = [h.strip() for h in next(csv.reader([body[0][1]]))]

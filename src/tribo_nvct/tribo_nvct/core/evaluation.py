@@ -341,7 +341,9 @@ def recent_rate(points: Sequence[WearPoint], window_s: float) -> tuple[float, fl
     use = [
         p
         for p in points
-        if p.usable and p.t_mid >= t_last - window_s and math.isfinite(p.volume_se)
+        if p.usable
+        and p.t_mid >= t_last - window_s
+        and math.isfinite(p.volume_se)
         and p.volume_se > 0
     ]
     if len(use) < 3:

@@ -88,8 +88,8 @@ class ForwardSimulator:
         self.t_start = starts
         self.t_end = starts + s.dwell
         # Fine grid for the release history and the circuit convolution.
-        n = int(math.ceil(s.duration / grid_step)) + 1
-        tg = np.arange(n) * grid_step
+        n = math.ceil(s.duration / grid_step) + 1
+        tg: FloatArray = np.arange(n, dtype=float) * grid_step
         self.grid = tg
         h = truth.volume(tg) / cfg.contact_area
         F = np.interp(h, self.profile.z_grid, self.profile.cumulative)  # saturates at max depth
@@ -143,6 +143,7 @@ class ForwardSimulator:
 
 def write_counts_csv(path: str | Path, dwells: list[Dwell], header: str = '') -> None:
     """Write ``t_start,t_end,counts,live_time`` (s, s, counts, s)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     lines = [f'# {ln}' for ln in header.splitlines() if ln]
     lines.append('t_start,t_end,counts,live_time')
     lines += [f'{d.t_start:.6f},{d.t_end:.6f},{d.counts:d},{d.live_time:.9f}' for d in dwells]

@@ -77,9 +77,9 @@ class WearEvaluator:
                 f'(last accepted ends at {prev.t_end:g} s)'
             )
         gap = check_sequence(prev, dwell)
-        if seq is not None and self._seqs and self._seqs[-1] is not None:
-            if seq != (self._seqs[-1] or 0) + 1:
-                gap = True
+        last_seq = self._seqs[-1] if self._seqs else None
+        if seq is not None and last_seq is not None and seq != last_seq + 1:
+            gap = True  # a sequence jump is a lost dwell
         cfg = self.cfg
         act = counts_to_activity(
             dwell, cfg.background, cfg.k_det, cfg.decay_constant, cfg.reference_offset_s
@@ -90,9 +90,7 @@ class WearEvaluator:
         if k_dep > 0.0:
             dt = dwell.t_end - (prev.t_end if prev is not None else 0.0)
             released = act.activity * (1.0 + k_dep * dt) + k_dep * dep_sum
-            released_se = math.sqrt(
-                (1.0 + k_dep * dt) ** 2 * act.se**2 + k_dep**2 * dep_var
-            )
+            released_se = math.sqrt((1.0 + k_dep * dt) ** 2 * act.se**2 + k_dep**2 * dep_var)
             dep_sum += act.activity * dt
             dep_var += (act.se * dt) ** 2
         point = make_point(cfg, dwell, act, released, released_se, gap)
@@ -157,7 +155,9 @@ class WearEvaluator:
         for i, row in enumerate(rows):
             try:
                 t0, t1, c, lt, s = row
-                ev.add(Dwell(float(t0), float(t1), int(c), float(lt)), None if s is None else int(s))
+                ev.add(
+                    Dwell(float(t0), float(t1), int(c), float(lt)), None if s is None else int(s)
+                )
             except (TypeError, ValueError, CountsError) as exc:
                 raise StateError(f'saved state: dwell {i} is corrupt ({exc})') from None
         return ev
@@ -171,5 +171,7 @@ class WearEvaluator:
         except OSError as exc:
             raise StateError(f'cannot read state {p}: {exc.strerror}') from None
         except json.JSONDecodeError as exc:
-            raise StateError(f'state {p} is not valid JSON ({exc.msg} at line {exc.lineno})') from None
+            raise StateError(
+                f'state {p} is not valid JSON ({exc.msg} at line {exc.lineno})'
+            ) from None
         return cls.from_state_dict(cfg, state)

@@ -24,10 +24,10 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
+
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-
 from tribo_drivers.qos import data_qos
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
@@ -50,8 +50,12 @@ class WearMonitor(Node):
             self, 'state_file', default_state, 'evaluator state JSON (empty: not persisted)'
         )
         self.rate_window = declare(
-            self, 'rate_window_s', 600.0, 'span of the current wear-rate regression [s]',
-            low=60.0, high=86_400.0,
+            self,
+            'rate_window_s',
+            600.0,
+            'span of the current wear-rate regression [s]',
+            low=60.0,
+            high=86_400.0,
         )
         counts_topic = declare(self, 'counts_topic', '/nvct/counts', 'DetectorCounts input topic')
         wear_topic = declare(self, 'wear_topic', '/nvct/wear', 'WearState output topic')
@@ -67,7 +71,9 @@ class WearMonitor(Node):
 
         self._WearState = WearState
         self._pub = self.create_publisher(WearState, wear_topic, data_qos())
-        self._sub = self.create_subscription(DetectorCounts, counts_topic, self._on_counts, data_qos())
+        self._sub = self.create_subscription(
+            DetectorCounts, counts_topic, self._on_counts, data_qos()
+        )
         self.get_logger().info(
             f'wear_monitor: {self.cfg.nuclide.name}, k_A={self.cfg.k_A:.3g}, '
             f'contact {self.cfg.contact_area * 1e12:.4g} um^2, '
@@ -92,7 +98,9 @@ class WearMonitor(Node):
 
     def _on_counts(self, msg: Any) -> None:
         try:
-            dwell = Dwell(float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time))
+            dwell = Dwell(
+                float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time)
+            )
             point = self.evaluator.add(dwell, int(msg.seq))
         except NvctError as exc:
             self.get_logger().warning(f'dwell rejected: {exc}')

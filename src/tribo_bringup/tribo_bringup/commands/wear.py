@@ -1,0 +1,426 @@
+"""``tribo wear``: nVCT counts to wear volume, running-in vs progressive wear (paper section 3).
+
+    tribo wear COUNTS --nvct NVCT.yaml --out DIR
+    tribo wear RUN1.csv RUN2.csv ... --nvct A.yaml --nvct B.yaml ... --out DIR   (campaign)
+    tribo wear --simulate OUT.csv [--sim config/sim_detector.yaml] [--seed N]
+
+COUNTS is a CSV ``t_start,t_end,counts,live_time`` (s, s, counts, s) or a bag
+with /nvct/counts. Writes DIR/wear.csv, DIR/summary.json and DIR/wear.png
+(Fig. 10/11 style); with several runs one sub-directory per run plus
+DIR/campaign.csv and DIR/campaign_kw.png (Fig. 12: k_w vs load, temperature,
+stroke, frequency).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+UM3 = 1e-18
+
+
+def register(sub: Any) -> None:
+    """Add the ``wear`` subcommand."""
+    p = sub.add_parser(
+        'wear',
+        help='nVCT counts -> wear volume, running-in and progressive wear (paper 3)',
+        description='Convert nVCT detector counts to wear height and volume (inverting the '
+        'activation depth profile, Equ. 8-9), evaluate running-in and progressive wear '
+        '(progressive rate = regression slope 120-180 min, paper 3.5), wear coefficients '
+        'k_w = V/(L d_s) (Equ. 10) and an exponential running-in model fit.',
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog='COUNTS: CSV with columns t_start,t_end,counts,live_time (s, s, counts, s) or a '
+        'bag (directory or .mcap) with /nvct/counts.\n'
+        'Outputs: DIR/wear.csv, DIR/summary.json, DIR/wear.png; several inputs: one '
+        'sub-directory each plus DIR/campaign.csv and DIR/campaign_kw.png (Fig. 12).\n'
+        'Try it: tribo wear --simulate /tmp/counts.csv && '
+        'tribo wear /tmp/counts.csv --nvct config/nvct.yaml --out /tmp/wear',
+    )
+    p.add_argument('counts', nargs='*', help='counts CSV(s) or bag(s)')
+    p.add_argument(
+        '--nvct',
+        action='append',
+        metavar='NVCT.yaml',
+        help='nVCT configuration; once for all inputs or once per input',
+    )
+    p.add_argument('--out', metavar='DIR', help='output directory')
+    p.add_argument(
+        '--convention',
+        choices=('paper', 'astm_g133'),
+        help='sliding distance for k_w: paper (stroke*f*t, default of NVCT.yaml) or '
+        'astm_g133 (2*stroke*f*t)',
+    )
+    p.add_argument('--no-plots', action='store_true', help='skip the PNG plots')
+    p.add_argument(
+        '--simulate',
+        metavar='OUT.csv',
+        help='write a simulated counts CSV (forward model of a test) and exit',
+    )
+    p.add_argument(
+        '--sim',
+        metavar='SIM.yaml',
+        default='config/sim_detector.yaml',
+        help='simulated-detector configuration for --simulate (default: %(default)s)',
+    )
+    p.add_argument('--seed', type=int, help='random seed for --simulate (default: from SIM.yaml)')
+    p.set_defaults(func=run)
+
+
+def _err(msg: str) -> Exception:
+    from tribo_nvct.errors import NvctConfigError
+
+    return NvctConfigError(msg)
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    from tribo_nvct.core.simulate import ForwardSimulator, load_sim_config, write_counts_csv
+
+    nvct = args.nvct[0] if args.nvct else None
+    sc = load_sim_config(args.sim, nvct)
+    sim = ForwardSimulator(sc.nvct, sc.truth, sc.settings)
+    seed = args.seed if args.seed is not None else sc.seed
+    dwells = sim.run(seed)
+    tr = sim.paper_truth()
+    header = (
+        f'simulated nVCT test ({args.sim}, nvct {sc.nvct.source}, seed {seed})\n'
+        f'truth: V_r={sc.truth.running_in_volume / UM3:.6g} um^3, '
+        f'tau={sc.truth.tau / 60:.4g} min, w={sc.truth.progressive_rate * 60 / UM3:.6g} um^3/min\n'
+        f'truth (paper 3.5): total_volume_um3={tr["total_volume"] / UM3:.6g}, '
+        f'progressive_rate_um3_per_min={tr["progressive_rate"] * 60 / UM3:.6g}, '
+        f'running_in_volume_um3={tr["running_in_volume"] / UM3:.6g}'
+    )
+    write_counts_csv(args.simulate, dwells, header)
+    print(f'wear: wrote {len(dwells)} simulated dwells to {args.simulate}', file=sys.stderr)
+    return 0
+
+
+def _read_counts(path: Path) -> list[Any]:
+    from tribo_nvct.core.counting import Dwell
+    from tribo_nvct.core.countsio import read_counts_csv
+    from tribo_nvct.errors import CountsError
+
+    if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):
+        return read_counts_csv(path)
+    from tribo_bringup.bagio import iter_messages
+
+    out: list[Dwell] = []
+    for m in iter_messages(path, ['/nvct/counts']):
+        msg = m.msg
+        try:
+            out.append(
+                Dwell(float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time))
+            )
+        except CountsError as exc:
+            raise type(exc)(f'{path}: message #{m.index}: {exc}') from None
+    if not out:
+        raise _err(f'{path}: no /nvct/counts messages')
+    return out
+
+
+def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace) -> dict[str, Any]:
+    from tribo_nvct.core.config import config_from_dict, load_config
+    from tribo_nvct.core.streaming import WearEvaluator
+
+    cfg = load_config(nvct)
+    if args.convention and args.convention != cfg.sliding_convention:
+        raw = dict(cfg.raw, sliding_distance=args.convention)
+        cfg = config_from_dict(raw, nvct.parent, str(nvct))
+    dwells = _read_counts(counts)
+    ev = WearEvaluator(cfg)
+    n_dup = 0
+    for i, d in enumerate(dwells):
+        if ev.add(d) is None:
+            n_dup += 1
+        if i % 50 == 0:
+            print(f'wear: {counts.name}: dwell {i + 1}/{len(dwells)}', file=sys.stderr)
+    evaluation = ev.evaluation()
+    dwell_s = float(sorted(d.real_time for d in dwells)[len(dwells) // 2])
+    summary = evaluation.summary(cfg, dwell_s)
+    pts = ev.points
+    summary.update(
+        {
+            'input': str(counts),
+            'nvct_config': str(nvct),
+            'label': cfg.label,
+            'nuclide': cfg.nuclide.name,
+            'tagged_activity_bq': cfg.tagged_activity,
+            'tagged_area_um2': cfg.tagged_area / 1e-12,
+            'contact_area_um2': cfg.contact_area / 1e-12,
+            'k_A': cfg.k_A,
+            'load_N': cfg.load,
+            'stroke_m': cfg.stroke,
+            'frequency_hz': cfg.frequency,
+            'temperature_K': cfg.temperature_K,
+            'dwells': len(pts),
+            'repeated_dwells_ignored': n_dup,
+            'not_mixed_until_s': cfg.circuit.mixing_time if cfg.circuit else 0.0,
+            'flag_counts': {
+                f: sum(1 for p in pts if f in p.flags)
+                for f in ('not_mixed', 'beyond_profile', 'below_detection_limit', 'gap')
+            },
+            'systematic_relative_se_at_end': (
+                pts[-1].volume_sys_se / pts[-1].volume
+                if pts and math.isfinite(pts[-1].volume) and pts[-1].volume > 0
+                else math.nan
+            ),
+        }
+    )
+    if cfg.contact is not None:
+        c = cfg.contact
+        summary['contact'] = {
+            'kind': c.kind,
+            'half_width_circ_mm': c.half_width_circ * 1e3,
+            'half_width_axial_mm': c.half_width_axial * 1e3,
+            'p_max_MPa': c.p_max / 1e6,
+            'p_mean_MPa': c.p_mean / 1e6,
+        }
+    out.mkdir(parents=True, exist_ok=True)
+    _write_csv(out / 'wear.csv', pts)
+    (out / 'summary.json').write_text(
+        json.dumps(_jsonable(summary), indent=2, allow_nan=False) + '\n', encoding='utf-8'
+    )
+    if not args.no_plots:
+        _plot_run(out / 'wear.png', pts, evaluation, cfg)
+    return summary
+
+
+def _jsonable(x: Any) -> Any:
+    """NaN/inf -> None so the JSON is strict."""
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    return x
+
+
+def _write_csv(path: Path, pts: list[Any]) -> None:
+    cols = [
+        't',
+        't_start',
+        't_end',
+        'wear_volume_um3',
+        'wear_volume_se_um3',
+        'wear_volume_sys_se_um3',
+        'wear_height_nm',
+        'wear_height_se_nm',
+        'tagged_volume_um3',
+        'tagged_volume_se_um3',
+        'activity_bq',
+        'activity_se_bq',
+        'counts',
+        'live_time',
+        'usable',
+        'quality',
+    ]
+    with path.open('w', newline='', encoding='utf-8') as fh:
+        fh.write(
+            '# units: t, t_start, t_end, live_time in s (test time); volumes um^3; heights nm;\n'
+        )
+        fh.write('# activity Bq at the depth-profile reference date; quality: ok or flags\n')
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for p in pts:
+            w.writerow(
+                [
+                    f'{p.t_end:.3f}',
+                    f'{p.t_start:.3f}',
+                    f'{p.t_end:.3f}',
+                    f'{p.volume / UM3:.6g}',
+                    f'{p.volume_se / UM3:.6g}',
+                    f'{p.volume_sys_se / UM3:.6g}',
+                    f'{p.height * 1e9:.6g}',
+                    f'{p.height_se * 1e9:.6g}',
+                    f'{p.tagged_volume / UM3:.6g}',
+                    f'{p.tagged_volume_se / UM3:.6g}',
+                    f'{p.activity:.6g}',
+                    f'{p.activity_se:.6g}',
+                    p.counts,
+                    f'{p.live_time:.6f}',
+                    int(p.usable),
+                    p.quality,
+                ]
+            )
+
+
+def _plot_run(path: Path, pts: list[Any], ev: Any, cfg: Any) -> None:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    t = np.array([p.t_mid for p in pts]) / 60.0
+    v = np.array([p.volume for p in pts]) / UM3
+    se = np.array([p.volume_se for p in pts]) / UM3
+    ok = np.array([p.usable for p in pts])
+    fig, ax = plt.subplots(figsize=(8, 5))
+    ax.errorbar(
+        t[ok],
+        v[ok],
+        yerr=se[ok],
+        fmt='.',
+        ms=3,
+        lw=0.5,
+        color='C0',
+        label='nVCT wear volume (per dwell)',
+    )
+    if np.any(~ok):
+        ax.plot(t[~ok], v[~ok], 'x', ms=4, color='0.6', label='not mixed / beyond profile')
+    t1, t2 = ev.window_s
+    if math.isfinite(ev.progressive_rate):
+        tt = np.array([0.0, t2])
+        ax.plot(
+            tt / 60.0,
+            (ev.running_in_volume + ev.progressive_rate * tt) / UM3,
+            '--',
+            color='C3',
+            label=f'progressive {ev.progressive_rate * 60 / UM3:.4g} um^3/min',
+        )
+        ax.axhline(
+            ev.running_in_volume / UM3,
+            color='C2',
+            ls=':',
+            label=f'running-in {ev.running_in_volume / UM3:.4g} um^3',
+        )
+        ax.axvspan(t1 / 60.0, t2 / 60.0, color='C3', alpha=0.07, label='regression window')
+    if ev.exp_fit.ok:
+        tt = np.linspace(0.0, max(t.max(), t2 / 60.0), 400) * 60.0
+        ax.plot(
+            tt / 60.0,
+            ev.exp_fit.value(tt) / UM3,
+            '-',
+            color='k',
+            lw=1,
+            label=f'V_r(1-exp(-t/tau)) + w t, tau={ev.exp_fit.tau / 60:.3g} min',
+        )
+    ax.set_xlabel('test time [min]')
+    ax.set_ylabel('wear volume [um^3]')
+    ax.set_title(f'nVCT online wear ({cfg.label}, {cfg.load:g} N)')
+    area = float(cfg.contact_area)
+
+    def to_nm(x: Any) -> Any:
+        return np.asarray(x, dtype=float) * (UM3 / area * 1e9)
+
+    def to_um3(h: Any) -> Any:
+        return np.asarray(h, dtype=float) * (1e-9 * area / UM3)
+
+    sec = ax.secondary_yaxis('right', functions=(to_nm, to_um3))
+    sec.set_ylabel('mean wear height [nm]')
+    ax.legend(loc='lower right', fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _plot_campaign(path: Path, rows: list[dict[str, Any]]) -> None:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    panels = (
+        ('load_N', 'load [N]', 1.0),
+        ('temperature_K', 'oil temperature [K]', 1.0),
+        ('stroke_m', 'stroke [mm]', 1e3),
+        ('frequency_hz', 'frequency [Hz]', 1.0),
+    )
+    for ax, (key, label, scale) in zip(axes.flat, panels, strict=True):
+        for kw, name, color in (
+            ('k_w_progressive', 'progressive', 'C0'),
+            ('k_w_running_in', 'running-in', 'C1'),
+        ):
+            xs = [r[key] * scale for r in rows if r.get(key) is not None and r.get(kw) is not None]
+            ys = [r[kw] for r in rows if r.get(key) is not None and r.get(kw) is not None]
+            es = [
+                r.get(kw + '_se') or 0.0
+                for r in rows
+                if r.get(key) is not None and r.get(kw) is not None
+            ]
+            ax.errorbar(xs, ys, yerr=es, fmt='o', color=color, label=name, capsize=3)
+        ax.set_xlabel(label)
+        ax.set_ylabel('k_w [um^3/(N m)]')
+        ax.grid(alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    conv = {str(r.get('sliding_distance_convention')) for r in rows}
+    fig.suptitle(f'Wear coefficients (Fig. 12 style; sliding distance: {", ".join(sorted(conv))})')
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate one or several runs (or write a simulated counts file)."""
+    if args.simulate:
+        return _simulate(args)
+    if not args.counts:
+        raise _err('give COUNTS (CSV or bag), or --simulate OUT.csv')
+    if not args.nvct:
+        raise _err('missing --nvct NVCT.yaml')
+    if not args.out:
+        raise _err('missing --out DIR')
+    inputs = [Path(c) for c in args.counts]
+    if len(args.nvct) not in (1, len(inputs)):
+        raise _err(
+            f'give --nvct once or once per input ({len(inputs)} inputs, {len(args.nvct)} --nvct)'
+        )
+    nvcts = [Path(n) for n in args.nvct] * (len(inputs) if len(args.nvct) == 1 else 1)
+    out = Path(args.out)
+    if len(inputs) == 1:
+        s = _evaluate_run(inputs[0], nvcts[0], out, args)
+        print(
+            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} um^3 at '
+            f'180 min, progressive {_fmt(s["progressive_rate_um3_per_min"])} um^3/min, '
+            f'running-in {_fmt(s["running_in_volume_um3"])} um^3',
+            file=sys.stderr,
+        )
+        return 0
+    rows = []
+    used: set[str] = set()
+    for c, n in zip(inputs, nvcts, strict=True):
+        name = c.stem
+        while name in used:
+            name += '_'
+        used.add(name)
+        s = _evaluate_run(c, n, out / name, args)
+        rows.append(_jsonable(s))
+    keys = [
+        'input',
+        'label',
+        'load_N',
+        'temperature_K',
+        'stroke_m',
+        'frequency_hz',
+        'total_volume_um3',
+        'total_volume_se_um3',
+        'progressive_rate_um3_per_min',
+        'progressive_rate_se_um3_per_min',
+        'running_in_volume_um3',
+        'running_in_volume_se_um3',
+        'k_w_progressive',
+        'k_w_progressive_se',
+        'k_w_running_in',
+        'k_w_running_in_se',
+        'sliding_distance_convention',
+    ]
+    with (out / 'campaign.csv').open('w', newline='', encoding='utf-8') as fh:
+        w = csv.writer(fh)
+        w.writerow(keys)
+        for r in rows:
+            w.writerow(['' if r.get(k) is None else r.get(k) for k in keys])
+    if not args.no_plots:
+        _plot_campaign(out / 'campaign_kw.png', rows)
+    print(f'wear: {len(rows)} runs, {out / "campaign.csv"}', file=sys.stderr)
+    return 0
+
+
+def _fmt(x: Any) -> str:
+    return 'n/a' if x is None or (isinstance(x, float) and not math.isfinite(x)) else f'{x:.5g}'
