@@ -24,9 +24,9 @@ from tribo_common.node_main import spin_background
 #: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
 NODES: dict[str, tuple[str, str]] = {
     'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
-    'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetectorNode'),
+    'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetector'),
     'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
-    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitorNode'),
+    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
     'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
 }
 

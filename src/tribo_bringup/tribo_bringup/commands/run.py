@@ -29,12 +29,23 @@ def register(sub: Any) -> None:
         help='no simulators (hardware drivers run separately)',
     )
     p.add_argument('--rig', default=str(CONFIG / 'rig.yaml'), help='RIG.yaml for the rig nodes')
+    p.add_argument('--nvct', default=str(CONFIG / 'nvct.yaml'), help='NVCT.yaml (wear monitor)')
+    p.add_argument(
+        '--detector',
+        default=str(CONFIG / 'sim_detector.yaml'),
+        help='simulated detector configuration (sim_detector)',
+    )
+    p.add_argument(
+        '--wear-state',
+        default='',
+        metavar='FILE',
+        help='wear monitor state file (resumed if it exists; default: the node default)',
+    )
     p.add_argument(
         '--params',
         nargs='*',
         default=None,
-        help='ROS 2 parameter files (default: config/sim_detector.yaml, config/wear_monitor.yaml, '
-        'config/friction_estimator.yaml where present)',
+        help='ROS 2 parameter files (default: config/friction_estimator.yaml where present)',
     )
     p.add_argument('--duration', type=float, default=0.0, help='seconds to run (0: until Ctrl-C)')
     p.add_argument('--record', metavar='BAG', help='also record all topics into this bag')
@@ -47,7 +58,7 @@ def register(sub: Any) -> None:
 
 def default_params() -> list[str]:
     """The parameter files in config/ used by default."""
-    names = ('sim_detector.yaml', 'wear_monitor.yaml', 'friction_estimator.yaml')
+    names = ('friction_estimator.yaml',)
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
 
 
@@ -63,10 +74,15 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.bridge and 'live_bridge' not in nodes:
         nodes.append('live_bridge')
+    overrides = rig_overrides(args.rig)
+    overrides['sim_detector'] = {'sim_config': str(Path(args.detector).resolve())}
+    overrides['wear_monitor'] = {'nvct_config': str(Path(args.nvct).resolve())}
+    if args.wear_state:
+        overrides['wear_monitor']['state_file'] = str(Path(args.wear_state).resolve())
     graph = Graph(
         nodes=nodes,
         params_files=args.params if args.params is not None else default_params(),
-        overrides=rig_overrides(args.rig),
+        overrides=overrides,
     )
     writer = None
     try:

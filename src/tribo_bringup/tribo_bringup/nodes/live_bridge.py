@@ -116,7 +116,7 @@ class LiveBridgeNode(Node):
         )
         self.ctx = foxglove.Context()
         try:
-            self.server = foxglove.start_server(
+            server = foxglove.start_server(
                 name='tribo',
                 host=host,
                 port=port,
@@ -125,7 +125,8 @@ class LiveBridgeNode(Node):
             )
         except Exception as exc:  # the SDK raises its own types (e.g. address in use)
             raise ParameterError(f'cannot serve on {host}:{port}: {exc}') from exc
-        self.port = int(self.server.port)
+        self.server: foxglove.WebSocketServer | None = server
+        self.port = int(server.port)
         self.rate = rate
         meta = {'downsampled': f'{rate:g} Hz {self.mode}'}
         self._samples: dict[str, tuple[foxglove.Channel, bc.Downsampler]] = {

@@ -28,7 +28,7 @@ from rclpy.node import Node
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-from tribo_drivers.qos import data_qos
+from tribo_common.qos import data_qos
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
