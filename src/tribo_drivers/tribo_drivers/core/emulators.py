@@ -192,12 +192,18 @@ class DaqTruth:
     intact: list[npt.NDArray[np.int64]] = field(default_factory=list)
     damaged: list[npt.NDArray[np.int64]] = field(default_factory=list)
     unsent: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    # intact frames sent shortly after the driver opened the port: its open may still flush
+    # them (pyserial resets the input buffer last), so they may or may not arrive
+    uncertain: list[npt.NDArray[np.int64]] = field(default_factory=list)
     garbage_bursts: int = 0
     garbage_bytes: int = 0
     unplugs: int = 0
 
     def intact_indices(self) -> npt.NDArray[np.int64]:
         return np.concatenate(self.intact) if self.intact else np.zeros(0, dtype=np.int64)
+
+    def uncertain_indices(self) -> npt.NDArray[np.int64]:
+        return np.concatenate(self.uncertain) if self.uncertain else np.zeros(0, dtype=np.int64)
 
     def count(self, what: str) -> int:
         return int(sum(a.size for a in getattr(self, what)))
@@ -242,6 +248,7 @@ class DaqEmulator:
         self._paused = threading.Event()
         self._attached_at: float | None = None
         self.attach_grace = 0.05  # s after the driver configured the port (its flush)
+        self.uncertain_window = 0.1  # s after that in which intact frames count as uncertain
         self._thread: threading.Thread | None = None
         self._t0 = 0.0
         self._index0 = start_index
@@ -282,7 +289,7 @@ class DaqEmulator:
         with self._lock:
             self._paused.set()
         if drain:
-            self.port.drain()
+            self.port.drain(timeout=10.0)
         self.port.unplug()
         self.truth.unplugs += 1
 
@@ -343,7 +350,11 @@ class DaqEmulator:
             out += raw[offsets[prev] :]
             raw = out
         ok = self.port.write(bytes(raw), timeout=30.0)
-        if ok:
+        attached = self._attached_at if self._attached_at is not None else -math.inf
+        if ok and time.monotonic() - attached < self.attach_grace + self.uncertain_window:
+            self.truth.uncertain.append(idx[~damaged])
+            self.truth.damaged.append(idx[damaged])
+        elif ok:
             self.truth.intact.append(idx[~damaged])
             self.truth.damaged.append(idx[damaged])
         else:  # unplugged during the write: nothing of this chunk is trustworthy

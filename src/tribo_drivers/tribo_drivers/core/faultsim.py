@@ -29,6 +29,7 @@ class FaultReport:
     duration: float  # s
     sample_rate: float  # Hz
     sent_intact: int
+    sent_uncertain: int  # intact, but sent while the driver's open could still flush them
     sent_damaged: int
     unsent: int
     delivered: int
@@ -145,6 +146,7 @@ def _account(
     else:
         idx = np.zeros(0, dtype=np.int64)
     intact = emu.truth.intact_indices()
+    uncertain = emu.truth.uncertain_indices()
     uniq = np.unique(idx)
     value_errors = 0
     if idx.size:
@@ -171,12 +173,13 @@ def _account(
         duration=duration,
         sample_rate=sample_rate,
         sent_intact=int(intact.size),
+        sent_uncertain=int(uncertain.size),
         sent_damaged=emu.truth.count('damaged'),
         unsent=emu.truth.count('unsent'),
         delivered=int(idx.size),
         delivered_unique=int(uniq.size),
         intact_missing=int(np.setdiff1d(intact, uniq).size),
-        invented=int(np.setdiff1d(uniq, intact).size),
+        invented=int(np.setdiff1d(uniq, np.concatenate([intact, uncertain])).size),
         value_errors=value_errors,
         lost_counted=c.lost,
         span=span,

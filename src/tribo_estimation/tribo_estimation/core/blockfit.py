@@ -430,18 +430,18 @@ class FitOutcome:
 
 
 def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
-    """Value at sample j and slope per sample of a local quadratic through y[lo:hi]."""
+    """Value at sample j and slope per sample of a local cubic through y[lo:hi]."""
     n = hi - lo
-    if n < 4:
+    if n < 6:
         return float(y[j]), math.nan
     x = np.arange(lo, hi, dtype=float) - j
-    A = np.vstack((np.ones(n), x, x * x)).T
+    A = np.vstack((np.ones(n), x, x * x, x * x * x)).T
     coef, *_ = np.linalg.lstsq(A, y[lo:hi], rcond=None)
     return float(coef[0]), float(coef[1])
 
 
 #: Half width of the local polynomial that gives phi1 and w1 = phi1' [samples].
-_HALF = 5
+_HALF = 7
 
 
 def _stuck_state(
@@ -450,7 +450,7 @@ def _stuck_state(
     """Full kernel state at sample j of a stick phase [lo, hi) from the measurements.
 
     Sticking (Equ. 4): w1 = w2 = w. phi1 = M_t/C1 and w = phi1' = (dM_t/dt)/C1
-    from a local quadratic through the stick samples around j (the observer's
+    from a local cubic through the stick samples around j (the observer's
     w1 when the phase is too short). The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a:
     ``Q2 = (I1 + I2)*a - Q1``, ``Q1 = -K1*w - C1*phi1``,
     ``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (phi0 = 0 at the segment start).
@@ -593,7 +593,7 @@ def fit_block(
     starts_s, ends_s = starts_s[keep], ends_s[keep]
     sticky = starts_s.size > 0
     if sticky:
-        anchors = np.minimum(starts_s + 1, ends_s - 1)
+        anchors = starts_s + np.minimum(_HALF, (ends_s - starts_s - 1) // 2)
         states = np.vstack(
             [_stuck_state(p, d, int(j), int(lo), int(hi), w0)
              for j, lo, hi in zip(anchors, starts_s, ends_s, strict=True)]

@@ -41,10 +41,14 @@ from tribo_estimation.errors import InvalidDataError, InvalidParameterError, Too
 from .candidates import ParamSpec
 from .stats import FloatArray, IntArray
 
-CHANNELS: tuple[str, str, str] = ('torsion_moment', 'angular_acceleration', 'speed')
+#: Compared channels: the torsion moment (N m), the chamber speed w1 (rad/s;
+#: measured = the angular acceleration integrated from each segment start,
+#: simulated = the state; a smooth function of the parameters, unlike the
+#: sampled acceleration, which jumps at every breakaway) and the shaft speed (rad/s).
+CHANNELS: tuple[str, str, str] = ('torsion_moment', 'chamber_speed', 'speed')
 CHANNEL_UNITS: dict[str, str] = {
     'torsion_moment': 'N m',
-    'angular_acceleration': 'rad/s^2',
+    'chamber_speed': 'rad/s',
     'speed': 'rad/s',
 }
 
@@ -108,7 +112,7 @@ class Record:
         return 1.0 / self.dt
 
     def channel(self, name: str) -> FloatArray:
-        """A measured channel by name (one of :data:`CHANNELS`)."""
+        """A measured column by name."""
         return np.asarray(getattr(self, name), dtype=np.float64)
 
 
@@ -189,7 +193,7 @@ def make_segments(
     *,
     min_length: float = 0.03,
     block_time: float = 0.25,
-    start_delay: float = 1e-3,
+    start_delay: float = 3e-3,
     runs: tuple[IntArray, IntArray] | None = None,
 ) -> Segments:
     """Cut the record into segments that start ``start_delay`` s into a stick phase.
@@ -294,8 +298,10 @@ def _stick_states(
     return states
 
 
-def _local_line(y: FloatArray, idx: IntArray, half: int, dt: float) -> tuple[FloatArray, FloatArray]:
-    """Value and slope of a least-squares line through y[i-half : i+half+1] at each i."""
+def _local_fit(
+    y: FloatArray, idx: IntArray, half: int, dt: float
+) -> tuple[FloatArray, FloatArray]:
+    """Value and slope at i of a least-squares parabola through y[i-half : i+half+1]."""
     n = y.size
     vals = np.empty(idx.size)
     slopes = np.empty(idx.size)
@@ -306,8 +312,8 @@ def _local_line(y: FloatArray, idx: IntArray, half: int, dt: float) -> tuple[Flo
         if b - a < 3:
             vals[j], slopes[j] = y[int(i)], 0.0
             continue
-        c = np.polyfit(x, y[a:b], 1)
-        vals[j], slopes[j] = c[1], c[0]
+        c = np.polyfit(x, y[a:b], 2)
+        vals[j], slopes[j] = c[2], c[1]
     return vals, slopes
 
 
@@ -370,23 +376,35 @@ class Problem:
         self.drive = drive
         self.k = float(k)
         self.segments = segments if segments is not None else make_segments(record, rig.C1)
-        self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
         self.n_evals = 0
         i = self.segments.start
         half = max(2, round(1e-3 * record.fs))
         self._t0 = record.time[i].astype(np.float64)
-        self._m_val, self._m_slope = _local_line(record.torsion_moment, i, half, record.dt)
-        a_val, _ = _local_line(record.angular_acceleration, i, half, record.dt)
-        w_val, _ = _local_line(record.speed, i, half, record.dt)
-        self._a0 = a_val
-        self._w0 = w_val
+        self._m_val, self._m_slope = _local_fit(record.torsion_moment, i, half, record.dt)
+        self._a0, _ = _local_fit(record.angular_acceleration, i, half, record.dt)
+        self._w0, _ = _local_fit(record.speed, i, half, record.dt)
+        # measured chamber speed: w1 = w(start) + integral of w1' (trapezoid) per segment
+        seg = self.segments
+        w1 = np.full(record.time.size, np.nan)
+        acc = record.angular_acceleration
+        for k, (a, b) in enumerate(zip(seg.start, seg.stop, strict=True)):
+            inc = 0.5 * (acc[a + 1 : b] + acc[a : b - 1]) * record.dt
+            w1[a] = self._w0[k]
+            w1[a + 1 : b] = self._w0[k] + np.cumsum(inc)
+        self._meas: dict[str, FloatArray] = {
+            'torsion_moment': record.torsion_moment,
+            'chamber_speed': w1,
+            'speed': record.speed,
+        }
+        self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
     # ------------------------------------------------------------------ weights
     def signal_weights(self) -> dict[str, float]:
         """Channel weights 1/std(measured channel) (a start before any fit)."""
         out = {}
         for c in CHANNELS:
-            s = float(np.std(self.record.channel(c)))
+            m = self._meas[c] if hasattr(self, '_meas') else self.record.channel(c)
+            s = float(np.nanstd(m))
             out[c] = 1.0 / s if s > 0 else 0.0
         return out
 
@@ -395,7 +413,7 @@ class Problem:
         equally to the cost of that model), never above 1/floor[c]."""
         cov = sim.covered
         for c in CHANNELS:
-            r = self.record.channel(c)[cov] - sim.channel(c)[cov]
+            r = self._meas[c][cov] - sim.channel(c)[cov]
             s = max(float(np.sqrt(np.mean(r * r))), floor.get(c, 0.0))
             self.weights[c] = 1.0 / s if s > 0 else 0.0
 
@@ -457,6 +475,10 @@ class Problem:
             covered=covered,
         )
 
+    def measured(self, name: str) -> FloatArray:
+        """A compared measured channel (:data:`CHANNELS`; chamber speed NaN off-segment)."""
+        return self._meas[name]
+
     def residual_vector(self, sim: SimulatedRecord) -> FloatArray:
         """Weighted residuals of all channels over the covered samples (-)."""
         cov = sim.covered
@@ -464,7 +486,7 @@ class Problem:
         for c in CHANNELS:
             w = self.weights.get(c, 0.0)
             if w > 0:
-                r = self.record.channel(c)[cov] - sim.channel(c)[cov]
+                r = self._meas[c][cov] - sim.channel(c)[cov]
                 parts.append(w * r)
         v = np.concatenate(parts)
         # a diverged simulation (NaN) is a very bad fit, not a crash of the optimiser

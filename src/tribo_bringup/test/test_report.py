@@ -1,0 +1,310 @@
+"""Session report from a small synthetic bag: numbers on the page vs the CSV/JSON results.
+
+The bag is written with bagio.BagWriter and rosbags messages (no ROS needed):
+a sticking/slipping torsion moment and shaft speed at 10 kHz, one
+FrictionEstimate per block and WearState messages with known values.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import json
+import os
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tribo_bringup import bagio
+from tribo_bringup.errors import BagError
+from tribo_bringup.report import UM3, build_report, fmt
+
+FS = 10_000.0
+C1 = 2338.6
+W = 3.0  # shaft speed [rad/s]
+T0 = 1_700_000_000 * 1_000_000_000
+UNITS = {'/rig/torsion_moment': 'N m', '/rig/speed': 'rad/s'}
+
+
+def _types() -> dict[str, Any]:
+    return bagio.typestore().types
+
+
+def _header(stamp_ns: int) -> Any:
+    t = _types()
+    sec, nsec = divmod(stamp_ns, 1_000_000_000)
+    return t['std_msgs/msg/Header'](
+        stamp=t['builtin_interfaces/msg/Time'](sec=sec, nanosec=nsec), frame_id=''
+    )
+
+
+def torsion_signal(n: int) -> np.ndarray:
+    """Sawtooth: 8 ms stick (slope C1*W), then 4 ms held (slip), repeated."""
+    out = np.empty(n)
+    level = 0.0
+    for i in range(n):
+        if i % 120 < 80:
+            level += C1 * W / FS
+        out[i] = level
+    return out
+
+
+def write_bag(path: Path, *, seconds: float = 3.0, missing_block: int | None = None) -> dict:
+    t = _types()
+    n = int(seconds * FS)
+    signals = {'/rig/torsion_moment': torsion_signal(n), '/rig/speed': np.full(n, W)}
+    estimates = []
+    wears = []
+    with bagio.BagWriter(path) as w:
+        for topic in (*UNITS, '/friction/estimate', '/nvct/wear'):
+            w.add_topic(topic, bagio.TOPIC_TYPES[topic])
+        for b, first in enumerate(range(0, n, 100)):
+            stamp = T0 + round(first * 1e9 / FS)
+            for topic, sig in signals.items():
+                if b == missing_block and topic == '/rig/speed':
+                    continue
+                msg = t['tribo_msgs/msg/SampleBlock'](
+                    header=_header(stamp),
+                    sample_rate=FS,
+                    first_index=first,
+                    unit=UNITS[topic],
+                    data=sig[first : first + 100].copy(),
+                )
+                w.write_msg(topic, stamp, msg)
+            if first % int(FS) == 0 and first > 0:  # one estimate per second
+                k = first // int(FS)
+                est = dict(
+                    t_start=k - 1.0,
+                    t_end=float(k),
+                    first_index=first - int(FS),
+                    mu0=0.13 + 0.001 * k,
+                    mu0_se=0.002,
+                    mu_inf=0.10 - 0.0005 * k,
+                    mu_inf_se=0.001,
+                    k=2.0,
+                    k_se=0.0,
+                    moment_min=-1.0,
+                    moment_max=float(k),
+                    moment_mean=0.5,
+                    motion='stick-slip' if k != 2 else 'slip-slip',
+                    n_sticks=83,
+                    stick_fraction=2 / 3,
+                    rms_residual=0.05,
+                    quality='ok',
+                )
+                estimates.append(est)
+                w.write_msg(
+                    '/friction/estimate',
+                    stamp,
+                    t['tribo_msgs/msg/FrictionEstimate'](header=_header(stamp), **est),
+                )
+                for j in range(3):
+                    tt = (3 * (k - 1) + j + 1) * 3600.0
+                    ws = dict(
+                        t=tt,
+                        tagged_volume=1e-14,
+                        tagged_volume_se=1e-16,
+                        wear_volume=(2.5e5 + 1000.0 * tt / 60.0) * UM3,
+                        wear_volume_se=1e3 * UM3,
+                        wear_height=1e-8 * tt / 3600.0,
+                        wear_height_se=1e-10,
+                        wear_rate=1000.0 / 60.0 * UM3,
+                        wear_rate_se=1e-2 * UM3,
+                        running_in_volume=2.5e5 * UM3,
+                        running_in_volume_se=2e3 * UM3,
+                        progressive_rate=1000.0 / 60.0 * UM3,
+                        progressive_rate_se=0.5 * UM3,
+                        oil_mixed=True,
+                        quality='ok',
+                    )
+                    wears.append(ws)
+                    w.write_msg(
+                        '/nvct/wear', stamp + j, t['tribo_msgs/msg/WearState'](
+                            header=_header(stamp + j), **ws
+                        )
+                    )
+    return {'estimates': estimates, 'wear': wears, 'signals': signals}
+
+
+class Tables(HTMLParser):
+    """Collect cell texts of tables by id, and every src/href attribute."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tables: dict[str, list[list[str]]] = {}
+        self.refs: list[str] = []
+        self.tags: set[str] = set()
+        self._tid: str | None = None
+        self._cell: list[str] | None = None
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = dict(attrs)
+        self.tags.add(tag)
+        for k in ('src', 'href'):
+            if a.get(k):
+                self.refs.append(str(a[k]))
+        if tag == 'table':
+            self._tid = a.get('id') or ''
+            self.tables.setdefault(self._tid, [])
+        elif tag == 'tr' and self._tid is not None:
+            self.tables[self._tid].append([])
+        elif tag in ('td', 'th') and self._tid is not None:
+            self._cell = []
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag in ('td', 'th') and self._cell is not None and self._tid is not None:
+            self.tables[self._tid][-1].append(''.join(self._cell).strip())
+            self._cell = None
+        elif tag == 'table':
+            self._tid = None
+
+    def handle_data(self, data: str) -> None:
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+@pytest.fixture(scope='module')
+def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    base = tmp_path_factory.mktemp('report')
+    truth = write_bag(base / 'bag', missing_block=5)
+    rig = base / 'rig.yaml'
+    rig.write_text(
+        'I1: 0.0109\nK1: 0.04034\nC1: 2338.6\nI2: 0.0315\nK2: 4.0\nC2: 5975.0\nF_N: 8000.0\n'
+        'R: 0.08\nmu0: 0.13\nmu_inf: 0.10\nk: 2.0\nnominal_speed: 3.0\n'
+        'effects: {stiction_gain: 0.02, stiction_tau: 0.05}\n'
+    )
+    nvct = base / 'nvct.yaml'
+    nvct.write_text('load_N: 100.0\nstroke_m: 0.0015\nfrequency_hz: 50.0\n')
+    res = build_report(
+        base / 'bag',
+        base / 'out',
+        rig=rig,
+        nvct=nvct,
+        analyses=('friction',),
+        extra_args={'friction': ['--no-such-option-for-the-test']},
+        command=['tribo', 'report', 'bag', '--out', 'out'],
+        progress=lambda s: None,
+    )
+    parser = Tables()
+    parser.feed(res.html.read_text(encoding='utf-8'))
+    return {'res': res, 'truth': truth, 'out': base / 'out', 'html': parser}
+
+
+def test_friction_table_matches_csv_and_truth(report: dict[str, Any]) -> None:
+    out, truth, page = report['out'], report['truth'], report['html']
+    with (out / 'friction_blocks.csv').open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(truth['estimates']) == 2
+    for row, est in zip(rows, truth['estimates'], strict=True):
+        # the CSV keeps full precision (repr of the float read back from the bag)
+        assert float(row['mu0']) == est['mu0'] and float(row['mu_inf']) == est['mu_inf']
+        assert row['motion'] == est['motion']
+    table = page.tables['friction-blocks'][1:]  # skip the header row
+    for cells, row in zip(table, rows, strict=True):
+        assert cells[1] == fmt(float(row['mu0'])) and cells[3] == fmt(float(row['mu_inf']))
+        assert cells[5] == row['motion']
+    results = json.loads((out / 'results.json').read_text())
+    fr = results['friction']
+    assert fr['mu0_max'] == max(e['mu0'] for e in truth['estimates'])
+    assert fr['motion_types'] == {'slip-slip': 1, 'stick-slip': 1}
+    kv = {r[0]: r[1] for r in page.tables['friction-summary']}
+    assert kv['mu0_max'] == fmt(fr['mu0_max']) and kv['blocks_ok'] == '2'
+
+
+def test_wear_summary_and_k_w(report: dict[str, Any]) -> None:
+    out, truth, page = report['out'], report['truth'], report['html']
+    results = json.loads((out / 'results.json').read_text())
+    we = results['wear']
+    last = truth['wear'][-1]
+    assert we['wear_volume_m3'] == last['wear_volume']
+    # Equ. 10, paper convention: k_w = rate / (L * stroke * f); exact arithmetic on inputs
+    assert we['k_w_progressive_m3_per_N_m'] == pytest.approx(
+        last['progressive_rate'] / (100.0 * 0.0015 * 50.0), rel=1e-12
+    )
+    kv = {r[0]: r[1] for r in page.tables['wear-summary']}
+    assert kv['wear_volume_m3'] == fmt(we['wear_volume_m3'])
+    assert kv['k_w_progressive_m3_per_N_m'] == fmt(we['k_w_progressive_m3_per_N_m'])
+    with (out / 'wear_states.csv').open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [float(r['t']) for r in rows] == [w['t'] for w in truth['wear']]
+
+
+def test_session_counts_the_missing_block(report: dict[str, Any]) -> None:
+    out, page = report['out'], report['html']
+    results = json.loads((out / 'results.json').read_text())
+    speed = next(s for s in results['session']['streams'] if s['topic'] == '/rig/speed')
+    assert speed['missing'] == 100 and speed['gaps'] == 1  # block 5 left out
+    assert results['session']['missing_samples'] == 100
+    kv = {r[0]: r[1] for r in page.tables['session-summary']}
+    assert kv['missing samples (all streams)'] == '100'
+    assert any('missing samples = 100' in line for line in report['res'].summary)
+    assert len(report['res'].summary) == 5
+
+
+def test_page_is_self_contained_with_provenance(report: dict[str, Any]) -> None:
+    page, out = report['html'], report['out']
+    assert 'script' not in page.tags and 'link' not in page.tags
+    imgs = [r for r in page.refs if r.startswith('data:image/png;base64,')]
+    assert len(imgs) >= 3  # mu per block, Fig. 6 detail, wear curve
+    for ref in page.refs:
+        assert ref.startswith(('data:image/png;base64,', '#')), ref
+    png = base64.b64decode(imgs[0].split(',', 1)[1])
+    assert png[:8] == b'\x89PNG\r\n\x1a\n'
+    results = json.loads((out / 'results.json').read_text())
+    prov = results['provenance']
+    assert prov['command'] == 'tribo report bag --out out'
+    for key in ('python', 'numpy', 'scipy', 'numba', 'rosbags', 'tribo_bringup'):
+        assert prov['versions'][key]
+    versions = {r[0]: r[1] for r in page.tables['versions'][1:]}
+    assert versions['numpy'] == prov['versions']['numpy']
+
+
+def test_failed_analysis_is_reported_not_raised(report: dict[str, Any]) -> None:
+    results = json.loads((report['out'] / 'results.json').read_text())
+    fr = results['analyses']['friction']
+    assert fr['ok'] is False and fr['reason']  # bad option or command missing: named
+    assert 'Unavailable' in report['res'].html.read_text()
+
+
+def test_rig_table(report: dict[str, Any]) -> None:
+    rows = {r[0]: r for r in report['html'].tables['rig-params'][1:]}
+    assert rows['C1'][1] == fmt(2338.6, 6) and rows['C1'][2] == 'N m/rad'
+    assert 'stiction_gain' in report['res'].html.read_text()
+
+
+def test_empty_or_missing_bag_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(BagError, match='no such bag'):
+        build_report(tmp_path / 'nope', tmp_path / 'out', progress=lambda s: None)
+
+
+def test_opens_in_headless_chromium(report: dict[str, Any], tmp_path: Path) -> None:
+    browser = shutil.which('chromium') or (
+        '/usr/bin/chromium' if os.path.exists('/usr/bin/chromium') else None
+    )
+    if browser is None:
+        pytest.skip('headless Chromium not installed (/usr/bin/chromium): browser check skipped')
+    shot = tmp_path / 'report.png'
+    proc = subprocess.run(
+        [
+            browser,
+            '--headless',
+            '--no-sandbox',
+            '--disable-gpu',
+            '--enable-logging=stderr',
+            '--v=0',
+            f'--screenshot={shot}',
+            '--window-size=1200,2400',
+            report['res'].html.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert shot.is_file() and shot.stat().st_size > 10_000, proc.stderr[-2000:]
+    console = [ln for ln in proc.stderr.splitlines() if 'CONSOLE' in ln or 'Uncaught' in ln]
+    assert console == [], console

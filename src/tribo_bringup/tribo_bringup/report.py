@@ -1,0 +1,1045 @@
+"""Session report: one self-contained HTML page plus CSV/JSON results for a recorded bag.
+
+:func:`build_report` reads a bag of the tribo graph and writes into ``out``:
+
+- ``report.html``: one page, plots embedded as base64 PNG, inline CSS, no
+  script and no network access needed to view it;
+- ``results.json``: every number shown on the page (SI units; keys name the unit
+  where it is not SI) plus the provenance (command line, versions, git commit);
+- ``friction_blocks.csv``: the live per-block friction estimates recorded on
+  ``/friction/estimate`` (paper section 2.5, Equ. 8);
+- ``wear_states.csv``: the live nVCT wear states recorded on ``/nvct/wear``
+  (paper section 3, Equ. 8-10);
+- ``streams.csv``: sample continuity of every SampleBlock topic;
+- ``analyses/<name>/``: the outputs of the offline analyses (``tribo friction``,
+  ``tribo wear``, ``tribo discrepancy``) run on the bag through their
+  commands' ``run(args)``; their PNG figures and JSON summaries are embedded.
+
+A section whose input is missing (topic not in the bag, an analysis command
+not installed or failing) is shown as unavailable with the reason; the report
+itself never fails because of one section. Figures follow the paper:
+Fig. 4/5 (mu0, mu_inf per block with the torsion-moment envelope), Fig. 6
+(torsion-moment detail with stick phases), Fig. 10/11 (wear volume over test
+time, running-in and progressive wear).
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import json
+import math
+import platform
+import shlex
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+
+from tribo_bringup import bagio
+from tribo_bringup import bridge_core as bc
+from tribo_bringup.errors import BagError, ConfigError
+
+NS = 1_000_000_000
+UM3 = 1e-18  # m^3 per um^3 (display unit of wear volumes)
+FloatArray = npt.NDArray[np.float64]
+Progress = Callable[[str], None]
+
+#: Rig parameters with unit and meaning (RIG.yaml, docs/ARCHITECTURE.md).
+RIG_UNITS: dict[str, tuple[str, str]] = {
+    'I1': ('kg m^2', 'chamber inertia'),
+    'K1': ('N m s/rad', 'chamber viscous damping'),
+    'C1': ('N m/rad', 'torsion element stiffness'),
+    'I2': ('kg m^2', 'drive shaft inertia'),
+    'K2': ('N m s/rad', 'drive viscous damping'),
+    'C2': ('N m/rad', 'drive stiffness'),
+    'F_N': ('N', 'normal force'),
+    'R': ('m', 'effective friction radius'),
+    'mu0': ('-', 'static friction coefficient (Equ. 8)'),
+    'mu_inf': ('-', 'asymptotic friction coefficient (Equ. 8)'),
+    'k': ('s/rad', 'Stribeck decay constant (Equ. 8)'),
+    'nominal_speed': ('rad/s', 'nominal drive speed w0'),
+    'ramp_time': ('s', 'start-up ramp of the drive'),
+    'noise_torque': ('N m', 'torsion moment noise'),
+    'noise_accel': ('rad/s^2', 'acceleration noise'),
+    'noise_speed': ('rad/s', 'speed noise'),
+}
+
+#: Offline analyses: name -> (CLI command, section title).
+ANALYSES: dict[str, tuple[str, str]] = {
+    'friction': ('friction', 'Offline block-wise friction fit (tribo friction)'),
+    'wear': ('wear', 'Offline nVCT wear evaluation (tribo wear)'),
+    'discrepancy': ('discrepancy', 'Discrepancy workflow: missing physics (tribo discrepancy)'),
+}
+
+_PKGS = ('tribo_common', 'tribo_msgs', 'tribo_drivers', 'tribo_estimation', 'tribo_nvct')
+
+
+# --- reading the bag -----------------------------------------------------------
+
+
+@dataclass
+class BagScan:
+    """What the report needs from a bag (all times in ns, values SI).
+
+    Attributes:
+        counts: messages per topic.
+        t_first_ns, t_last_ns: receive time of the first and last message [ns].
+        estimates: one dict per /friction/estimate message (bridge_core field names).
+        wear: one dict per /nvct/wear message.
+        streams: sample continuity per SampleBlock topic.
+    """
+
+    counts: dict[str, int] = field(default_factory=dict)
+    t_first_ns: int = 0
+    t_last_ns: int = 0
+    estimates: list[dict[str, Any]] = field(default_factory=list)
+    wear: list[dict[str, Any]] = field(default_factory=list)
+    streams: list[bagio.StreamCheck] = field(default_factory=list)
+    truncated: str = ''
+
+
+def scan_bag(path: str | Path) -> BagScan:
+    """Read counts, estimates, wear states and stream continuity from a bag."""
+    import warnings
+
+    scan = BagScan()
+    small = {'/friction/estimate', '/nvct/wear'}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        for m in bagio.iter_messages(path, on_error='warn', deserialize=False):
+            scan.counts[m.topic] = scan.counts.get(m.topic, 0) + 1
+            if scan.t_first_ns == 0:
+                scan.t_first_ns = m.timestamp_ns
+            scan.t_last_ns = max(scan.t_last_ns, m.timestamp_ns)
+        for m in bagio.iter_messages(path, small, on_error='warn'):
+            if m.topic == '/friction/estimate':
+                scan.estimates.append(bc.record_message(m.msg, bc.FRICTION_FIELDS, {}))
+            else:
+                scan.wear.append(bc.record_message(m.msg, bc.WEAR_FIELDS, {}))
+        sample_topics = [t for t in bc.SAMPLE_TOPICS if scan.counts.get(t)]
+        if sample_topics:
+            scan.streams = bagio.check_streams(path, sample_topics)
+    trunc = [str(w.message) for w in caught if 'truncated' in str(w.message)]
+    scan.truncated = trunc[0] if trunc else ''
+    if not scan.counts:
+        raise BagError(f'{path}: the bag holds no message of a known type')
+    return scan
+
+
+@dataclass(frozen=True)
+class Detail:
+    """A torsion-moment trace for the Fig. 6 style plot.
+
+    Attributes:
+        time: time from the window start [s]; torsion: C1*phi1 [N m];
+        stick: per-sample stick flag (from 1 ms bins); label: what the window shows.
+    """
+
+    time: FloatArray
+    torsion: FloatArray
+    stick: npt.NDArray[np.bool_]
+    label: str
+
+
+def read_detail(
+    path: str | Path,
+    first_index: int,
+    seconds: float,
+    C1: float,
+    label: str,
+    tol: float = 0.05,
+) -> Detail | None:
+    """Torsion moment and stick flags of ``seconds`` [s] of samples from ``first_index``.
+
+    Stick flags: the slope of C1*phi1 over 1 ms bins gives w1 (= slope/C1);
+    sticking while ``|w2 - w1| <= tol`` [rad/s] (physics notes, section 1).
+    """
+    topics = ('/rig/torsion_moment', '/rig/speed')
+    chunks: dict[str, list[tuple[int, FloatArray]]] = {t: [] for t in topics}
+    fs = 0.0
+    n = 0
+    end = first_index
+    done = {t: False for t in topics}
+    for m in bagio.iter_messages(path, topics, on_error='warn'):
+        fi = int(m.msg.first_index)
+        data = np.asarray(m.msg.data, dtype=np.float64)
+        if fs == 0.0 and float(m.msg.sample_rate) > 0:
+            fs = float(m.msg.sample_rate)
+            n = max(1, round(seconds * fs))
+            end = first_index + n
+        if fi + data.size <= first_index or done[m.topic]:
+            continue
+        chunks[m.topic].append((fi, data))
+        if fi + data.size >= end:
+            done[m.topic] = True
+            if all(done.values()):
+                break
+    if not chunks['/rig/torsion_moment'] or fs <= 0:
+        return None
+    arrays: dict[str, FloatArray] = {}
+    for t, parts in chunks.items():
+        if not parts:
+            continue
+        start = parts[0][0]
+        joined = np.concatenate([p for _, p in parts])
+        arrays[t] = joined[max(0, first_index - start) : max(0, first_index - start) + n]
+    torsion = arrays['/rig/torsion_moment']
+    stick = np.zeros(torsion.size, dtype=bool)
+    speed = arrays.get('/rig/speed')
+    if speed is not None and speed.size == torsion.size:
+        factor = max(2, round(fs / 1000.0))
+        det = bc.StickDetector(C1=C1, tolerance=tol)
+        tor_pts = bc.Downsampler(fs / factor).push(first_index, 0, fs, torsion)
+        flags = det.add_torsion(tor_pts)
+        flags += det.add_speed(bc.Downsampler(fs / factor).push(first_index, 0, fs, speed))
+        for f in flags:
+            if f.stick:
+                i0 = f.index - first_index
+                stick[i0 : i0 + factor] = True
+    return Detail(np.arange(torsion.size) / fs, torsion, stick, label)
+
+
+# --- small helpers -----------------------------------------------------------------
+
+
+def fmt(x: Any, digits: int = 4) -> str:
+    """Number as text with ``digits`` significant digits ('n/a' for None/NaN)."""
+    if x is None:
+        return 'n/a'
+    if isinstance(x, bool):
+        return 'yes' if x else 'no'
+    if isinstance(x, int):
+        return str(x)
+    if isinstance(x, float):
+        if not math.isfinite(x):
+            return 'n/a'
+        return f'{x:.{digits}g}'
+    return str(x)
+
+
+def _finite(values: Iterable[Any]) -> FloatArray:
+    arr = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+    return arr[np.isfinite(arr)]
+
+
+def clean_json(obj: Any) -> Any:
+    """Strict-JSON copy: NaN/inf -> None, numpy scalars -> Python, tuples -> lists."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Mapping):
+        return {str(k): clean_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [clean_json(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return clean_json(obj.item())
+    return obj
+
+
+def _png(fig: Any) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format='png', dpi=110, bbox_inches='tight')
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode('ascii')
+
+
+def _img(b64: str, caption: str) -> str:
+    return (
+        f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{b64}">'
+        f'<figcaption>{html.escape(caption)}</figcaption></figure>'
+    )
+
+
+def _table(
+    rows: Sequence[Sequence[Any]], header: Sequence[str], table_id: str = '', digits: int = 4
+) -> str:
+    tid = f' id="{table_id}"' if table_id else ''
+    head = ''.join(f'<th>{html.escape(h)}</th>' for h in header)
+    body = ''.join(
+        '<tr>' + ''.join(f'<td>{html.escape(fmt(v, digits))}</td>' for v in row) + '</tr>'
+        for row in rows
+    )
+    return f'<table{tid}><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _kv(items: Mapping[str, Any], table_id: str, units: Mapping[str, str] | None = None) -> str:
+    rows = []
+    for k, v in items.items():
+        unit = (units or {}).get(k, '')
+        rows.append(
+            f'<tr><th>{html.escape(k)}</th><td data-key="{html.escape(k)}">'
+            f'{html.escape(fmt(v))}</td><td>{html.escape(unit)}</td></tr>'
+        )
+    return f'<table id="{table_id}" class="kv"><tbody>{"".join(rows)}</tbody></table>'
+
+
+def _write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> None:
+    with path.open('w', newline='', encoding='utf-8') as fh:
+        w = csv.writer(fh)
+        w.writerow(columns)
+        for r in rows:
+            w.writerow(
+                [
+                    ''
+                    if r.get(c) is None
+                    else repr(r[c])
+                    if isinstance(r.get(c), float)
+                    else r.get(c)
+                    for c in columns
+                ]
+            )
+
+
+# --- sections ----------------------------------------------------------------------
+
+
+@dataclass
+class Section:
+    """One part of the page."""
+
+    key: str
+    title: str
+    body: str
+    available: bool = True
+
+
+def _unavailable(key: str, title: str, reason: str) -> Section:
+    return Section(key, title, f'<p class="na">Unavailable: {html.escape(reason)}</p>', False)
+
+
+def load_rig(path: str | Path | None) -> dict[str, Any]:
+    """RIG.yaml as a mapping (empty when ``path`` is None)."""
+    if path is None:
+        return {}
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f'{p}: cannot read rig file: {exc}') from exc
+    if not isinstance(data, dict):
+        raise ConfigError(f'{p}: a rig file is a mapping of parameter names to values')
+    return data
+
+
+def rig_section(rig: Mapping[str, Any], rig_path: str | None, results: dict) -> Section:
+    title = 'Rig parameters used'
+    if not rig:
+        results['rig'] = None
+        return _unavailable('rig', title, 'no RIG.yaml given (--rig)')
+    params = {k: rig[k] for k in RIG_UNITS if k in rig}
+    effects = rig.get('effects') or {}
+    results['rig'] = {'file': rig_path, 'params': params, 'effects': dict(effects)}
+    rows = [(k, float(v), RIG_UNITS[k][0], RIG_UNITS[k][1]) for k, v in params.items()]
+    body = f'<p>From <code>{html.escape(str(rig_path))}</code>.</p>'
+    body += _table(rows, ('parameter', 'value', 'unit', 'meaning'), 'rig-params', digits=6)
+    if effects:
+        body += '<p>Hidden model extensions switched on in the simulated rig: '
+        body += ', '.join(
+            f'<code>{html.escape(k)} = {fmt(float(v))}</code>' for k, v in effects.items()
+        )
+        body += '</p>'
+    return Section('rig', title, body)
+
+
+def session_section(bag: Path, scan: BagScan, results: dict, out: Path) -> Section:
+    duration = (scan.t_last_ns - scan.t_first_ns) / NS
+    missing = sum(s.missing for s in scan.streams)
+    results['session'] = {
+        'bag': str(bag),
+        'duration_s': duration,
+        'messages': dict(sorted(scan.counts.items())),
+        'missing_samples': missing,
+        'truncated': scan.truncated or None,
+        'streams': [
+            {
+                'topic': s.topic,
+                'messages': s.messages,
+                'samples': s.samples,
+                'missing': s.missing,
+                'gaps': s.gaps,
+                'duplicates': s.duplicates,
+            }
+            for s in scan.streams
+        ],
+    }
+    _write_csv(
+        out / 'streams.csv',
+        results['session']['streams'],
+        ('topic', 'messages', 'samples', 'missing', 'gaps', 'duplicates'),
+    )
+    body = _kv(
+        {'recorded duration': duration, 'missing samples (all streams)': missing},
+        'session-summary',
+        {'recorded duration': 's', 'missing samples (all streams)': 'samples'},
+    )
+    rows = [(s.topic, s.messages, s.samples, s.missing, s.gaps, s.duplicates) for s in scan.streams]
+    body += _table(
+        rows, ('stream', 'blocks', 'samples', 'missing', 'gaps', 'duplicates'), 'streams'
+    )
+    rows2 = sorted(scan.counts.items())
+    body += _table(rows2, ('topic', 'messages'), 'topics')
+    if scan.truncated:
+        body += f'<p class="warn">{html.escape(scan.truncated)}</p>'
+    return Section('session', f'Session: {bag.name}', body)
+
+
+FRICTION_COLUMNS = (
+    't_start', 't_end', 'first_index', 'mu0', 'mu0_se', 'mu_inf', 'mu_inf_se', 'k',
+    'moment_min', 'moment_max', 'moment_mean', 'motion', 'n_sticks', 'stick_fraction',
+    'rms_residual', 'quality',
+)  # fmt: skip
+
+
+def friction_section(
+    scan: BagScan, results: dict, out: Path, bag: Path, C1: float
+) -> list[Section]:
+    title = 'Friction per block (live estimator, /friction/estimate)'
+    ests = scan.estimates
+    if not ests:
+        results['friction'] = None
+        return [_unavailable('friction', title, 'no /friction/estimate messages in the bag')]
+    _write_csv(out / 'friction_blocks.csv', ests, FRICTION_COLUMNS)
+    good = [e for e in ests if e['quality'] == 'ok']
+    mu0 = _finite(e['mu0'] for e in good)
+    muinf = _finite(e['mu_inf'] for e in good)
+    motions: dict[str, int] = {}
+    for e in good:
+        motions[e['motion']] = motions.get(e['motion'], 0) + 1
+    summary = {
+        'blocks': len(ests),
+        'blocks_ok': len(good),
+        'mu0_min': float(mu0.min()) if mu0.size else None,
+        'mu0_max': float(mu0.max()) if mu0.size else None,
+        'mu0_mean': float(mu0.mean()) if mu0.size else None,
+        'mu_inf_min': float(muinf.min()) if muinf.size else None,
+        'mu_inf_max': float(muinf.max()) if muinf.size else None,
+        'mu_inf_mean': float(muinf.mean()) if muinf.size else None,
+        'motion_types': motions,
+        'stick_fraction_mean': float(np.mean(_finite(e['stick_fraction'] for e in good)))
+        if good
+        else None,
+    }
+    results['friction'] = summary
+    body = _kv(
+        {k: v for k, v in summary.items() if k != 'motion_types'},
+        'friction-summary',
+    )
+    body += (
+        '<p>Motion types of the good blocks: '
+        + (', '.join(f'{html.escape(k)}: <b>{v}</b>' for k, v in sorted(motions.items())) or 'none')
+        + '</p>'
+    )
+    body += _img(
+        _plot_mu(ests),
+        'Fig. 4/5 style: mu0 and mu_inf per block (+-1 SE) with the '
+        'torsion-moment envelope (min/max per block); flagged blocks grey',
+    )
+    rows = [
+        (
+            e['t_start'] - ests[0]['t_start'],
+            e['mu0'],
+            e['mu0_se'],
+            e['mu_inf'],
+            e['mu_inf_se'],
+            e['motion'],
+            e['n_sticks'],
+            e['stick_fraction'],
+            e['quality'],
+        )
+        for e in ests
+    ]
+    body += '<details open><summary>Per-block table (friction_blocks.csv)</summary>'
+    body += _table(
+        rows,
+        (
+            't [s]',
+            'mu0',
+            'mu0 SE',
+            'mu_inf',
+            'mu_inf SE',
+            'motion',
+            'sticks',
+            'stick fraction',
+            'quality',
+        ),
+        'friction-blocks',
+    )
+    body += '</details>'
+    sections = [Section('friction', title, body)]
+    # Fig. 6: one stick-slip and one slip-slip block in detail (0.25 s each)
+    picks: list[tuple[dict[str, Any], str]] = []
+    for motion in ('stick-slip', 'slip-slip'):
+        cand = [e for e in good if e['motion'] == motion]
+        if cand:
+            picks.append((cand[len(cand) // 2], motion))
+    details: list[Detail] = []
+    for e, motion in picks:
+        d = read_detail(
+            bag,
+            int(e['first_index']),
+            0.25,
+            C1,
+            f'{motion} block at t = {e["t_start"] - ests[0]["t_start"]:.0f} s',
+        )
+        if d is not None:
+            details.append(d)
+    if details:
+        sections.append(
+            Section(
+                'detail',
+                'Motion detail (Fig. 6 style)',
+                _img(
+                    _plot_detail(details),
+                    'Torsion moment C1*phi1 over 0.25 s; stick phases shaded '
+                    '(w1 = w2 from the 1 ms slope of C1*phi1)',
+                ),
+            )
+        )
+    return sections
+
+
+def wear_section(scan: BagScan, nvct: Mapping[str, Any], results: dict, out: Path) -> Section:
+    title = 'nVCT wear (live wear monitor, /nvct/wear)'
+    ws = scan.wear
+    if not ws:
+        results['wear'] = None
+        return _unavailable('wear', title, 'no /nvct/wear messages in the bag')
+    cols = ('t', *[k for k in bc.WEAR_FIELDS if k != 't'])
+    _write_csv(out / 'wear_states.csv', ws, cols)
+    last = ws[-1]
+    summary: dict[str, Any] = {
+        'dwells': len(ws),
+        'test_time_s': last['t'],
+        'wear_volume_m3': last['wear_volume'],
+        'wear_volume_se_m3': last['wear_volume_se'],
+        'wear_height_m': last['wear_height'],
+        'wear_rate_m3_per_s': last['wear_rate'],
+        'running_in_volume_m3': last['running_in_volume'],
+        'progressive_rate_m3_per_s': last['progressive_rate'],
+        'progressive_rate_se_m3_per_s': last['progressive_rate_se'],
+    }
+    load, stroke, freq = (nvct.get(k) for k in ('load_N', 'stroke_m', 'frequency_hz'))
+    kw = None
+    if load and stroke and freq and last['progressive_rate'] is not None:
+        # Equ. 10, paper convention d_s = stroke*f*t: k_w = (dV/dt) / (L * stroke * f)
+        kw = last['progressive_rate'] / (float(load) * float(stroke) * float(freq))
+    summary['k_w_progressive_m3_per_N_m'] = kw
+    summary['k_w_sliding_distance'] = 'paper: d_s = stroke*frequency*t'
+    results['wear'] = summary
+    units = {
+        'test_time_s': 's', 'wear_volume_m3': 'm^3', 'wear_volume_se_m3': 'm^3',
+        'wear_height_m': 'm', 'wear_rate_m3_per_s': 'm^3/s', 'running_in_volume_m3': 'm^3',
+        'progressive_rate_m3_per_s': 'm^3/s', 'progressive_rate_se_m3_per_s': 'm^3/s',
+        'k_w_progressive_m3_per_N_m': 'm^3/(N m)',
+    }  # fmt: skip
+    body = _kv(summary, 'wear-summary', units)
+    body += _img(
+        _plot_wear(ws),
+        'Fig. 10/11 style: wear volume over test time (+-2 SE band), '
+        'progressive wear line (slope 120-180 min) and running-in volume',
+    )
+    return Section('wear', title, body)
+
+
+def analysis_section(key: str, title: str, status: Mapping[str, Any], out: Path) -> Section:
+    """Embed an analysis command's outputs (PNG figures, JSON summaries, CSV list)."""
+    if not status.get('ok'):
+        return _unavailable(key, title, str(status.get('reason', 'not run')))
+    d = out / str(status['dir'])
+    body = f'<p>Command: <code>{html.escape(str(status["command"]))}</code> '
+    body += f'({status["seconds"]:.1f} s). Outputs in <code>{html.escape(str(status["dir"]))}'
+    body += '</code>.</p>'
+    if status.get('note'):
+        body += f'<p class="note">{html.escape(str(status["note"]))}</p>'
+    for js in sorted(d.rglob('*.json')):
+        try:
+            data = json.loads(js.read_text(encoding='utf-8'))
+        except (OSError, ValueError):
+            continue
+        body += f'<details><summary>{html.escape(str(js.relative_to(out)))}</summary>'
+        body += _json_html(data) + '</details>'
+        if key == 'discrepancy' and isinstance(data, dict):
+            body = _discrepancy_findings(data) + body
+    for png in sorted(d.rglob('*.png')):
+        b64 = base64.b64encode(png.read_bytes()).decode('ascii')
+        body += _img(b64, str(png.relative_to(out)))
+    csvs = sorted(d.rglob('*.csv'))
+    if csvs:
+        body += (
+            '<p>CSV results: '
+            + ', '.join(f'<code>{html.escape(str(c.relative_to(out)))}</code>' for c in csvs)
+            + '</p>'
+        )
+    return Section(key, title, body)
+
+
+def _json_html(data: Any, depth: int = 0) -> str:
+    if isinstance(data, Mapping) and depth < 3:
+        rows = ''.join(
+            f'<tr><th>{html.escape(str(k))}</th><td>{_json_html(v, depth + 1)}</td></tr>'
+            for k, v in data.items()
+        )
+        return f'<table class="kv"><tbody>{rows}</tbody></table>'
+    if isinstance(data, list) and data and depth < 3 and len(data) <= 20:
+        return '<br>'.join(_json_html(v, depth + 1) for v in data)
+    text = json.dumps(data) if not isinstance(data, (int, float, str)) else fmt(data)
+    if len(text) > 300:
+        text = text[:300] + ' ...'
+    return html.escape(text)
+
+
+def _discrepancy_findings(data: Mapping[str, Any]) -> str:
+    added = data.get('added') or []
+    base = (data.get('baseline') or {}).get('rms')
+    final = (data.get('final') or {}).get('rms')
+    if not added:
+        text = 'No missing effect found: the paper model explains the data to the noise floor.'
+    else:
+        parts = []
+        for a in added:
+            params = ', '.join(f'{k} = {fmt(v)}' for k, v in (a.get('params') or {}).items())
+            parts.append(f'{a.get("effect")} ({params})')
+        text = 'Effects added to the model: ' + '; '.join(parts)
+    return (
+        f'<p class="finding" id="discrepancy-finding">{html.escape(text)} Residual RMS '
+        f'{fmt(base)} N m (paper model) -> {fmt(final)} N m (final model).</p>'
+    )
+
+
+def discrepancy_finding(data: Mapping[str, Any]) -> str:
+    """One-line text of a discrepancy.json result."""
+    added = data.get('added') or []
+    if not added:
+        return 'no missing effect found'
+    return ', '.join(str(a.get('effect')) for a in added)
+
+
+# --- plots ---------------------------------------------------------------------------
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _plot_mu(ests: Sequence[Mapping[str, Any]]) -> str:
+    plt = _plt()
+    t0 = ests[0]['t_start']
+    t = np.array([e['t_start'] - t0 for e in ests], dtype=float)
+    ok = np.array([e['quality'] == 'ok' for e in ests], dtype=bool)
+
+    def col(name: str) -> FloatArray:
+        return np.array([np.nan if e[name] is None else e[name] for e in ests], dtype=float)
+
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    for name, se, color in (('mu0', 'mu0_se', 'tab:red'), ('mu_inf', 'mu_inf_se', 'tab:blue')):
+        y, s = col(name), col(se)
+        ax.errorbar(t[ok], y[ok], yerr=s[ok], fmt='o', ms=3, color=color, label=name)
+        if (~ok).any():
+            ax.plot(t[~ok], y[~ok], 'x', color='0.6')
+    if (~ok).any():
+        ax.plot([], [], 'x', color='0.6', label='flagged block')
+    ax.set_xlabel('time from first block [s]')
+    ax.set_ylabel('friction coefficient [-]')
+    ax2 = ax.twinx()
+    ax2.plot(t, col('moment_max'), '-', color='0.4', lw=0.8, label='max C1*phi1')
+    ax2.plot(t, col('moment_min'), '--', color='0.4', lw=0.8, label='min C1*phi1')
+    ax2.set_ylabel('torsion moment envelope [N m]')
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, loc='best', fontsize=8)
+    ax.grid(alpha=0.3)
+    return _png(fig)
+
+
+def _plot_detail(details: Sequence[Detail]) -> str:
+    plt = _plt()
+    fig, axes = plt.subplots(len(details), 1, figsize=(9, 2.8 * len(details)), squeeze=False)
+    for ax, d in zip(axes[:, 0], details, strict=True):
+        ax.plot(d.time * 1e3, d.torsion, lw=0.7, color='tab:blue')
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], d.stick.astype(int), [0]))))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            ax.axvspan(d.time[a] * 1e3, d.time[b - 1] * 1e3, color='tab:orange', alpha=0.3)
+        ax.set_title(d.label + (' (stick phases shaded)' if d.stick.any() else ''), fontsize=9)
+        ax.set_ylabel('C1*phi1 [N m]')
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel('time [ms]')
+    return _png(fig)
+
+
+def _plot_wear(ws: Sequence[Mapping[str, Any]]) -> str:
+    plt = _plt()
+
+    def col(name: str) -> FloatArray:
+        return np.array([np.nan if w[name] is None else w[name] for w in ws], dtype=float)
+
+    t_min = col('t') / 60.0
+    v, se = col('wear_volume') / UM3, col('wear_volume_se') / UM3
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    ax.fill_between(t_min, v - 2 * se, v + 2 * se, color='tab:brown', alpha=0.25, label='+-2 SE')
+    ax.plot(t_min, v, '.', ms=3, color='tab:brown', label='wear volume V_W')
+    last = ws[-1]
+    rate, vr = last['progressive_rate'], last['running_in_volume']
+    if rate is not None and vr is not None:
+        tt = np.linspace(0.0, float(np.nanmax(t_min)), 50)
+        ax.plot(
+            tt,
+            (vr + rate * tt * 60.0) / UM3,
+            '-',
+            color='k',
+            lw=1,
+            label='running-in + progressive line',
+        )
+        ax.axhline(vr / UM3, color='tab:green', ls=':', label=f'running-in {vr / UM3:.4g} um^3')
+        ax.axvspan(120, 180, color='0.85', alpha=0.5, label='120-180 min window')
+    ax.set_xlabel('test time [min]')
+    ax.set_ylabel('wear volume [um^3]')
+    ax.legend(fontsize=8, loc='upper left')
+    ax.grid(alpha=0.3)
+    return _png(fig)
+
+
+# --- analyses ---------------------------------------------------------------------
+
+
+def command_options(name: str) -> set[str] | None:
+    """Option strings of a tribo subcommand (None when the command is not installed)."""
+    from tribo_bringup.cli import build_parser
+
+    parser = build_parser()
+    for action in parser._actions:  # the subparsers action
+        choices = getattr(action, 'choices', None)
+        if isinstance(choices, dict) and name in choices:
+            return set(choices[name]._option_string_actions)
+    return None
+
+
+def run_command(argv: Sequence[str]) -> None:
+    """Run ``tribo <argv>`` in this process; raises on failure."""
+    from tribo_bringup.cli import build_parser
+
+    args = build_parser().parse_args(list(argv))
+    code = int(args.func(args) or 0)
+    if code != 0:
+        raise BringupCommandError(f'tribo {argv[0]} exited with code {code}')
+
+
+class BringupCommandError(RuntimeError):
+    """An analysis command failed (the report shows its section as unavailable)."""
+
+
+def run_analysis(
+    key: str,
+    argv: Sequence[str],
+    out: Path,
+    progress: Progress,
+    note: str = '',
+) -> dict[str, Any]:
+    """Run one analysis command writing into ``out/analyses/<key>``; never raises."""
+    rel = Path('analyses') / key
+    command = 'tribo ' + shlex.join(argv)
+    status: dict[str, Any] = {'ok': False, 'dir': str(rel), 'command': command, 'note': note}
+    t0 = time.monotonic()
+    progress(f'{key}: {command}')
+    try:
+        if command_options(argv[0]) is None:
+            status['reason'] = f'the tribo {argv[0]} command is not installed'
+            return status
+        run_command(argv)
+        status['ok'] = True
+    except SystemExit as exc:  # argparse usage error
+        status['reason'] = f'tribo {argv[0]}: bad arguments (exit {exc.code})'
+    except Exception as exc:  # any failure of one analysis leaves the rest of the report
+        status['reason'] = (
+            f'{type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ""}'
+        )
+        status['traceback'] = traceback.format_exc(limit=4)
+    finally:
+        status['seconds'] = time.monotonic() - t0
+    progress(
+        f'{key}: {"done" if status["ok"] else "unavailable: " + status["reason"]} '
+        f'({status["seconds"]:.1f} s)'
+    )
+    return status
+
+
+def analysis_argv(
+    key: str,
+    bag: Path,
+    out: Path,
+    rig: str | None,
+    nvct: str | None,
+    extra: Sequence[str] = (),
+) -> list[str] | None:
+    """Command line of an analysis, using only the options the command has."""
+    cmd = ANALYSES[key][0]
+    opts = command_options(cmd)
+    if opts is None:
+        return [cmd, str(bag)]
+    argv = [cmd, str(bag), '--out', str(out / 'analyses' / key)]
+    if rig and '--rig' in opts and key != 'wear':
+        argv += ['--rig', rig]
+    if nvct and '--nvct' in opts:
+        argv += ['--nvct', nvct]
+    return argv + list(extra)
+
+
+# --- provenance --------------------------------------------------------------------
+
+
+def _version(module: str) -> str:
+    try:
+        from importlib.metadata import version
+
+        return version(module)
+    except Exception:
+        try:
+            mod = __import__(module)
+            return str(getattr(mod, '__version__', 'unknown'))
+        except Exception:
+            return 'not installed'
+
+
+def _tribo_version(pkg: str, root: Path) -> str:
+    xml = root / 'src' / pkg / 'package.xml'
+    try:
+        text = xml.read_text(encoding='utf-8')
+        return text.split('<version>')[1].split('</version>')[0].strip()
+    except (OSError, IndexError):
+        return 'unknown'
+
+
+def git_commit(root: Path) -> str | None:
+    """Commit of the working tree read from ``.git`` (no git command), or None."""
+    git = root / '.git'
+    try:
+        head = (git / 'HEAD').read_text(encoding='utf-8').strip()
+        if not head.startswith('ref:'):
+            return head
+        ref = head.split(None, 1)[1]
+        ref_file = git / ref
+        if ref_file.is_file():
+            return ref_file.read_text(encoding='utf-8').strip()
+        packed = git / 'packed-refs'
+        if packed.is_file():
+            for line in packed.read_text(encoding='utf-8').splitlines():
+                if line.endswith(' ' + ref):
+                    return line.split()[0]
+    except OSError:
+        return None
+    return None
+
+
+def provenance(command: Sequence[str] | None) -> dict[str, Any]:
+    """Command line, versions and git commit that produced a report."""
+    root = Path(__file__).resolve().parents[3]
+    versions = {
+        'python': platform.python_version(),
+        **{m: _version(m) for m in ('numpy', 'scipy', 'numba', 'rosbags', 'matplotlib')},
+        'foxglove-sdk': _version('foxglove-sdk'),
+    }
+    versions.update({p: _tribo_version(p, root) for p in ('tribo_bringup', *_PKGS)})
+    return {
+        'command': shlex.join(command if command is not None else sys.argv),
+        'versions': versions,
+        'git_commit': git_commit(root),
+        'platform': platform.platform(),
+        'created': time.strftime('%Y-%m-%d %H:%M:%S %z'),
+    }
+
+
+# --- page ------------------------------------------------------------------------
+
+CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:2em auto;max-width:1100px;
+color:#222;padding:0 1em}
+h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ccc;padding-bottom:.2em;
+margin-top:1.8em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.88em}
+th,td{border:1px solid #ddd;padding:.25em .6em;text-align:right}th{background:#f4f4f4}
+table.kv th{text-align:left}td:first-child{text-align:left}
+figure{margin:1em 0}img{max-width:100%}figcaption{font-size:.85em;color:#555}
+.na{color:#a33;font-style:italic}.warn{color:#a60}.finding{font-weight:bold}
+code{background:#f4f4f4;padding:0 .2em}nav a{margin-right:1em}
+ul.summary li{margin:.2em 0}
+"""
+
+
+def render_html(
+    title: str, summary: Sequence[str], sections: Sequence[Section], prov: Mapping
+) -> str:
+    nav = ''.join(f'<a href="#{s.key}">{html.escape(s.title.split(" (")[0])}</a>' for s in sections)
+    parts = [
+        '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',
+        f'<title>{html.escape(title)}</title>',
+        '<meta name="viewport" content="width=device-width,initial-scale=1">',
+        f'<style>{CSS}</style></head><body>',
+        f'<h1>{html.escape(title)}</h1>',
+        '<ul class="summary" id="summary">',
+        *[f'<li>{html.escape(line)}</li>' for line in summary],
+        '</ul>',
+        f'<nav>{nav}<a href="#provenance">Provenance</a></nav>',
+    ]
+    for s in sections:
+        parts.append(f'<section id="{s.key}"><h2>{html.escape(s.title)}</h2>{s.body}</section>')
+    vers = _table(sorted(prov['versions'].items()), ('package', 'version'), 'versions')
+    parts.append(
+        '<section id="provenance"><h2>Provenance</h2>'
+        f'<p>Command: <code id="command">{html.escape(prov["command"])}</code></p>'
+        f'<p>Git commit: <code>{html.escape(str(prov["git_commit"] or "unknown"))}</code>; '
+        f'created {html.escape(prov["created"])} on {html.escape(prov["platform"])}.</p>'
+        f'{vers}</section>'
+    )
+    parts.append('</body></html>')
+    return '\n'.join(parts)
+
+
+def summary_lines(results: Mapping[str, Any]) -> list[str]:
+    """Five lines telling the story of the session (used by the page and ``tribo demo``)."""
+    lines: list[str] = []
+    fr = results.get('friction')
+    if fr:
+        lines.append(
+            f'Friction: {fr["blocks_ok"]} of {fr["blocks"]} blocks fitted; mu0 '
+            f'{fmt(fr["mu0_min"], 3)}..{fmt(fr["mu0_max"], 3)}, mu_inf '
+            f'{fmt(fr["mu_inf_min"], 3)}..{fmt(fr["mu_inf_max"], 3)}'
+        )
+        mt = fr['motion_types']
+        lines.append(
+            'Motion types: '
+            + (', '.join(f'{k} {v} blocks' for k, v in sorted(mt.items())) or 'none')
+            + f'; mean stick fraction {fmt(fr["stick_fraction_mean"], 2)}'
+        )
+    else:
+        lines.append('Friction: no block estimates in the bag')
+        lines.append('Motion types: unavailable')
+    we = results.get('wear')
+    if we:
+        v = we['wear_volume_m3']
+        rate = we['progressive_rate_m3_per_s']
+        kw = we['k_w_progressive_m3_per_N_m']
+        lines.append(
+            f'Wear after {fmt(we["test_time_s"] / 60.0, 4)} min test time: '
+            f'V_W = {fmt(None if v is None else v / UM3, 4)} um^3, progressive rate '
+            f'{fmt(None if rate is None else rate * 60.0 / UM3, 4)} um^3/min, k_w = '
+            f'{fmt(None if kw is None else kw / UM3, 3)} um^3/(N m)'
+        )
+    else:
+        lines.append('Wear: no wear states in the bag')
+    disc = results.get('analyses', {}).get('discrepancy')
+    if disc is None:
+        lines.append('Discrepancy workflow: not run')
+    elif disc.get('finding'):
+        lines.append(
+            f'Discrepancy workflow: {disc["finding"]}'
+            + (f' ({disc["note"]})' if disc.get('note') else '')
+        )
+    else:
+        lines.append(f'Discrepancy workflow: unavailable ({disc.get("reason", "no result")})')
+    sess = results.get('session') or {}
+    lines.append(
+        f'Recording: {fmt(sess.get("duration_s"), 3)} s, missing samples = '
+        f'{sess.get("missing_samples", "n/a")}'
+    )
+    return lines
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """Where the report went and what it says."""
+
+    html: Path
+    results: dict[str, Any]
+    summary: list[str]
+
+
+def build_report(
+    bag: str | Path,
+    out: str | Path,
+    *,
+    rig: str | Path | None = None,
+    nvct: str | Path | None = None,
+    discrepancy: bool = False,
+    analyses: Sequence[str] = ('friction', 'wear'),
+    extra_args: Mapping[str, Sequence[str]] | None = None,
+    notes: Mapping[str, str] | None = None,
+    command: Sequence[str] | None = None,
+    progress: Progress | None = None,
+) -> ReportResult:
+    """Write the session report of ``bag`` into directory ``out``.
+
+    Args:
+        bag: recorded bag (directory or .mcap).
+        out: output directory (created; existing report files are replaced).
+        rig: RIG.yaml of the run (rig parameter table; C1 for the stick flags).
+        nvct: NVCT.yaml (wear analysis, k_w).
+        discrepancy: also run ``tribo discrepancy`` on the bag.
+        analyses: offline analyses to run besides the discrepancy workflow.
+        extra_args: extra command-line arguments per analysis.
+        notes: a note per analysis shown in its section (e.g. analysed window).
+        command: the command line to record (default ``sys.argv``).
+        progress: callback for progress lines (default: stderr).
+    """
+    say = progress or (lambda s: print(f'report: {s}', file=sys.stderr, flush=True))
+    bag_p = Path(bag)
+    out_p = Path(out)
+    out_p.mkdir(parents=True, exist_ok=True)
+    rig_s = str(rig) if rig is not None else None
+    nvct_s = str(nvct) if nvct is not None else None
+    rig_data = load_rig(rig)
+    nvct_data = load_rig(nvct) if nvct is not None else {}
+    results: dict[str, Any] = {'analyses': {}}
+    say(f'reading {bag_p}')
+    scan = scan_bag(bag_p)
+    C1 = float(rig_data.get('C1', 2338.6))
+    sections = [session_section(bag_p, scan, results, out_p), rig_section(rig_data, rig_s, results)]
+    sections += friction_section(scan, results, out_p, bag_p, C1)
+    sections.append(wear_section(scan, nvct_data, results, out_p))
+    todo = [a for a in analyses if a in ANALYSES]
+    if discrepancy:
+        todo.append('discrepancy')
+    for key in todo:
+        if key == 'wear' and nvct_s is None:
+            status: dict[str, Any] = {'ok': False, 'reason': 'no NVCT.yaml given (--nvct)'}
+        elif key == 'wear' and not scan.counts.get('/nvct/counts'):
+            status = {'ok': False, 'reason': 'no /nvct/counts in the bag'}
+        else:
+            argv = analysis_argv(key, bag_p, out_p, rig_s, nvct_s, (extra_args or {}).get(key, ()))
+            assert argv is not None
+            status = run_analysis(key, argv, out_p, say, (notes or {}).get(key, ''))
+        if key == 'discrepancy' and status.get('ok'):
+            found = sorted((out_p / str(status['dir'])).rglob('discrepancy*.json'))
+            if found:
+                try:
+                    status['finding'] = discrepancy_finding(json.loads(found[0].read_text()))
+                except (OSError, ValueError) as exc:
+                    status['reason'] = f'cannot read {found[0].name}: {exc}'
+        results['analyses'][key] = {k: v for k, v in status.items() if k != 'traceback'}
+        sections.append(analysis_section(key, ANALYSES[key][1], status, out_p))
+    prov = provenance(command)
+    results['provenance'] = prov
+    summary = summary_lines(results)
+    results['summary'] = summary
+    (out_p / 'results.json').write_text(
+        json.dumps(clean_json(results), indent=2, allow_nan=False) + '\n', encoding='utf-8'
+    )
+    page = render_html(f'tribo session report: {bag_p.name}', summary, sections, prov)
+    html_path = out_p / 'report.html'
+    html_path.write_text(page, encoding='utf-8')
+    say(f'wrote {html_path}')
+    return ReportResult(html_path, results, summary)
