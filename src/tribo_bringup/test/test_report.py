@@ -124,9 +124,9 @@ def write_bag(path: Path, *, seconds: float = 3.0, missing_block: int | None = N
                     )
                     wears.append(ws)
                     w.write_msg(
-                        '/nvct/wear', stamp + j, t['tribo_msgs/msg/WearState'](
-                            header=_header(stamp + j), **ws
-                        )
+                        '/nvct/wear',
+                        stamp + j,
+                        t['tribo_msgs/msg/WearState'](header=_header(stamp + j), **ws),
                     )
     return {'estimates': estimates, 'wear': wears, 'signals': signals}
 
@@ -308,3 +308,21 @@ def test_opens_in_headless_chromium(report: dict[str, Any], tmp_path: Path) -> N
     assert shot.is_file() and shot.stat().st_size > 10_000, proc.stderr[-2000:]
     console = [ln for ln in proc.stderr.splitlines() if 'CONSOLE' in ln or 'Uncaught' in ln]
     assert console == [], console
+
+
+def test_offline_blocks_csv_is_read(tmp_path: Path) -> None:
+    from tribo_bringup.report import offline_blocks
+
+    d = tmp_path / 'analyses' / 'friction'
+    d.mkdir(parents=True)
+    (d / 'blocks.csv').write_text(
+        't_start,t_end,mu0,mu_inf,mu0_se,mu_inf_se,moment_min,moment_max,moment_mean,motion,'
+        'n_sticks,stick_fraction,rms_residual,quality\n'
+        '0,1,0.131,0.0987,0.002,0.001,-3,40,18,stick-slip,80,0.61,0.05,ok\n'
+        '1,2,nan,nan,nan,nan,-3,40,18,steady,0,0,nan,no_sliding\n'
+    )
+    blocks = offline_blocks(d)
+    assert [b['mu0'] for b in blocks] == [0.131, None]  # nan -> None (never a number)
+    assert blocks[0]['n_sticks'] == 80 and blocks[1]['quality'] == 'no_sliding'
+    assert blocks[0]['first_index'] is None  # not in blocks.csv: no Fig. 6 detail
+    assert offline_blocks(tmp_path / 'nothing') == []

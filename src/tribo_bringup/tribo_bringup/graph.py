@@ -12,11 +12,9 @@ import importlib
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
-
-import yaml
 
 from tribo_bringup.errors import ConfigError
 from tribo_common.node_main import spin_background
@@ -30,49 +28,33 @@ NODES: dict[str, tuple[str, str]] = {
     'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
 }
 
-#: RIG.yaml keys that are parameters of the rig nodes (sim_rig, friction_estimator).
-RIG_KEYS = (
-    'I1',
-    'K1',
-    'C1',
-    'I2',
-    'K2',
-    'C2',
-    'F_N',
-    'R',
-    'mu0',
-    'mu_inf',
-    'k',
-    'nominal_speed',
-)
-#: Further RIG.yaml keys used by the simulated rig only.
-SIM_KEYS = ('ramp_time', 'noise_torque', 'noise_accel', 'noise_speed', 'seed')
-
 
 def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
-    """Parameter values per node from a RIG.yaml (``effects:`` -> ``effects.<name>``)."""
-    path = Path(rig_yaml)
-    try:
-        data = yaml.safe_load(path.read_text(encoding='utf-8'))
-    except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f'{path}: cannot read rig file: {exc}') from exc
-    if not isinstance(data, dict):
-        raise ConfigError(f'{path}: a rig file is a mapping of parameter names to values')
-    missing = [k for k in RIG_KEYS if k not in data]
-    if missing:
-        raise ConfigError(
-            f'{path}: missing key {missing[0]!r} (rig files need {", ".join(RIG_KEYS)})'
-        )
-    common = {k: float(data[k]) for k in RIG_KEYS}
+    """Parameter values per node from a RIG.yaml.
+
+    The file is read and validated by the core loader
+    (:func:`tribo_estimation.core.config.load_rig_config`); its keys are the
+    rig nodes' parameter names, ``effects:`` become ``effects.<name>``.
+    """
+    from tribo_estimation.core.config import load_rig_config
+
+    cfg = load_rig_config(rig_yaml)
+    common: dict[str, Any] = {f.name: float(getattr(cfg.rig, f.name)) for f in fields(cfg.rig)}
+    common.update(
+        mu0=cfg.friction.mu0,
+        mu_inf=cfg.friction.mu_inf,
+        k=cfg.friction.k,
+        nominal_speed=cfg.drive.nominal_speed,
+    )
     sim = dict(common)
-    for k in SIM_KEYS:
-        if k in data:
-            sim[k] = int(data[k]) if k == 'seed' else float(data[k])
-    effects = data.get('effects') or {}
-    if not isinstance(effects, dict):
-        raise ConfigError(f'{path}: effects must be a mapping of extension names to values')
-    for name, value in effects.items():
-        sim[f'effects.{name}'] = float(value)
+    sim.update(
+        ramp_time=cfg.drive.ramp_time,
+        noise_torque=cfg.noise.torque,
+        noise_accel=cfg.noise.accel,
+        noise_speed=cfg.noise.speed,
+    )
+    for f in fields(cfg.extensions):
+        sim[f'effects.{f.name}'] = float(getattr(cfg.extensions, f.name))
     return {'sim_rig': sim, 'friction_estimator': common}
 
 

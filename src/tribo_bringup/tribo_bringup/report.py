@@ -401,14 +401,51 @@ FRICTION_COLUMNS = (
 )  # fmt: skip
 
 
+def offline_blocks(directory: Path) -> list[dict[str, Any]]:
+    """Blocks of a ``tribo friction`` run (its ``blocks.csv``) as estimate dicts; [] if none."""
+    found = sorted(directory.rglob('blocks.csv')) if directory.is_dir() else []
+    if not found:
+        return []
+    out: list[dict[str, Any]] = []
+    with found[0].open(newline='', encoding='utf-8') as fh:
+        for row in csv.DictReader(fh):
+            e: dict[str, Any] = {}
+            for name, (kind, _desc) in bc.FRICTION_FIELDS.items():
+                raw = row.get(name)
+                if raw is None or raw == '':
+                    e[name] = None
+                elif kind == 'string':
+                    e[name] = raw
+                else:
+                    try:
+                        v = float(raw)
+                    except ValueError:
+                        v = math.nan
+                    e[name] = (
+                        int(v)
+                        if kind == 'integer' and math.isfinite(v)
+                        else (v if math.isfinite(v) else None)
+                    )
+            if e.get('t_start') is None or e.get('quality') is None:
+                continue
+            out.append(e)
+    return out
+
+
 def friction_section(
-    scan: BagScan, results: dict, out: Path, bag: Path, C1: float
+    ests: list[dict[str, Any]], source: str, results: dict, out: Path, bag: Path, C1: float
 ) -> list[Section]:
-    title = 'Friction per block (live estimator, /friction/estimate)'
-    ests = scan.estimates
+    """Per-block friction table, Fig. 4/5 and Fig. 6 style plots (paper 2.5, Equ. 8)."""
+    title = f'Friction per block ({source})'
     if not ests:
         results['friction'] = None
-        return [_unavailable('friction', title, 'no /friction/estimate messages in the bag')]
+        return [
+            _unavailable(
+                'friction',
+                'Friction per block',
+                'no /friction/estimate messages in the bag and no offline fit result',
+            )
+        ]
     _write_csv(out / 'friction_blocks.csv', ests, FRICTION_COLUMNS)
     good = [e for e in ests if e['quality'] == 'ok']
     mu0 = _finite(e['mu0'] for e in good)
@@ -416,7 +453,7 @@ def friction_section(
     motions: dict[str, int] = {}
     for e in good:
         motions[e['motion']] = motions.get(e['motion'], 0) + 1
-    summary = {
+    summary: dict[str, Any] = {
         'blocks': len(ests),
         'blocks_ok': len(good),
         'mu0_min': float(mu0.min()) if mu0.size else None,
@@ -430,9 +467,10 @@ def friction_section(
         if good
         else None,
     }
+    summary['source'] = source
     results['friction'] = summary
     body = _kv(
-        {k: v for k, v in summary.items() if k != 'motion_types'},
+        {k: v for k, v in summary.items() if k not in ('motion_types', 'source')},
         'friction-summary',
     )
     body += (
@@ -485,6 +523,8 @@ def friction_section(
             picks.append((cand[len(cand) // 2], motion))
     details: list[Detail] = []
     for e, motion in picks:
+        if e.get('first_index') is None:
+            continue
         d = read_detail(
             bag,
             int(e['first_index']),
@@ -759,9 +799,9 @@ def run_analysis(
     try:
         if command_options(argv[0]) is None:
             status['reason'] = f'the tribo {argv[0]} command is not installed'
-            return status
-        run_command(argv)
-        status['ok'] = True
+        else:
+            run_command(argv)
+            status['ok'] = True
     except SystemExit as exc:  # argparse usage error
         status['reason'] = f'tribo {argv[0]}: bad arguments (exit {exc.code})'
     except Exception as exc:  # any failure of one analysis leaves the rest of the report
@@ -952,10 +992,17 @@ def summary_lines(results: Mapping[str, Any]) -> list[str]:
     else:
         lines.append(f'Discrepancy workflow: unavailable ({disc.get("reason", "no result")})')
     sess = results.get('session') or {}
-    lines.append(
-        f'Recording: {fmt(sess.get("duration_s"), 3)} s, missing samples = '
-        f'{sess.get("missing_samples", "n/a")}'
-    )
+    streams = sess.get('streams') or []
+    if streams:
+        samples = sum(int(st['samples']) for st in streams)
+        lines.append(
+            f'Recording: {fmt(sess.get("duration_s"), 3)} s, {len(streams)} sample streams, '
+            f'{samples} samples, missing samples = {sess.get("missing_samples", "n/a")}'
+        )
+    else:
+        lines.append(
+            f'Recording: {fmt(sess.get("duration_s"), 3)} s, no rig sample streams in the bag'
+        )
     return lines
 
 
@@ -1008,11 +1055,11 @@ def build_report(
     scan = scan_bag(bag_p)
     C1 = float(rig_data.get('C1', 2338.6))
     sections = [session_section(bag_p, scan, results, out_p), rig_section(rig_data, rig_s, results)]
-    sections += friction_section(scan, results, out_p, bag_p, C1)
-    sections.append(wear_section(scan, nvct_data, results, out_p))
+    wear_sec = wear_section(scan, nvct_data, results, out_p)
     todo = [a for a in analyses if a in ANALYSES]
     if discrepancy:
         todo.append('discrepancy')
+    analysis_sections: list[Section] = []
     for key in todo:
         if key == 'wear' and nvct_s is None:
             status: dict[str, Any] = {'ok': False, 'reason': 'no NVCT.yaml given (--nvct)'}
@@ -1030,7 +1077,16 @@ def build_report(
                 except (OSError, ValueError) as exc:
                     status['reason'] = f'cannot read {found[0].name}: {exc}'
         results['analyses'][key] = {k: v for k, v in status.items() if k != 'traceback'}
-        sections.append(analysis_section(key, ANALYSES[key][1], status, out_p))
+        analysis_sections.append(analysis_section(key, ANALYSES[key][1], status, out_p))
+    if scan.estimates:
+        ests, source = scan.estimates, 'live estimator, /friction/estimate'
+    else:
+        ests = offline_blocks(out_p / 'analyses' / 'friction')
+        source = 'offline fit, tribo friction'
+    say('friction section and plots')
+    sections += friction_section(ests, source, results, out_p, bag_p, C1)
+    sections.append(wear_sec)
+    sections += analysis_sections
     prov = provenance(command)
     results['provenance'] = prov
     summary = summary_lines(results)

@@ -97,7 +97,13 @@ def register(sub: Any) -> None:
         help='seconds of the bag the discrepancy workflow analyses (0: all; default %(default)s)',
     )
     p.add_argument('--no-discrepancy', action='store_true', help='skip the discrepancy workflow')
-    p.add_argument('--bridge', action='store_true', help='also serve the Foxglove live bridge')
+    p.add_argument(
+        '--no-bridge',
+        dest='bridge',
+        action='store_false',
+        help='do not serve the Foxglove live bridge (default: served on ws://127.0.0.1:8765 '
+        'while the demo runs; open it in Foxglove with config/foxglove_layout.json)',
+    )
     p.set_defaults(func=run)
 
 
@@ -153,11 +159,7 @@ def _node_class(name: str) -> Any | None:
     if cls is not None:
         return cls
     for obj in vars(module).values():
-        if (
-            isinstance(obj, type)
-            and issubclass(obj, Node)
-            and obj.__module__ == module.__name__
-        ):
+        if isinstance(obj, type) and issubclass(obj, Node) and obj.__module__ == module.__name__:
             return obj
     return None
 
@@ -197,6 +199,7 @@ def run_graph(
     if bridge:
         wanted.append('live_bridge')
     graph = Graph(nodes=[])
+    warm_up(over['sim_rig'])
     writer = bagio.BagWriter(bag)
     writer.__enter__()
     ran: list[str] = []
@@ -221,30 +224,86 @@ def run_graph(
                 continue
             graph.extra_nodes.append(node)
             ran.append(name)
+            if name == 'live_bridge':
+                _say(
+                    f'watch live in Foxglove: open ws://127.0.0.1:{node.port} with the layout '
+                    f'{CONFIG / "foxglove_layout.json"}'
+                )
         if 'sim_rig' not in ran:
             raise BringupError('the simulated rig (tribo_drivers sim_rig) is not available')
         recorder = Recorder(writer)
         graph.extra_nodes.append(recorder)
         for n in notes:
             _say(n)
-        _say(f'live graph: {", ".join(ran)} + recorder -> {bag}; {duration:g} s')
-        t_start = time.monotonic()
-
-        def progress(t: float) -> None:
-            c = writer.counts
-            _say(
-                f'{t:5.0f}/{duration:g} s: '
-                f'{c.get("/rig/torsion_moment", 0)} rig blocks, '
-                f'{c.get("/friction/estimate", 0)} friction estimates, '
-                f'{c.get("/nvct/wear", 0)} wear states recorded'
-            )
-
-        graph.spin(duration, progress=progress)
-        _say(f'live run finished after {time.monotonic() - t_start:.1f} s')
+        _say(f'live graph: {", ".join(ran)} + recorder -> {bag}')
+        _spin_recording(graph, writer, duration)
     finally:
         graph.close()
         writer.close()
     return ran, notes
+
+
+def warm_up(rig: dict[str, Any]) -> None:
+    """Compile (or load from numba's cache) the rig model before the clock starts."""
+    try:
+        from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
+        from tribo_estimation.core.simulate import simulate
+    except ImportError:
+        return
+    _say('preparing the rig model (numba kernel; compiled once, then cached)')
+    t0 = time.monotonic()
+    effects = {k[len('effects.') :]: v for k, v in rig.items() if k.startswith('effects.')}
+    simulate(
+        RigParams(*(float(rig[k]) for k in ('I1', 'K1', 'C1', 'I2', 'K2', 'C2', 'F_N', 'R'))),
+        FrictionLaw(float(rig['mu0']), float(rig['mu_inf']), float(rig['k'])),
+        DriveProfile(float(rig['nominal_speed']), float(rig.get('ramp_time', 0.0))),
+        0.001,
+        10_000.0,
+        extensions=Extensions(**effects),
+    )
+    _say(f'rig model ready ({time.monotonic() - t0:.1f} s)')
+
+
+def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 600.0) -> None:
+    """Spin the graph; record ``duration`` [s] from the first rig block on, with progress."""
+    import threading
+
+    stop = threading.Event()
+    spinner = threading.Thread(
+        target=graph.spin, kwargs={'duration': 0.0, 'stop': stop}, daemon=True
+    )
+    spinner.start()
+    try:
+        t_wait = time.monotonic()
+        last = t_wait
+        while writer.counts.get('/rig/torsion_moment', 0) == 0:
+            now = time.monotonic()
+            if now - t_wait > wait_max:
+                raise BringupError(f'the simulated rig published nothing in {wait_max:.0f} s')
+            if now - last >= 10.0:
+                _say(f'waiting for the simulated rig to stream ({now - t_wait:.0f} s)')
+                last = now
+            time.sleep(0.1)
+        t0 = time.monotonic()
+        last = t0
+        _say(f'recording {duration:g} s')
+        while (now := time.monotonic()) - t0 < duration:
+            if not spinner.is_alive():
+                raise BringupError('the graph stopped spinning unexpectedly')
+            if now - last >= 5.0:
+                c = writer.counts
+                _say(
+                    f'{now - t0:5.0f}/{duration:g} s: '
+                    f'{c.get("/rig/torsion_moment", 0)} rig blocks, '
+                    f'{c.get("/friction/estimate", 0)} friction estimates, '
+                    f'{c.get("/nvct/wear", 0)} wear states recorded'
+                )
+                last = now
+            time.sleep(0.1)
+        _say(f'live run finished after {time.monotonic() - t0:.1f} s')
+    finally:
+        stop.set()
+        spinner.join(timeout=10.0)
 
 
 def run(args: argparse.Namespace) -> int:

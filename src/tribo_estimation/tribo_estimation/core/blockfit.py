@@ -40,7 +40,7 @@ from __future__ import annotations
 import csv
 import math
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, fields, replace
 from typing import TextIO
 
@@ -50,7 +50,10 @@ from numba import njit
 
 from ..errors import EstimationError, InvalidDataError, InvalidParameterError, UnitError
 from . import kernel as kn
+from .align import AlignEvent, GapEvent, RestartEvent
 from .model import DriveProfile, FrictionLaw, RigParams, pack_params
+from .observer import FrictionObserver, friction_moment
+from .sticks import classify_motion, detect_sticks
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -77,7 +80,7 @@ class BlockConfig:
         min_fraction: smallest fraction of valid samples for a fit [-].
         saturation_run: this many equal consecutive samples at the block's
             extreme value mark a clipped sensor [samples].
-        min_stick_samples: shortest stick phase used as a shooting node [samples].
+        min_stick_duration: shortest stick phase counted (FrictionEstimate: 2 ms) [s].
     """
 
     block_length: float = 1.0
@@ -89,7 +92,7 @@ class BlockConfig:
     max_iter: int = 8
     min_fraction: float = 0.5
     saturation_run: int = 5
-    min_stick_samples: int = 2
+    min_stick_duration: float = 2e-3
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length) and 0.01 <= self.block_length <= 600.0):
@@ -118,9 +121,9 @@ class BlockConfig:
             raise InvalidParameterError(
                 f'saturation_run must be >= 2 samples, got {self.saturation_run}'
             )
-        if self.min_stick_samples < 1:
+        if not (math.isfinite(self.min_stick_duration) and self.min_stick_duration >= 0.0):
             raise InvalidParameterError(
-                f'min_stick_samples must be >= 1, got {self.min_stick_samples}'
+                f'min_stick_duration must be >= 0 s, got {self.min_stick_duration!r}'
             )
 
 
@@ -413,7 +416,8 @@ class FitOutcome:
 
     mu0, mu_inf, k [-, -, s/rad] with standard errors; ``rms_residual`` [N m];
     ``simulated`` torsion moment of the final fit [N m] (NaN outside the
-    simulated segments); ``n_iter`` iterations; ``converged``.
+    simulated segments); ``n_iter`` iterations; ``n_eval`` simulations of the
+    block; ``converged``; ``w0`` drive speed used [rad/s].
     """
 
     mu0: float
@@ -425,8 +429,31 @@ class FitOutcome:
     rms_residual: float
     simulated: FloatArray
     n_iter: int
+    n_eval: int
     converged: bool
     w0: float
+
+
+#: Half width of the local polynomial that gives phi1 and w1 = phi1' [samples].
+_HALF = 7
+
+#: Shooting nodes sit this many samples before the detected end of a stick phase
+#: (the stuck motion before it does not depend on the friction law) [samples].
+_LEAD = 15
+
+#: Shortest stick phase used as a shooting node [samples].
+_MIN_NODE = 2
+_DEBUG = False
+
+
+def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
+    """Rows (value, slope) of the least-squares cubic through offsets lo_off..hi_off-1."""
+    x = np.arange(lo_off, hi_off, dtype=float)
+    A = np.vstack((np.ones_like(x), x, x * x, x * x * x)).T
+    return np.linalg.pinv(A)[:2]
+
+
+_SYM_ROWS = _cubic_rows(-_HALF, _HALF + 1)
 
 
 def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
@@ -434,14 +461,9 @@ def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
     n = hi - lo
     if n < 6:
         return float(y[j]), math.nan
-    x = np.arange(lo, hi, dtype=float) - j
-    A = np.vstack((np.ones(n), x, x * x, x * x * x)).T
-    coef, *_ = np.linalg.lstsq(A, y[lo:hi], rcond=None)
-    return float(coef[0]), float(coef[1])
-
-
-#: Half width of the local polynomial that gives phi1 and w1 = phi1' [samples].
-_HALF = 7
+    rows = _SYM_ROWS if (lo == j - _HALF and hi == j + _HALF + 1) else _cubic_rows(lo - j, hi - j)
+    c = rows @ y[lo:hi]
+    return float(c[0]), float(c[1])
 
 
 def _stuck_state(
@@ -507,8 +529,8 @@ def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> np.ndarray
 def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[float, float]:
     """Equation-error estimate of (mu0, mu_inf) from the observer moment M [N m].
 
-    mu0: median over stick phases of max |M| around the breakaway (last stuck
-    sample and the first sliding ones), divided by F_N*R (Equ. 5). mu_inf: median
+    mu0: median over stick phases of max |M| around the breakaway (the end of
+    the stick phase and the first sliding samples), divided by F_N*R (Equ. 5). mu_inf: median
     |M|/(F_N*R) over the second half of each sliding phase, where the
     deceleration rule gives mu = mu_inf. Without sticking mu0 is NaN and mu_inf
     the median |M|/(F_N*R) of the block.
@@ -520,7 +542,13 @@ def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[floa
     n = len(d)
     if starts.size == 0:
         return math.nan, float(np.median(m)) / fnr
-    peaks = [float(np.max(m[max(0, e - 1) : min(n, e + 3)])) for e in ends if e < n]
+    # |M_stick| grows until breakaway (Equ. 5), then mu(|v|) falls: the maximum of
+    # |M| over the end of the stick phase and the first sliding samples
+    peaks = [
+        float(np.max(m[max(s0, e - 40) : min(n, e + 3)]))
+        for s0, e in zip(starts, ends, strict=True)
+        if e < n
+    ]
     mu0 = float(np.median(peaks)) / fnr if peaks else float(np.max(m)) / fnr
     tails: list[FloatArray] = []
     for e, s_next in zip(ends, np.r_[starts[1:], n], strict=True):
@@ -531,14 +559,58 @@ def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[floa
     return mu0, mu_inf
 
 
-def _autocorr1(r: FloatArray) -> float:
-    if r.shape[0] < 3:
-        return 0.0
-    r = r - r.mean()
-    den = float(np.dot(r, r))
-    if den <= 0.0:
-        return 0.0
-    return float(np.dot(r[1:], r[:-1]) / den)
+#: Acceleration samples this close to a switching event are not compared [samples].
+_JUMP_GUARD = 3
+
+
+def _jump_guard(a: FloatArray, threshold: float) -> BoolArray:
+    """True within +-_JUMP_GUARD samples of a jump of the (simulated) acceleration,
+    found as a second difference above ``threshold`` [rad/s^2]; NaN samples count too."""
+    n = a.shape[0]
+    bad = ~np.isfinite(a)
+    d2 = np.zeros(n)
+    ok = np.isfinite(a)
+    aa = np.where(ok, a, 0.0)
+    d2[1:-1] = np.abs(aa[2:] - 2.0 * aa[1:-1] + aa[:-2])
+    jump = (d2 > threshold) & ok
+    if jump.any():
+        k = np.ones(2 * _JUMP_GUARD + 1)
+        jump = np.convolve(jump.astype(float), k, mode='same') > 0.0
+    return jump | bad
+
+
+def _robust_se(
+    J: FloatArray, r: FloatArray, clusters: npt.NDArray[np.int64], n_par: int
+) -> FloatArray:
+    """Cluster-robust (sandwich) standard errors of a least-squares estimate.
+
+    Residuals within one shooting segment are correlated (phase and state
+    errors), between segments nearly independent, so the segments are the
+    clusters: ``cov = B^-1 (sum_s g_s g_s^T) B^-1 * G/(G - 1)``, ``B = J^T J``,
+    ``g_s = J_s^T r_s``. With fewer than 3 clusters the classical
+    ``s^2 (J^T J)^-1`` with a lag-1 autocorrelation inflation is used.
+    """
+    B = J.T @ J
+    try:
+        Binv = np.linalg.inv(B)
+    except np.linalg.LinAlgError:
+        return np.full(n_par, math.nan)
+    uniq, inv = np.unique(clusters, return_inverse=True)
+    G = uniq.shape[0]
+    if G >= 3:
+        scores = np.zeros((G, n_par))
+        np.add.at(scores, inv, J * r[:, None])
+        meat = scores.T @ scores
+        cov = Binv @ meat @ Binv * (G / (G - 1))
+    else:
+        dof = max(1, r.shape[0] - n_par)
+        s2 = float(np.dot(r, r)) / dof
+        rr = r - r.mean()
+        den = float(np.dot(rr, rr))
+        rho = float(np.dot(rr[1:], rr[:-1]) / den) if den > 0.0 else 0.0
+        rho = min(max(rho, 0.0), 0.99)
+        cov = Binv * s2 * (1.0 + rho) / (1.0 - rho)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 def fit_block(
@@ -568,7 +640,7 @@ def fit_block(
     fnr = rig.F_N * rig.R
     if fnr <= 0.0:
         raise FitError('F_N*R is zero: no contact, no friction to fit')
-    mu0_i, muinf_i = initial_estimate(d, fnr, cfg.min_stick_samples)
+    mu0_i, muinf_i = initial_estimate(d, fnr, _MIN_NODE)
     if init is not None:
         if math.isfinite(init[0]):
             mu0_i = init[0]
@@ -589,11 +661,15 @@ def fit_block(
 
     # shooting nodes
     starts_s, ends_s = stick_phases(d.stick)
-    keep = (ends_s - starts_s) >= cfg.min_stick_samples
+    keep = (ends_s - starts_s) >= _MIN_NODE
     starts_s, ends_s = starts_s[keep], ends_s[keep]
     sticky = starts_s.size > 0
     if sticky:
-        anchors = starts_s + np.minimum(_HALF, (ends_s - starts_s - 1) // 2)
+        # the stuck motion does not depend on the friction law until breakaway: start
+        # each segment late in its stick phase (fewer samples to simulate)
+        anchors = np.maximum(
+            starts_s + np.minimum(_HALF, (ends_s - starts_s - 1) // 2), ends_s - _LEAD
+        )
         states = np.vstack(
             [_stuck_state(p, d, int(j), int(lo), int(hi), w0)
              for j, lo, hi in zip(anchors, starts_s, ends_s, strict=True)]
@@ -624,70 +700,84 @@ def fit_block(
         if not sticky:
             p[kn.P_MU0] = p[kn.P_MUINF]  # irrelevant after the peak; kept consistent
 
+    n_eval = [0]
+
     def residual(th: FloatArray) -> FloatArray:
+        n_eval[0] += 1
         set_theta(th)
         _shoot(p, states, seg_start, seg_end, dt, n_sub, sim_t, sim_a, scratch)
-        return np.concatenate(((sim_t[used] - meas_t) / sig_m, (sim_a[used] - meas_a) / sig_a))
+        return np.concatenate(((sim_t[used] - meas_t) / sig_m, (sim_a[used] - meas_a) * w_acc))
+
+    def jacobian(th: FloatArray, r0: FloatArray) -> FloatArray:
+        """Forward-difference sensitivities (event-accurate kernel: smooth in theta)."""
+        out = np.empty((r0.shape[0], th.shape[0]))
+        for j, nm in enumerate(names):
+            h = 1e-4 * max(abs(th[j]), 0.05 if nm != 'k' else 1.0)
+            tj = th.copy()
+            tj[j] += h
+            out[:, j] = (residual(tj) - r0) / h
+        return out
 
     start = {'mu0': mu0_i, 'mu_inf': muinf_i, 'k': k}
     theta = np.array([max(start[nm], 0.0) for nm in names], dtype=float)
     lower = np.zeros(len(names))
+    # clusters for the standard errors: the shooting segments (nearly independent),
+    # or 50 ms pieces of a single-shooting block
+    seg_id = np.full(n, -1, dtype=np.int64)
+    if sticky:
+        for i, (a, b) in enumerate(zip(seg_start, seg_end, strict=True)):
+            seg_id[a:b] = i
+    else:
+        seg_id[:] = np.arange(n) // max(1, round(0.05 * d.fs))
+    cl = seg_id[used]
+    clusters = np.concatenate((cl, cl))
+
+    # The acceleration jumps at switching events (stick onset, breakaway, slip-speed
+    # peak); a sample next to an event changes discontinuously when the event time
+    # crosses the sample instant. Those samples (found in the simulation at the start
+    # values, +-_JUMP_GUARD) are left out of the acceleration residual; the torsion
+    # moment (continuous in the parameters) keeps every sample.
+    w_acc = np.full(n_used, 1.0 / sig_a)
     r = residual(theta)
+    w_acc = np.where(_jump_guard(sim_a, 10.0 * sig_a)[used], 0.0, 1.0 / sig_a)
+    r[n_used:] = (sim_a[used] - meas_a) * w_acc
     cost = float(np.dot(r, r))
-    lam = 1e-3
+    J = jacobian(theta, r)
+    se = _robust_se(J, r, clusters, len(names))
+    lam = 1e-4
     converged = False
+    at_theta = False  # the simulated arrays hold the evaluation at theta
     it = 0
-    J = np.zeros((r.shape[0], len(names)))
     for it in range(1, cfg.max_iter + 1):  # noqa: B007
-        # forward-difference sensitivities (event-accurate kernel: smooth in theta)
-        for j, nm in enumerate(names):
-            h = 1e-4 * max(abs(theta[j]), 0.05 if nm != 'k' else 1.0)
-            th = theta.copy()
-            th[j] += h
-            J[:, j] = (residual(th) - r) / h
         g = J.T @ r
         A = J.T @ J
-        improved = False
-        for _ in range(6):
+        accepted = False
+        step = np.zeros_like(theta)
+        for _ in range(5):
             step = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
             th_new = np.maximum(theta + step, lower)
             r_new = residual(th_new)
             c_new = float(np.dot(r_new, r_new))
-            if c_new < cost:
-                improved = True
-                rel = (cost - c_new) / max(cost, 1e-300)
+            if _DEBUG:
+                print('it', it, 'lam', lam, 'theta', theta, 'step', step, 'cost', cost, '->', c_new, 'se', se)
+            if c_new <= cost:
+                step = th_new - theta
                 theta, r, cost = th_new, r_new, c_new
                 lam = max(lam / 10.0, 1e-9)
-                small = np.all(np.abs(step) <= 1e-7 + 1e-6 * np.abs(theta))
-                if small or rel < 1e-10:
-                    converged = True
+                accepted = True
                 break
             lam *= 10.0
-        if not improved:
-            converged = True  # no descent direction left at this resolution
+        at_theta = accepted
+        # a step far below the statistical uncertainty (or 1e-4 relative) ends the iteration
+        tol = np.maximum(np.where(np.isfinite(se), 0.1 * se, 0.0), 1e-4 * np.abs(theta)) + 1e-12
+        if not accepted or np.all(np.abs(step) <= tol):
+            converged = True
             break
-        if converged:
-            break
-    # final residual at theta (simulated arrays hold the last evaluation: recompute)
-    r = residual(theta)
-    # standard errors: residual variance, corrected for lag-1 autocorrelation
-    m_used = r.shape[0]
-    dof = max(1, m_used - len(names))
-    s2 = float(np.dot(r, r)) / dof
-    rho = max(_autocorr1(r[:n_used]), _autocorr1(r[n_used:]), 0.0)
-    rho = min(rho, 0.99)
-    infl = (1.0 + rho) / (1.0 - rho)
-    for j, nm in enumerate(names):  # Jacobian at the final theta
-        h = 1e-4 * max(abs(theta[j]), 0.05 if nm != 'k' else 1.0)
-        th = theta.copy()
-        th[j] += h
-        J[:, j] = (residual(th) - r) / h
-    r = residual(theta)  # leave sim arrays at the estimate
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2 * infl
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    except np.linalg.LinAlgError:
-        se = np.full(len(names), math.nan)
+        J = jacobian(theta, r)
+        at_theta = False
+        se = _robust_se(J, r, clusters, len(names))
+    if not at_theta:
+        r = residual(theta)  # leave the simulated arrays at the estimate
     val = dict(zip(names, theta, strict=True))
     err = dict(zip(names, se, strict=True))
     rms = float(np.sqrt(np.mean((sim_t[used] - meas_t) ** 2)))
@@ -701,6 +791,354 @@ def fit_block(
         rms_residual=rms,
         simulated=sim_t.copy(),
         n_iter=it,
+        n_eval=n_eval[0],
         converged=converged,
         w0=w0,
     )
+
+
+# ============================================================ per-block evaluation
+def chamber_speed(torsion: FloatArray, fs: float, c1: float) -> FloatArray:
+    """Chamber speed w1 = phi1' = (dM_t/dt)/C1 [rad/s] from the torsion moment
+    (local cubic, 2*7+1 samples; one-sided at the ends)."""
+    from scipy.signal import savgol_filter
+
+    n = torsion.shape[0]
+    win = min(2 * _HALF + 1, n - (1 - n % 2))
+    if win < 5:
+        return np.zeros(n)
+    return np.asarray(savgol_filter(torsion, win, 3, deriv=1, delta=1.0 / fs)) / c1
+
+
+@dataclass
+class PendingBlock:
+    """Samples of one block, collected by :class:`BlockEstimator`, ready to evaluate.
+
+    Arrays have the block length; ``valid`` is False where samples are missing (gap).
+    ``moment`` is the streaming observer's friction moment [N m] (None: computed
+    per block). ``flags`` are those known while collecting (``gap``, ``startup``).
+    """
+
+    index: int
+    first_index: int
+    t_start: float
+    fs: float
+    torsion: FloatArray
+    accel: FloatArray
+    speed: FloatArray
+    valid: BoolArray
+    moment: FloatArray | None = None
+    flags: set[str] = field(default_factory=set)
+
+    @property
+    def t_end(self) -> float:
+        return self.t_start + self.torsion.shape[0] / self.fs
+
+
+@dataclass(frozen=True)
+class BlockDetail:
+    """Signals of an evaluated block for plots (Fig. 6): the fitted stretch."""
+
+    result: BlockResult
+    data: BlockData
+    simulated: FloatArray
+
+
+def _longest_run(valid: BoolArray) -> tuple[int, int]:
+    st, en = stick_phases(valid)
+    if st.size == 0:
+        return 0, 0
+    i = int(np.argmax(en - st))
+    return int(st[i]), int(en[i])
+
+
+def evaluate_block(
+    rig: RigParams,
+    friction: FrictionLaw,
+    cfg: BlockConfig,
+    blk: PendingBlock,
+    init: tuple[float, float] | None = None,
+) -> BlockDetail:
+    """Evaluate one collected block: checks, stick detection, fit, bookkeeping.
+
+    ``friction`` gives k (fixed or start value) and the fallback start values
+    of mu0/mu_inf. Never raises for bad data in the block: problems become
+    quality flags; only wrong units raise :class:`UnitError` (a configuration
+    error that would spoil every block).
+    """
+    flags = set(blk.flags)
+    a, b = _longest_run(blk.valid)
+    n_block = blk.torsion.shape[0]
+    nan = math.nan
+    if b - a < n_block:
+        flags.add('gap')
+    tq = blk.torsion[a:b]
+    ac = blk.accel[a:b]
+    sp = blk.speed[a:b]
+    t0 = blk.t_start + a / blk.fs
+    n = b - a
+
+    def finish(
+        out: FitOutcome | None, stick: BoolArray, motion: str, n_sticks: int, w0: float,
+        data: BlockData | None,
+    ) -> BlockDetail:
+        order = [f for f in FLAGS if f in flags]
+        res = BlockResult(
+            index=blk.index,
+            first_index=blk.first_index,
+            t_start=blk.t_start,
+            t_end=blk.t_end,
+            mu0=out.mu0 if out else nan,
+            mu_inf=out.mu_inf if out else nan,
+            mu0_se=out.mu0_se if out else nan,
+            mu_inf_se=out.mu_inf_se if out else nan,
+            k=out.k if out else friction.k,
+            k_se=out.k_se if out else (nan if cfg.fit_k else 0.0),
+            moment_min=float(np.min(tq)) if n else nan,
+            moment_max=float(np.max(tq)) if n else nan,
+            moment_mean=float(np.mean(tq)) if n else nan,
+            motion=motion,
+            n_sticks=n_sticks,
+            stick_fraction=float(np.mean(stick)) if stick.size else nan,
+            rms_residual=out.rms_residual if out else nan,
+            quality=tuple(order),
+            w0=w0,
+            n_samples=n,
+            n_iter=out.n_iter if out else 0,
+        )
+        empty = np.empty(0)
+        dd = data or BlockData(t0, blk.fs, tq, ac, sp, empty, empty, np.zeros(0, bool))
+        sim = out.simulated if out else np.full(n, nan)
+        return BlockDetail(res, dd, sim)
+
+    if n < max(20, cfg.min_fraction * n_block):
+        flags.add('short')
+        return finish(None, np.zeros(n, bool), 'steady', 0, nan, None)
+    if not (np.all(np.isfinite(tq)) and np.all(np.isfinite(ac)) and np.all(np.isfinite(sp))):
+        flags.add('fit_failed')
+        return finish(None, np.zeros(n, bool), 'steady', 0, nan, None)
+    if is_saturated(tq, cfg.saturation_run) or is_saturated(ac, cfg.saturation_run):
+        flags.add('saturated')
+    w_mean = float(np.mean(sp))
+    if cfg.nominal_speed is not None:
+        ratio = w_mean / cfg.nominal_speed
+        if 9.0 < ratio < 10.2:
+            raise UnitError(
+                f'speed mean {w_mean:.4g} is {ratio:.3g} x the nominal speed '
+                f'{cfg.nominal_speed:.4g} rad/s: the speed looks like rpm, expected rad/s'
+            )
+        w0 = cfg.nominal_speed
+    else:
+        if abs(w_mean) > 20.0:
+            raise UnitError(
+                f'speed mean {w_mean:.4g} is beyond the rig (about 10 rad/s at 100 rpm): '
+                'the speed looks like rpm, expected rad/s'
+            )
+        w0 = w_mean
+    c1 = rig.C1
+    w1 = chamber_speed(tq, blk.fs, c1)
+    if blk.moment is not None and np.all(np.isfinite(blk.moment[a:b])):
+        moment = blk.moment[a:b]
+    else:  # one-shot observer (Equ. 1 solved for M) started at the measured speed
+        moment, _ = friction_moment(rig, tq, ac, blk.fs, initial_speed=float(w1[0]))
+    time = t0 + np.arange(n) / blk.fs
+    try:
+        phases = detect_sticks(time, tq, ac, sp, rig, min_duration=cfg.min_stick_duration)
+    except EstimationError:
+        phases = []
+    stick = np.zeros(n, dtype=bool)
+    for ph in phases:
+        i0 = max(0, math.ceil((ph.start - t0) * blk.fs - 1e-9))
+        i1 = min(n, math.ceil((ph.end - t0) * blk.fs - 1e-9))
+        stick[i0:i1] = True
+    # stick phases that start inside the block (one running at its start is counted
+    # in the block before)
+    n_sticks = sum(1 for ph in phases if ph.start > t0 + 0.5 / blk.fs)
+    motion = classify_motion(time, tq, ac, sp, rig, sticks=phases)
+    data = BlockData(t0, blk.fs, tq, ac, sp, moment, w1, stick)
+    if abs(w0) < 1e-3 or float(np.mean(stick)) > 0.99:
+        flags.add('no_sliding')
+        return finish(None, stick, motion, n_sticks, w0, data)
+    try:
+        out = fit_block(rig, data, w0, friction.k, cfg, init=init)
+    except FitError:
+        flags.add('fit_failed')
+        return finish(None, stick, motion, n_sticks, w0, data)
+    vals = [out.mu_inf, out.mu_inf_se] + ([out.mu0] if phases else [])
+    if not out.converged or not all(math.isfinite(v) for v in vals):
+        flags.add('fit_failed')
+    return finish(out, stick, motion, n_sticks, w0, data)
+
+
+class BlockEstimator:
+    """Streaming block-wise estimator: aligned chunks in, one result per block out.
+
+    Blocks are fixed index ranges ``[i*N, (i+1)*N)`` (``N = block_length*fs``)
+    of the stream, so results do not depend on how the input was chunked.
+    Memory is one block of samples, whatever the session length.
+
+    :meth:`push` collects (cheap, for a subscription callback) and returns
+    :class:`PendingBlock` objects; :meth:`evaluate` does the fit (heavy, for a
+    worker thread). :meth:`feed` does both.
+    """
+
+    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+        self.rig = rig
+        self.friction = friction
+        self.cfg = cfg
+        self.fs: float | None = None
+        self._n = 0
+        self._cur: PendingBlock | None = None
+        self._epoch_first: int | None = None  # first index of the current epoch
+        self._epoch_t0 = math.nan
+        self._observer: FrictionObserver | None = None
+        self.blocks_done = 0
+        #: Observer friction moment of the last chunk pushed [N m] (for /friction/moment).
+        self.last_moment: FloatArray = np.zeros(0)
+
+    # ---------------------------------------------------------------- collect
+    def _new_block(self, bi: int, t_first: float, idx_first: int) -> PendingBlock:
+        assert self.fs is not None
+        n = self._n
+        start_idx = bi * n
+        t_start = t_first - (idx_first - start_idx) / self.fs
+        flags: set[str] = set()
+        if self._epoch_first is not None and (
+            start_idx <= self._epoch_first
+            or t_start < self._epoch_t0 + self.cfg.ramp_time - 1e-9
+        ):
+            flags.add('startup')
+        return PendingBlock(
+            index=bi,
+            first_index=start_idx,
+            t_start=t_start,
+            fs=self.fs,
+            torsion=np.full(n, np.nan),
+            accel=np.full(n, np.nan),
+            speed=np.full(n, np.nan),
+            valid=np.zeros(n, dtype=bool),
+            moment=np.full(n, np.nan),
+            flags=flags,
+        )
+
+    def push(self, event: AlignEvent) -> list[PendingBlock]:
+        """Collect one aligner event; return the blocks completed by it."""
+        done: list[PendingBlock] = []
+        self.last_moment = np.zeros(0)
+        if isinstance(event, RestartEvent):
+            if self._cur is not None:
+                done.append(self._cur)
+            self._cur = None
+            self._epoch_first = None
+            self._observer = None
+            return done
+        if isinstance(event, GapEvent):
+            if self._cur is not None:
+                self._cur.flags.add('gap')
+            self._observer = None  # the chamber speed is lost with the samples
+            return done
+        ch = event
+        if self.fs is None:
+            self.fs = ch.sample_rate
+            self._n = max(1, round(self.cfg.block_length * self.fs))
+        if self._epoch_first is None:
+            self._epoch_first = ch.first_index
+            self._epoch_t0 = ch.t0
+        if self._observer is None:
+            w_start = float(chamber_speed(ch.torsion[: 4 * _HALF], ch.sample_rate, self.rig.C1)[0])
+            self._observer = FrictionObserver(self.rig, ch.sample_rate, initial_speed=w_start)
+        moment = self._observer.update(ch.torsion, ch.accel)
+        self.last_moment = moment
+        n = self._n
+        pos = 0
+        m = len(ch)
+        while pos < m:
+            idx = ch.first_index + pos
+            bi = idx // n
+            if self._cur is not None and self._cur.index != bi:
+                done.append(self._cur)
+                self._cur = None
+            if self._cur is None:
+                self._cur = self._new_block(bi, ch.t0 + pos / ch.sample_rate, idx)
+            off = idx - bi * n
+            take = min(n - off, m - pos)
+            cur = self._cur
+            cur.torsion[off : off + take] = ch.torsion[pos : pos + take]
+            cur.accel[off : off + take] = ch.accel[pos : pos + take]
+            cur.speed[off : off + take] = ch.speed[pos : pos + take]
+            assert cur.moment is not None
+            cur.moment[off : off + take] = moment[pos : pos + take]
+            cur.valid[off : off + take] = True
+            pos += take
+            if off + take == n:
+                done.append(cur)
+                self._cur = None
+        return done
+
+    def flush(self) -> list[PendingBlock]:
+        """End of input: the partial block (if any)."""
+        if self._cur is None:
+            return []
+        blk = self._cur
+        self._cur = None
+        return [blk]
+
+    # ---------------------------------------------------------------- evaluate
+    def evaluate(self, blk: PendingBlock) -> BlockDetail:
+        """Fit one collected block (see :func:`evaluate_block`)."""
+        det = evaluate_block(self.rig, self.friction, self.cfg, blk)
+        self.blocks_done += 1
+        return det
+
+    def feed(self, event: AlignEvent) -> list[BlockDetail]:
+        """Collect and evaluate in one go (offline use)."""
+        return [self.evaluate(b) for b in self.push(event)]
+
+    def finish(self) -> list[BlockDetail]:
+        """Evaluate the partial last block (offline use)."""
+        return [self.evaluate(b) for b in self.flush()]
+
+
+def estimate_blocks(
+    rig: RigParams,
+    friction: FrictionLaw,
+    cfg: BlockConfig,
+    events: Iterable[AlignEvent],
+) -> Iterator[BlockDetail]:
+    """Stream :class:`BlockDetail` for a sequence of aligner events."""
+    est = BlockEstimator(rig, friction, cfg)
+    for ev in events:
+        yield from est.feed(ev)
+    yield from est.finish()
+
+
+def results_as_dicts(results: Iterable[BlockResult]) -> list[dict[str, object]]:
+    """Results as plain dicts (all dataclass fields)."""
+    return [{f.name: getattr(r, f.name) for f in fields(r)} for r in results]
+
+
+def with_flags(r: BlockResult, *extra: str) -> BlockResult:
+    """A copy of ``r`` with further quality flags."""
+    q = [f for f in FLAGS if f in set(r.quality) | set(extra)]
+    return replace(r, quality=tuple(q))
+
+
+__all__ = [
+    'CSV_COLUMNS',
+    'FLAGS',
+    'MOTIONS',
+    'BlockConfig',
+    'BlockCsvWriter',
+    'BlockData',
+    'BlockDetail',
+    'BlockEstimator',
+    'BlockResult',
+    'FitError',
+    'FitOutcome',
+    'PendingBlock',
+    'estimate_blocks',
+    'evaluate_block',
+    'fit_block',
+    'read_blocks_csv',
+    'results_table',
+]

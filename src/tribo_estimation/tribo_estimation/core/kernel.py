@@ -115,7 +115,12 @@ EV_BREAKAWAY = 3
 
 
 # ================================================================ drive and friction law
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def drive_speed(p: np.ndarray, t: float) -> float:
     """Drive speed w0(t) [rad/s]: linear start-up ramp to the nominal speed plus ripple."""
     w0n = p[P_W0]
@@ -129,7 +134,12 @@ def drive_speed(p: np.ndarray, t: float) -> float:
     return w
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def drive_angle(p: np.ndarray, t: float) -> float:
     """Drive angle phi0(t) = integral_0^t w0 dt' [rad] (closed form of :func:`drive_speed`)."""
     w0n = p[P_W0]
@@ -152,13 +162,23 @@ def drive_angle(p: np.ndarray, t: float) -> float:
     return a
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def friction_levels(p: np.ndarray, t: float) -> tuple[float, float]:
     """(mu0(t), mu_inf(t)) including the linear drift with test time t [s]."""
     return p[P_MU0] + p[P_DRIFT_MU0] * t, p[P_MUINF] + p[P_DRIFT_MUINF] * t
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def friction_coefficient(p: np.ndarray, t: float, v_abs: float, peak_passed: bool) -> float:
     """Friction coefficient of Equ. 8 with the paper's deceleration rule.
 
@@ -171,7 +191,12 @@ def friction_coefficient(p: np.ndarray, t: float, v_abs: float, peak_passed: boo
     return (mu0 - muinf) * math.exp(-p[P_K] * v_abs) + muinf
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def static_coefficient(p: np.ndarray, t: float, t_stick: float) -> float:
     """Static friction coefficient mu_s = mu0(t) + gain*(1 - exp(-t_stick/tau)) [-].
 
@@ -189,7 +214,12 @@ def static_coefficient(p: np.ndarray, t: float, t_stick: float) -> float:
 
 
 # ================================================================ equations of motion
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def bearing_moment(p: np.ndarray, w1: float) -> float:
     """Regularised Coulomb moment of the chamber bearing, opposing w1 [N m]."""
     mb = p[P_BEARING]
@@ -199,19 +229,34 @@ def bearing_moment(p: np.ndarray, w1: float) -> float:
     return mb * w1 / math.sqrt(w1 * w1 + reg * reg)
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def chamber_moment(p: np.ndarray, phi1: float, w1: float) -> float:
     """External moment on the chamber except friction, Q1 = -K1*w1 - C1*phi1 - M_b [N m]."""
     return -p[P_K1] * w1 - p[P_C1] * phi1 - bearing_moment(p, w1)
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def shaft_moment(p: np.ndarray, t: float, phi2: float, w2: float) -> float:
     """External moment on the shaft except friction, Q2 = -K2*(w2-w0) - C2*(phi2-phi0) [N m]."""
     return -p[P_K2] * (w2 - drive_speed(p, t)) - p[P_C2] * (phi2 - drive_angle(p, t))
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def stick_moment(p: np.ndarray, t: float, phi1: float, w: float, phi2: float) -> float:
     """Moment that keeps the discs together while sticking (Equ. 6, corrected) [N m].
 
@@ -225,7 +270,12 @@ def stick_moment(p: np.ndarray, t: float, phi1: float, w: float, phi2: float) ->
     return (i1 * q2 - i2 * q1) / (i1 + i2)
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def slip_friction_moment(
     p: np.ndarray, t: float, v: float, direction: float, peak_passed: bool, lag: float
 ) -> float:
@@ -241,7 +291,12 @@ def slip_friction_moment(
     return p[P_FN] * p[P_R] * direction * mu + p[P_VISC] * v
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def derivatives(
     p: np.ndarray,
     t: float,
@@ -278,7 +333,36 @@ def derivatives(
 
 
 # ================================================================ integrator
-@njit(cache=True, error_model='numpy', inline='always')
+#: Largest allowed product of step and the local slip-dynamics rate (see :func:`slip_rate`).
+STEP_RATE = 0.15
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def slip_rate(p: np.ndarray, t: float, v_abs: float, peak_passed: bool) -> float:
+    """Rate of the slip dynamics due to the friction-curve slope [1/s].
+
+    ``|dM/dv|*(1/I1 + 1/I2)`` with ``dM/dv`` from Equ. 8 (and viscous friction);
+    used to shorten the RK4 step right after breakaway, where the falling
+    friction curve acts as a negative damper.
+    """
+    slope = p[P_VISC]
+    if not peak_passed and p[P_LAG_TAU] <= 0.0:
+        mu0, muinf = friction_levels(p, t)
+        slope += p[P_FN] * p[P_R] * abs(mu0 - muinf) * p[P_K] * math.exp(-p[P_K] * v_abs)
+    return slope * (1.0 / p[P_I1] + 1.0 / p[P_I2])
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def _rk4(
     p: np.ndarray,
     t: float,
@@ -341,7 +425,12 @@ def _rk4(
     )
 
 
-@njit(cache=True, error_model='numpy', inline='always')
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
 def _event_value(
     p: np.ndarray,
     which: int,
@@ -363,7 +452,7 @@ def _event_value(
     return p[P_FN] * p[P_R] * static_coefficient(p, t, t_stick) - abs(ms)
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def _locate(
     p: np.ndarray,
     which: int,
@@ -413,7 +502,7 @@ def _locate(
     return b
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def integrate(
     p: np.ndarray, s: np.ndarray, n_out: int, dt: float, n_sub: int, out: np.ndarray
 ) -> int:
@@ -426,10 +515,33 @@ def integrate(
         ``s[S_T] + n_out*dt``.
     n_out : number of output samples; sample i is the state at ``t_start + i*dt``.
     dt : output sample interval [s].
-    n_sub : RK4 steps per output interval (>= 1).
+    n_sub : RK4 steps per output interval (>= 1; see :func:`substeps_for`).
     out : float64[N_CH, >= n_out] output channels (``OUT_*``).
 
     Returns the number of located stick/slip/peak events.
+    """
+    return integrate_logged(
+        p, s, n_out, dt, n_sub, out, np.empty(0), np.empty(0, dtype=np.int64)
+    )
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def integrate_logged(
+    p: np.ndarray,
+    s: np.ndarray,
+    n_out: int,
+    dt: float,
+    n_sub: int,
+    out: np.ndarray,
+    ev_time: np.ndarray,
+    ev_kind: np.ndarray,
+) -> int:
+    """:func:`integrate` that also logs the located events.
+
+    ``ev_time[k]`` [s] and ``ev_kind[k]`` receive the k-th event (kinds: ``EV_SLIP_END``
+    = slip ended and the discs stick, ``-EV_SLIP_END`` = slip ended and sliding
+    reverses, ``EV_PEAK``, ``EV_BREAKAWAY``) while k < len(ev_time); the count is
+    returned either way.
     """
     t_base = s[S_T]
     t = t_base
@@ -462,13 +574,23 @@ def integrate(
                 if hh <= 1e-12 * h:
                     t = t_end
                     break
+                t_step = t_end
+                if not stuck:
+                    # local step control where the falling friction curve makes the
+                    # slip dynamics fast (negative damping right after breakaway)
+                    lam = slip_rate(p, t, abs(y[3] - y[1]), peak)
+                    if lam * hh > STEP_RATE:
+                        hh = STEP_RATE / lam
+                        t_step = t + hh
                 y1 = _rk4(p, t, y[0], y[1], y[2], y[3], y[4], k1, hh, stuck, direction, peak)
-                k1n = derivatives(p, t_end, y1[0], y1[1], y1[2], y1[3], y1[4], stuck, direction, peak)
+                k1n = derivatives(
+                    p, t_step, y1[0], y1[1], y1[2], y1[3], y1[4], stuck, direction, peak
+                )
                 ev = EV_NONE
                 tau = hh
                 if stuck:
                     ms = k1n[5]
-                    g_b = fnr * static_coefficient(p, t_end, t_stick + hh) - abs(ms)
+                    g_b = fnr * static_coefficient(p, t_step, t_stick + hh) - abs(ms)
                     if g_b < 0.0:
                         g_a = fnr * static_coefficient(p, t, t_stick) - abs(k1[5])
                         tau = _locate(
@@ -488,7 +610,18 @@ def integrate(
                         gp_a = direction * (k1[3] - k1[1])
                         if gp_b <= 0.0 and gp_a > 0.0:
                             tp = _locate(
-                                p, EV_PEAK, t, y, k1, hh, gp_a, gp_b, stuck, direction, peak, t_stick
+                                p,
+                                EV_PEAK,
+                                t,
+                                y,
+                                k1,
+                                hh,
+                                gp_a,
+                                gp_b,
+                                stuck,
+                                direction,
+                                peak,
+                                t_stick,
                             )
                             if tp < tau:
                                 tau = tp
@@ -502,8 +635,10 @@ def integrate(
                         va = abs(y[3] - y[1])
                         if va > vmax:
                             vmax = va
-                    t = t_end
-                    break
+                    t = t_step
+                    if t_step == t_end:
+                        break
+                    continue
                 # advance to the event and switch
                 if tau <= 0.0:
                     n_zero += 1
@@ -511,13 +646,18 @@ def integrate(
                         # cannot make progress at this instant: accept the trial step
                         y = y1
                         k1 = k1n
-                        t = t_end
-                        break
+                        t = t_step
+                        if t_step == t_end:
+                            break
+                        continue
                 else:
                     y = _rk4(p, t, y[0], y[1], y[2], y[3], y[4], k1, tau, stuck, direction, peak)
                     t = t + tau
                     if stuck:
                         t_stick += tau
+                if n_events < ev_time.shape[0]:
+                    ev_time[n_events] = t
+                    ev_kind[n_events] = ev
                 n_events += 1
                 if ev == EV_PEAK:
                     peak = True
@@ -532,6 +672,8 @@ def integrate(
                         t_stick = 0.0
                     else:
                         direction = 1.0 if ms >= 0.0 else -1.0
+                        if n_events <= ev_kind.shape[0]:
+                            ev_kind[n_events - 1] = -EV_SLIP_END
                     peak = False
                     vmax = 0.0
                 else:  # breakaway
@@ -557,7 +699,7 @@ def integrate(
     return n_events
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def drive_speed_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Vectorised :func:`drive_speed` [rad/s]."""
     out = np.empty(t.shape[0])
@@ -566,7 +708,7 @@ def drive_speed_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def drive_angle_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Vectorised :func:`drive_angle` [rad]."""
     out = np.empty(t.shape[0])
@@ -575,7 +717,7 @@ def drive_angle_array(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def friction_coefficient_array(
     p: np.ndarray, t: float, v_abs: np.ndarray, peak_passed: bool
 ) -> np.ndarray:

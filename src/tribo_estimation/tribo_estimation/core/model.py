@@ -68,9 +68,7 @@ class RigParams:
     @classmethod
     def tab1(cls, F_N: float = 8000.0, R: float = 0.08) -> RigParams:
         """The paper's Tab. 1 rig with the given contact load [N] and radius [m]."""
-        return cls(
-            I1=0.0109, K1=0.04034, C1=2338.6, I2=0.0315, K2=4.0, C2=5975.0, F_N=F_N, R=R
-        )
+        return cls(I1=0.0109, K1=0.04034, C1=2338.6, I2=0.0315, K2=4.0, C2=5975.0, F_N=F_N, R=R)
 
     @property
     def natural_frequency_hz(self) -> float:
@@ -122,16 +120,12 @@ class DriveProfile:
         _check_finite(self)
         _require(self.ramp_time >= 0.0, self, 'ramp_time', '>= 0 s')
 
-    def speed(
-        self, t: np.ndarray | float, extensions: Extensions | None = None
-    ) -> np.ndarray:
+    def speed(self, t: np.ndarray | float, extensions: Extensions | None = None) -> np.ndarray:
         """w0(t) [rad/s] (with the drive-ripple extension if given)."""
         p = pack_params(RigParams.tab1(), FrictionLaw(0.1, 0.1), self, extensions)
         return kn.drive_speed_array(p, np.atleast_1d(np.asarray(t, dtype=float)))
 
-    def angle(
-        self, t: np.ndarray | float, extensions: Extensions | None = None
-    ) -> np.ndarray:
+    def angle(self, t: np.ndarray | float, extensions: Extensions | None = None) -> np.ndarray:
         """phi0(t) [rad] (with the drive-ripple extension if given)."""
         p = pack_params(RigParams.tab1(), FrictionLaw(0.1, 0.1), self, extensions)
         return kn.drive_angle_array(p, np.atleast_1d(np.asarray(t, dtype=float)))

@@ -11,7 +11,7 @@ chunk by chunk reproduces one long call.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import lfilter
@@ -54,7 +54,9 @@ class SimResult:
     [rad/s^2], ``speed`` (shaft, w2) [rad/s]. Truth (noise-free): ``friction_moment`` M
     [N m], ``slip_speed`` v = w2 - w1 [rad/s], ``stick`` (bool), ``chamber_speed`` w1
     [rad/s]. ``final_state`` is the state at ``time[-1] + 1/fs`` (start of the next
-    chunk); ``n_events`` the number of located switching events.
+    chunk); ``n_events`` the number of located switching events, ``event_times`` [s]
+    and ``event_kinds`` their exact instants and kinds (``kernel.EV_*``; ``-EV_SLIP_END``
+    = slip ended without sticking, i.e. reversal).
     """
 
     time: np.ndarray
@@ -68,6 +70,8 @@ class SimResult:
     final_state: RigState
     n_events: int
     fs: float
+    event_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    event_kinds: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
@@ -119,7 +123,11 @@ def simulate(
         raise InvalidParameterError(f'substeps must be >= 1, got {n_sub}')
     out = np.empty((kn.N_CH, n))
     t_start = float(s[kn.S_T])
-    n_events = int(kn.integrate(p, s, n, dt, n_sub, out))
+    cap = n // 4 + 64
+    ev_time = np.empty(cap)
+    ev_kind = np.empty(cap, dtype=np.int64)
+    n_events = int(kn.integrate_logged(p, s, n, dt, n_sub, out, ev_time, ev_kind))
+    n_log = min(n_events, cap)
     if not np.all(np.isfinite(out[: kn.N_CH, :])) or not np.all(np.isfinite(s[: kn.S_SENSOR])):
         raise SimulationError(
             'simulation diverged (non-finite state); check the rig parameters and step'
@@ -158,6 +166,8 @@ def simulate(
         final_state=RigState.from_vector(s),
         n_events=n_events,
         fs=fs,
+        event_times=ev_time[:n_log].copy(),
+        event_kinds=ev_kind[:n_log].copy(),
     )
 
 

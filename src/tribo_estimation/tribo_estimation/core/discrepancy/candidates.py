@@ -257,9 +257,9 @@ register(
     Candidate(
         'frictional_lag',
         'friction follows the Stribeck curve (Equ. 8) with a first-order lag tau',
-        (ParamSpec('lag_tau', 's', 1e-5, 0.05, 1.0, 5e-4, log=True),),
+        (ParamSpec('lag_tau', 's', 2e-4, 0.05, 1.0, 1e-3, log=True),),
         'phase',
-        lambda ctx: [{'lag_tau': v} for v in (1e-4, 2e-3)],
+        lambda ctx: [{'lag_tau': v} for v in (3e-4, 4e-3)],
     )
 )
 register(
@@ -319,7 +319,7 @@ register(
     Candidate(
         'bearing_friction',
         'Coulomb friction moment on the test-chamber support: -M_b*sgn(w1) in Equ. 1',
-        (ParamSpec('bearing_moment', 'N m', 0.0, 1e3, 0.1, 0.0),),
+        (ParamSpec('bearing_moment', 'N m', 0.0, 10.0, 0.1, 0.0),),
         'chamber_speed',
         _scaled_starts('bearing_moment', (0.02, 0.1)),
     )

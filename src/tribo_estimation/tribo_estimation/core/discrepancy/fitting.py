@@ -78,7 +78,7 @@ class Record:
 
     def __post_init__(self) -> None:
         n = self.time.size
-        for name in ('time', *CHANNELS):
+        for name in ('time', 'torsion_moment', 'angular_acceleration', 'speed'):
             a = getattr(self, name)
             if a.ndim != 1 or a.size != n:
                 raise InvalidDataError(f'record column {name!r} has shape {a.shape}, expected ({n},)')

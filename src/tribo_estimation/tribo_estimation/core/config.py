@@ -1,0 +1,157 @@
+"""RIG.yaml loader: rig, friction law, drive profile, extensions and noise.
+
+Top-level keys (SI): ``I1, K1, C1, I2, K2, C2, F_N, R, mu0, mu_inf, k, nominal_speed``
+(kg m^2, N m s/rad, N m/rad, kg m^2, N m s/rad, N m/rad, N, m, -, -, s/rad, rad/s).
+Optional: ``ramp_time`` [s], ``noise_torque`` [N m], ``noise_accel`` [rad/s^2],
+``noise_speed`` [rad/s], ``effects`` (mapping of :class:`model.Extensions` fields).
+A missing or unknown key, a non-numeric or out-of-range value raises an
+:class:`EstimationError` naming the key and the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
+from tribo_estimation.core.simulate import NoiseSpec
+from tribo_estimation.errors import (
+    ConfigFileError,
+    InvalidParameterError,
+    MissingKeyError,
+)
+
+REQUIRED_KEYS: tuple[str, ...] = (
+    'I1',
+    'K1',
+    'C1',
+    'I2',
+    'K2',
+    'C2',
+    'F_N',
+    'R',
+    'mu0',
+    'mu_inf',
+    'k',
+    'nominal_speed',
+)
+OPTIONAL_KEYS: tuple[str, ...] = (
+    'ramp_time',
+    'noise_torque',
+    'noise_accel',
+    'noise_speed',
+    'effects',
+)
+
+#: Plausibility ranges (inclusive) that catch unit mistakes: key -> (low, high, unit).
+RANGES: dict[str, tuple[float, float, str]] = {
+    'I1': (1e-6, 100.0, 'kg m^2'),
+    'K1': (0.0, 1e4, 'N m s/rad'),
+    'C1': (1e-3, 1e8, 'N m/rad'),
+    'I2': (1e-6, 100.0, 'kg m^2'),
+    'K2': (0.0, 1e4, 'N m s/rad'),
+    'C2': (1e-3, 1e8, 'N m/rad'),
+    'F_N': (0.0, 1e7, 'N'),
+    'R': (1e-4, 10.0, 'm'),
+    'mu0': (0.0, 2.0, '-'),
+    'mu_inf': (0.0, 2.0, '-'),
+    'k': (0.0, 1e3, 's/rad'),
+    'nominal_speed': (-1000.0, 1000.0, 'rad/s (not rpm)'),
+    'ramp_time': (0.0, 1e5, 's'),
+    'noise_torque': (0.0, 1e4, 'N m'),
+    'noise_accel': (0.0, 1e7, 'rad/s^2'),
+    'noise_speed': (0.0, 1e3, 'rad/s'),
+}
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """Everything a RIG.yaml describes."""
+
+    rig: RigParams
+    friction: FrictionLaw
+    drive: DriveProfile
+    extensions: Extensions
+    noise: NoiseSpec
+    source: str = '<dict>'
+
+
+def _number(data: Mapping[str, Any], key: str, source: str) -> float:
+    val = data[key]
+    if isinstance(val, bool) or not isinstance(val, int | float):
+        raise InvalidParameterError(f'{source}: key {key!r} must be a number, got {val!r}')
+    x = float(val)
+    if not math.isfinite(x):
+        raise InvalidParameterError(f'{source}: key {key!r} must be finite, got {val!r}')
+    if key in RANGES:
+        lo, hi, unit = RANGES[key]
+        if not lo <= x <= hi:
+            raise InvalidParameterError(
+                f'{source}: key {key!r} = {x} outside the plausible range [{lo}, {hi}] {unit}'
+            )
+    return x
+
+
+def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> RigConfig:
+    """Build a :class:`RigConfig` from a parsed RIG.yaml mapping."""
+    if not isinstance(data, Mapping):
+        raise ConfigFileError(f'{source}: expected a mapping of keys, got {type(data).__name__}')
+    for key in REQUIRED_KEYS:
+        if key not in data:
+            raise MissingKeyError(f'{source}: missing key {key!r}')
+    unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
+    if unknown:
+        raise InvalidParameterError(f'{source}: unknown key(s) {", ".join(map(repr, unknown))}')
+    v = {k: _number(data, k, source) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS[:4]) if k in data}
+    effects = data.get('effects') or {}
+    if not isinstance(effects, Mapping):
+        raise InvalidParameterError(f'{source}: key "effects" must be a mapping')
+    names = {f.name for f in dataclasses.fields(Extensions)}
+    for key in effects:
+        if key not in names:
+            raise InvalidParameterError(
+                f'{source}: unknown effect {key!r} (known: {", ".join(sorted(names))})'
+            )
+    try:
+        eff = {str(k): _number(effects, k, f'{source}: effects') for k in effects}
+        rig = RigParams(
+            I1=v['I1'],
+            K1=v['K1'],
+            C1=v['C1'],
+            I2=v['I2'],
+            K2=v['K2'],
+            C2=v['C2'],
+            F_N=v['F_N'],
+            R=v['R'],
+        )
+        friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
+        drive = DriveProfile(v['nominal_speed'], v.get('ramp_time', 0.0))
+        ext = Extensions(**eff)
+        noise = NoiseSpec(
+            v.get('noise_torque', 0.0), v.get('noise_accel', 0.0), v.get('noise_speed', 0.0)
+        )
+    except InvalidParameterError as exc:
+        raise InvalidParameterError(f'{source}: {exc}') from exc
+    return RigConfig(rig, friction, drive, ext, noise, source)
+
+
+def load_rig_config(path: str | Path) -> RigConfig:
+    """Read a RIG.yaml file (see the module docstring for the keys)."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as exc:
+        raise ConfigFileError(f'{p}: cannot read rig config ({exc.strerror})') from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigFileError(f'{p}: invalid YAML ({exc})') from exc
+    if data is None:
+        raise ConfigFileError(f'{p}: empty rig config')
+    return rig_config_from_dict(data, str(p))

@@ -1,0 +1,16 @@
+"""Missing-physics (discrepancy) workflow (issue 7).
+
+Find where the rig model (the paper's Equ. 1-8) and a measured record disagree,
+name the missing effect from a library of nested model extensions, add it, and
+show the gap shrink; describe what no candidate explains.
+
+Modules: :mod:`.stats` (residual statistics), :mod:`.localise` (where the gap
+concentrates), :mod:`.candidates` (the pluggable library), :mod:`.fitting`
+(segment-wise output-error fit), :mod:`.select` (cross-validated, BIC-checked
+forward selection), :mod:`.sparse` (SINDy-style proposal), :mod:`.report`
+(``discrepancy.json``), :mod:`.plots` (PNG figures).
+"""
+
+from .select import DiscrepancyResult, SelectionSettings, run_discrepancy
+
+__all__ = ['DiscrepancyResult', 'SelectionSettings', 'run_discrepancy']

@@ -1,0 +1,318 @@
+"""Rig CSV input/output (contract in docs/ARCHITECTURE.md, "Rig CSV").
+
+Header ``time,torsion_moment,angular_acceleration,speed`` (s, N m, rad/s^2, rad/s);
+extra columns after these (the simulator's truth ``friction_moment,slip_speed,stick``)
+are kept in :attr:`RigRecord.extra`. Lines starting with ``#`` are comments;
+``# key: value`` comments are returned as metadata. Blank lines are skipped.
+
+Readers check every value: a missing column, a non-numeric or non-finite value,
+a time that does not increase, or a speed whose magnitude says rpm instead of
+rad/s raise a specific :class:`EstimationError` naming the file, the column and
+the line. :func:`iter_rig_csv` reads long files block by block with the same
+checks (a one-hour 10 kHz file is never loaded at once).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import IO
+
+import numpy as np
+
+from tribo_estimation.errors import (
+    InvalidDataError,
+    MissingColumnError,
+    NonMonotonicTimeError,
+    TooShortError,
+    UnitError,
+)
+
+COLUMNS: tuple[str, ...] = ('time', 'torsion_moment', 'angular_acceleration', 'speed')
+UNITS: dict[str, str] = {
+    'time': 's',
+    'torsion_moment': 'N m',
+    'angular_acceleration': 'rad/s^2',
+    'speed': 'rad/s',
+    'friction_moment': 'N m',
+    'slip_speed': 'rad/s',
+    'stick': '-',
+}
+#: Largest plausible shaft speed of the stick-slip rig [rad/s] (955 rpm); a larger
+#: magnitude is taken as a speed written in rpm.
+MAX_SPEED = 100.0
+
+
+@dataclass(frozen=True)
+class RigRecord:
+    """A block of rig samples: ``time`` [s], ``torsion_moment`` [N m],
+    ``angular_acceleration`` [rad/s^2], ``speed`` [rad/s]; ``extra`` further columns
+    by name; ``metadata`` the ``# key: value`` comments; ``first_line`` the file
+    line of the first sample (1-based)."""
+
+    time: np.ndarray
+    torsion_moment: np.ndarray
+    angular_acceleration: np.ndarray
+    speed: np.ndarray
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    metadata: dict[str, str] = field(default_factory=dict)
+    first_line: int = 0
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    @property
+    def sample_rate(self) -> float:
+        """Mean sample rate [Hz] (NaN for fewer than two samples)."""
+        if len(self) < 2:
+            return float('nan')
+        return float((len(self) - 1) / (self.time[-1] - self.time[0]))
+
+
+# ----------------------------------------------------------------------------- writing
+class RigCsvWriter:
+    """Streaming writer: header once, then :meth:`write` block by block."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        extra_columns: tuple[str, ...] = (),
+        metadata: Mapping[str, object] | None = None,
+    ) -> None:
+        self.path = Path(path)
+        self.columns = (*COLUMNS, *extra_columns)
+        self._fh: IO[str] | None = self.path.open('w', encoding='utf-8', newline='\n')
+        units = ', '.join(f'{c} [{UNITS.get(c, "?")}]' for c in self.columns)
+        self._fh.write(f'# units: {units}\n')
+        for key, val in (metadata or {}).items():
+            text = str(val).replace('\n', ' ')
+            self._fh.write(f'# {key}: {text}\n')
+        self._fh.write(','.join(self.columns) + '\n')
+        self.rows = 0
+
+    def write(self, columns: Mapping[str, np.ndarray]) -> None:
+        """Append rows; ``columns`` maps every column name to an equal-length array."""
+        if self._fh is None:
+            raise InvalidDataError(f'{self.path}: writer already closed')
+        missing = [c for c in self.columns if c not in columns]
+        if missing:
+            raise MissingColumnError(f'{self.path}: no data for column(s) {missing}')
+        arrs = [np.asarray(columns[c], dtype=float) for c in self.columns]
+        n = arrs[0].shape[0]
+        if any(a.shape != (n,) for a in arrs):
+            raise InvalidDataError(f'{self.path}: columns differ in length')
+        fmt = ['%.12g'] + ['%.9g'] * (len(arrs) - 1)
+        np.savetxt(self._fh, np.column_stack(arrs), fmt=fmt, delimiter=',')
+        self.rows += n
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def __enter__(self) -> RigCsvWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def write_rig_csv(
+    path: str | Path,
+    time: np.ndarray,
+    torsion_moment: np.ndarray,
+    angular_acceleration: np.ndarray,
+    speed: np.ndarray,
+    *,
+    extra: Mapping[str, np.ndarray] | None = None,
+    metadata: Mapping[str, object] | None = None,
+) -> None:
+    """Write one rig CSV file (see the module docstring)."""
+    extra = dict(extra or {})
+    with RigCsvWriter(path, tuple(extra), metadata) as w:
+        w.write(
+            {
+                'time': time,
+                'torsion_moment': torsion_moment,
+                'angular_acceleration': angular_acceleration,
+                'speed': speed,
+                **extra,
+            }
+        )
+
+
+# ----------------------------------------------------------------------------- reading
+def _parse_header(
+    fh: IO[str], path: Path
+) -> tuple[list[str], dict[str, str], int]:
+    meta: dict[str, str] = {}
+    line_no = 0
+    for raw in fh:
+        line_no += 1
+        line = raw.strip()
+        if not line:
+            continue
+        if line.startswith('#'):
+            body = line[1:].strip()
+            if ':' in body:
+                key, _, val = body.partition(':')
+                meta[key.strip()] = val.strip()
+            continue
+        names = [c.strip() for c in line.split(',')]
+        for col in COLUMNS:
+            if col not in names:
+                raise MissingColumnError(
+                    f'{path}: missing column {col!r} in the header on line {line_no} '
+                    f'(expected {",".join(COLUMNS)})'
+                )
+        if len(set(names)) != len(names):
+            raise InvalidDataError(f'{path}: duplicate column names on line {line_no}')
+        return names, meta, line_no
+    raise TooShortError(f'{path}: no header line (expected {",".join(COLUMNS)})')
+
+
+def _parse_rows(
+    lines: list[str], numbers: list[int], names: list[str], path: Path
+) -> np.ndarray:
+    ncol = len(names)
+    try:
+        data = np.loadtxt(lines, delimiter=',', dtype=float, ndmin=2)
+        if data.shape[1] != ncol:
+            raise ValueError
+        return data
+    except ValueError:
+        pass
+    # locate the bad line for the message
+    for text, no in zip(lines, numbers, strict=True):
+        cells = text.split(',')
+        if len(cells) != ncol:
+            raise InvalidDataError(
+                f'{path}: line {no} has {len(cells)} fields, the header has {ncol}'
+            )
+        for cell, name in zip(cells, names, strict=True):
+            try:
+                float(cell)
+            except ValueError:
+                raise InvalidDataError(
+                    f'{path}: line {no}, column {name!r}: {cell.strip()!r} is not a number'
+                ) from None
+    raise InvalidDataError(f'{path}: cannot parse lines {numbers[0]}-{numbers[-1]}')
+
+
+def _check_block(
+    data: np.ndarray,
+    numbers: np.ndarray,
+    names: list[str],
+    path: Path,
+    last_time: float,
+    max_speed: float | None,
+) -> None:
+    bad = ~np.isfinite(data)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise InvalidDataError(
+            f'{path}: line {numbers[r]}, column {names[c]!r}: non-finite value {data[r, c]}'
+        )
+    t = data[:, names.index('time')]
+    steps = np.diff(np.concatenate([[last_time], t])) if np.isfinite(last_time) else np.diff(t)
+    off = 0 if np.isfinite(last_time) else 1
+    nonpos = np.flatnonzero(steps <= 0.0)
+    if nonpos.size:
+        i = nonpos[0] + off
+        raise NonMonotonicTimeError(
+            f'{path}: line {numbers[i]}: time {t[i]!r} s does not increase '
+            f'(previous sample {t[i - 1] if i > 0 else last_time!r} s)'
+        )
+    if max_speed is not None:
+        sp = data[:, names.index('speed')]
+        big = np.flatnonzero(np.abs(sp) > max_speed)
+        if big.size:
+            i = big[0]
+            raise UnitError(
+                f'{path}: line {numbers[i]}, column \'speed\': {sp[i]!r} exceeds the plausible '
+                f'{max_speed} rad/s of the rig; the speed looks like rpm (convert: '
+                f'rad/s = rpm*pi/30)'
+            )
+
+
+def _record(
+    data: np.ndarray, names: list[str], meta: dict[str, str], first_line: int
+) -> RigRecord:
+    cols = {n: np.ascontiguousarray(data[:, i]) for i, n in enumerate(names)}
+    return RigRecord(
+        time=cols.pop('time'),
+        torsion_moment=cols.pop('torsion_moment'),
+        angular_acceleration=cols.pop('angular_acceleration'),
+        speed=cols.pop('speed'),
+        extra=cols,
+        metadata=dict(meta),
+        first_line=first_line,
+    )
+
+
+def iter_rig_csv(
+    path: str | Path, block_size: int = 10_000, *, max_speed: float | None = MAX_SPEED
+) -> Iterator[RigRecord]:
+    """Yield the file in blocks of ``block_size`` samples, checking every value.
+
+    Time must increase across block boundaries too. ``max_speed`` [rad/s]: speeds of
+    larger magnitude raise :class:`UnitError` (``None`` switches the check off).
+    """
+    p = Path(path)
+    if block_size < 1:
+        raise InvalidDataError(f'block_size must be >= 1, got {block_size}')
+    try:
+        fh = p.open('r', encoding='utf-8')
+    except OSError as exc:
+        raise InvalidDataError(f'{p}: cannot open rig CSV ({exc.strerror})') from exc
+    with fh:
+        names, meta, line_no = _parse_header(fh, p)
+        last_time = float('nan')
+        lines: list[str] = []
+        numbers: list[int] = []
+        any_rows = False
+        for raw in fh:
+            line_no += 1
+            s = raw.strip()
+            if not s or s.startswith('#'):
+                continue
+            lines.append(s)
+            numbers.append(line_no)
+            if len(lines) >= block_size:
+                data = _parse_rows(lines, numbers, names, p)
+                _check_block(data, np.asarray(numbers), names, p, last_time, max_speed)
+                last_time = float(data[-1, names.index('time')])
+                any_rows = True
+                yield _record(data, names, meta, numbers[0])
+                lines, numbers = [], []
+        if lines:
+            data = _parse_rows(lines, numbers, names, p)
+            _check_block(data, np.asarray(numbers), names, p, last_time, max_speed)
+            any_rows = True
+            yield _record(data, names, meta, numbers[0])
+        if not any_rows:
+            raise TooShortError(f'{p}: no data rows after the header')
+
+
+def read_rig_csv(path: str | Path, *, max_speed: float | None = MAX_SPEED) -> RigRecord:
+    """Read a whole rig CSV file (for long files prefer :func:`iter_rig_csv`)."""
+    blocks = list(iter_rig_csv(path, 100_000, max_speed=max_speed))
+    if len(blocks) == 1:
+        return blocks[0]
+    extra_names = list(blocks[0].extra)
+    return RigRecord(
+        time=np.concatenate([b.time for b in blocks]),
+        torsion_moment=np.concatenate([b.torsion_moment for b in blocks]),
+        angular_acceleration=np.concatenate([b.angular_acceleration for b in blocks]),
+        speed=np.concatenate([b.speed for b in blocks]),
+        extra={n: np.concatenate([b.extra[n] for b in blocks]) for n in extra_names},
+        metadata=blocks[0].metadata,
+        first_line=blocks[0].first_line,
+    )
