@@ -1022,6 +1022,7 @@ def build_report(
     rig: str | Path | None = None,
     nvct: str | Path | None = None,
     discrepancy: bool = False,
+    analysis_rig: str | Path | None = None,
     analyses: Sequence[str] = ('friction', 'wear'),
     extra_args: Mapping[str, Sequence[str]] | None = None,
     notes: Mapping[str, str] | None = None,
@@ -1036,6 +1037,8 @@ def build_report(
         rig: RIG.yaml of the run (rig parameter table; C1 for the stick flags).
         nvct: NVCT.yaml (wear analysis, k_w).
         discrepancy: also run ``tribo discrepancy`` on the bag.
+        analysis_rig: RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
+            rig without the hidden effects the simulated rig ran with.
         analyses: offline analyses to run besides the discrepancy workflow.
         extra_args: extra command-line arguments per analysis.
         notes: a note per analysis shown in its section (e.g. analysed window).
@@ -1066,7 +1069,14 @@ def build_report(
         elif key == 'wear' and not scan.counts.get('/nvct/counts'):
             status = {'ok': False, 'reason': 'no /nvct/counts in the bag'}
         else:
-            argv = analysis_argv(key, bag_p, out_p, rig_s, nvct_s, (extra_args or {}).get(key, ()))
+            argv = analysis_argv(
+                key,
+                bag_p,
+                out_p,
+                str(analysis_rig) if analysis_rig is not None else rig_s,
+                nvct_s,
+                (extra_args or {}).get(key, ()),
+            )
             assert argv is not None
             status = run_analysis(key, argv, out_p, say, (notes or {}).get(key, ''))
         if key == 'discrepancy' and status.get('ok'):

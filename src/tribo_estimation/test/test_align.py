@@ -1,4 +1,4 @@
-"""ChannelAligner: any interleaving gives the same aligned stream; gaps and restarts are explicit."""
+"""ChannelAligner: any interleaving gives one aligned stream; gaps and restarts are explicit."""
 
 from __future__ import annotations
 
@@ -92,9 +92,7 @@ def test_gap_in_one_channel_is_reported_not_bridged() -> None:
     sig = _signals(n)
     blocks = _blocks(sig, dict.fromkeys(CHANNELS, 100))
     # accel loses samples 1000..1299 (three blocks)
-    blocks = [
-        b for b in blocks if not (b[0] == 'angular_acceleration' and 1000 <= b[1] < 1300)
-    ]
+    blocks = [b for b in blocks if not (b[0] == 'angular_acceleration' and 1000 <= b[1] < 1300)]
     events = _collect(ChannelAligner(), blocks)
     gaps = [e for e in events if isinstance(e, GapEvent)]
     assert len(gaps) == 1
@@ -186,8 +184,9 @@ def test_bad_blocks_raise_named_errors(kwargs: dict, word: str) -> None:
     args = {'channel': 'speed', 'first_index': 0, 'sample_rate': FS, 'stamp': 0.0}
     args.update(kwargs)
     with pytest.raises(EstimationError, match=word):
-        ChannelAligner().push(args['channel'], args['first_index'], args['sample_rate'],
-                              args['stamp'], np.zeros(3))
+        ChannelAligner().push(
+            args['channel'], args['first_index'], args['sample_rate'], args['stamp'], np.zeros(3)
+        )
 
 
 def test_mismatched_rates_raise() -> None:

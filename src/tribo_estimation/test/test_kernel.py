@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -24,7 +25,7 @@ def test_free_undamped_oscillation_matches_closed_form() -> None:
     # RK4 at omega*h = 0.027: phase error after 0.5 s ~ 1e-8 rad -> < 1e-6 of amplitude
     np.testing.assert_allclose(r.torsion_moment, expected, atol=1e-6 * rig.C1 * phi0)
     np.testing.assert_allclose(
-        r.angular_acceleration, -wn**2 * phi0 * np.cos(wn * r.time), atol=1e-6 * wn**2 * phi0
+        r.angular_acceleration, -(wn**2) * phi0 * np.cos(wn * r.time), atol=1e-6 * wn**2 * phi0
     )
 
 
@@ -68,8 +69,7 @@ def test_energy_balance_over_stick_slip_cycles() -> None:
     def energy(s: RigState) -> float:
         phi0 = drive.angle(s.t)[0]
         return 0.5 * (
-            RIG.I1 * s.w1**2 + RIG.I2 * s.w2**2 + RIG.C1 * s.phi1**2
-            + RIG.C2 * (s.phi2 - phi0) ** 2
+            RIG.I1 * s.w1**2 + RIG.I2 * s.w2**2 + RIG.C1 * s.phi1**2 + RIG.C2 * (s.phi2 - phi0) ** 2
         )
 
     dt = 1.0 / fs
@@ -109,7 +109,7 @@ def test_switch_instants_converge_under_step_refinement() -> None:
     assert errs[0] < 1e-6
     # refinement converges monotonically; once the step is below the local
     # slip-rate cap the fourth-order rate shows (>= 8x per halving at the end)
-    assert all(e1 < e0 for e0, e1 in zip(errs, errs[1:], strict=False))
+    assert all(e1 < e0 for e0, e1 in itertools.pairwise(errs))
     assert errs[-1] < errs[-2] / 8
     assert errs[-1] < errs[0] / 100
 

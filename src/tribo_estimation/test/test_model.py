@@ -119,8 +119,20 @@ def test_extensions_default_is_baseline_and_pack_roundtrip() -> None:
     p1 = pack_params(RIG, FrictionLaw(0.13, 0.1), DRIVE, Extensions())
     np.testing.assert_array_equal(p0, p1)
     assert p0.shape == (kn.NP,)
-    st = RigState(t=1.0, phi1=0.1, w1=0.2, phi2=0.3, w2=0.4, stuck=False, slip_dir=-1,
-                  peak_passed=True, v_max=2.0, stick_time=0.0, lag=0.11, sensor_lag=5.0)
+    st = RigState(
+        t=1.0,
+        phi1=0.1,
+        w1=0.2,
+        phi2=0.3,
+        w2=0.4,
+        stuck=False,
+        slip_dir=-1,
+        peak_passed=True,
+        v_max=2.0,
+        stick_time=0.0,
+        lag=0.11,
+        sensor_lag=5.0,
+    )
     assert RigState.from_vector(st.to_vector()) == st
 
 

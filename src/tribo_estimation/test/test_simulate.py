@@ -26,8 +26,15 @@ def _rel_rms(a: np.ndarray, b: np.ndarray) -> float:
     'ext',
     [
         Extensions(),
-        Extensions(lag_tau=0.001, drift_mu0=0.01, torque_lag_tau=0.0005, torque_offset=0.3,
-                   torque_offset_drift=0.1, stiction_gain=0.01, stiction_tau=0.003),
+        Extensions(
+            lag_tau=0.001,
+            drift_mu0=0.01,
+            torque_lag_tau=0.0005,
+            torque_offset=0.3,
+            torque_offset_drift=0.1,
+            stiction_gain=0.01,
+            stiction_tau=0.003,
+        ),
     ],
 )
 def test_chunked_equals_one_shot(ext: Extensions) -> None:
@@ -146,8 +153,12 @@ def test_bearing_friction_speeds_up_free_decay() -> None:
     from tribo_estimation.core.simulate import free_decay_state
 
     with_bearing = simulate(
-        rig_open, FrictionLaw(0.0, 0.0), DriveProfile(0.0), 0.3,
-        initial=free_decay_state(0.005), extensions=Extensions(bearing_moment=0.5),
+        rig_open,
+        FrictionLaw(0.0, 0.0),
+        DriveProfile(0.0),
+        0.3,
+        initial=free_decay_state(0.005),
+        extensions=Extensions(bearing_moment=0.5),
     )
     # Coulomb friction takes a fixed amplitude per cycle: clearly smaller at the end
     a_free = np.ptp(free.torsion_moment[-300:])

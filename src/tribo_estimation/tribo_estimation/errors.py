@@ -32,11 +32,8 @@ class NoOscillationError(InvalidDataError):
     """A free-decay record shows no (under-damped) oscillation to identify."""
 
 
-class MissingKeyError(EstimationError, KeyError):
+class MissingKeyError(EstimationError, LookupError):
     """A required key is missing from a configuration file (names the key and file)."""
-
-    def __str__(self) -> str:  # KeyError would print the repr with quotes
-        return str(self.args[0]) if self.args else 'missing key'
 
 
 class MissingColumnError(InvalidDataError):

@@ -20,11 +20,11 @@ import matplotlib
 
 matplotlib.use('Agg')
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import numpy.typing as npt  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import numpy.typing as npt
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 FloatArray = npt.NDArray[np.float64]
 BlockTable = Mapping[str, np.ndarray]
@@ -66,8 +66,14 @@ def _draw_mu(ax: Axes, table: BlockTable, x: FloatArray, errorbars: bool = True)
         se = np.asarray(table[se_key], float)
         if errorbars and good.sum() <= 400:
             ax.errorbar(
-                x[good], y[good], yerr=np.where(np.isfinite(se[good]), se[good], 0.0),
-                fmt='.', ms=3, color=color, lw=0.6, label=label,
+                x[good],
+                y[good],
+                yerr=np.where(np.isfinite(se[good]), se[good], 0.0),
+                fmt='.',
+                ms=3,
+                color=color,
+                lw=0.6,
+                label=label,
             )
         else:
             ax.plot(x[good], y[good], '.', ms=3, color=color, label=label)
@@ -84,9 +90,13 @@ def _save(fig: Figure, path: str | os.PathLike[str]) -> None:
     plt.close(fig)
 
 
-def plot_blocks(table: BlockTable, path: str | os.PathLike[str], title: str = '') -> None:
+def plot_blocks(
+    table: BlockTable, path: str | os.PathLike[str], title: str = ''
+) -> tuple[int, int]:
     """Paper Fig. 4/5 layout: upper torsion moment max/min/mean per block [N m],
-    lower mu0 and mu_inf per block (Equ. 8) with standard errors."""
+    lower mu0 and mu_inf per block (Equ. 8) with standard errors.
+
+    Returns (good blocks, flagged blocks) drawn."""
     x, xlabel = _time_axis(table)
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     _draw_moment(ax1, table, x)
@@ -98,6 +108,8 @@ def plot_blocks(table: BlockTable, path: str | os.PathLike[str], title: str = ''
         ax1.set_title(title)
     fig.tight_layout()
     _save(fig, path)
+    good = _good_mask(table)
+    return int(good.sum()), int((~good).sum())
 
 
 def stribeck(v: FloatArray, mu0: float, mu_inf: float, k: float) -> FloatArray:
@@ -119,7 +131,7 @@ def plot_mu_slip(
     mu = |M| / (F_N R) against |v| [rad/s] as points."""
     fig, ax = plt.subplots(figsize=(7, 5))
     if slip_speed is not None and mu_samples is not None and len(slip_speed):
-        ax.plot(np.abs(slip_speed), mu_samples, ',', color='0.5', alpha=0.5)
+        ax.plot(np.abs(slip_speed), mu_samples, '.', ms=1.5, color='0.45', alpha=0.4)
         ax.plot([], [], '.', color='0.5', label='observer samples')
     good = np.flatnonzero(
         _good_mask(table)
@@ -191,9 +203,13 @@ def plot_detail(traces: Sequence[DetailTrace], path: str | os.PathLike[str]) -> 
             ax.axvspan(a, b, color='tab:cyan', alpha=0.3, lw=0)
         ax.plot(tr.time, tr.torsion, color='k', lw=0.8, label='torsion $C_1\\varphi_1$ (measured)')
         if np.isfinite(tr.moment).any():
-            ax.plot(tr.time, tr.moment, color='tab:purple', lw=0.8, label='friction moment (observer)')
+            ax.plot(
+                tr.time, tr.moment, color='tab:purple', lw=0.8, label='friction moment (observer)'
+            )
         if np.isfinite(tr.simulated).any():
-            ax.plot(tr.time, tr.simulated, '--', color='tab:red', lw=0.8, label='torsion (fitted model)')
+            ax.plot(
+                tr.time, tr.simulated, '--', color='tab:red', lw=0.8, label='torsion (fitted model)'
+            )
         ax.plot([], [], 's', color='tab:cyan', alpha=0.3, label='sticking')
         ax.set_title(tr.title, fontsize=10)
         ax.set_ylabel('moment [N m]')
@@ -215,10 +231,14 @@ class CampaignRun:
     table: BlockTable
 
 
-def plot_campaign(runs: Sequence[CampaignRun], path: str | os.PathLike[str], title: str = '') -> None:
+def plot_campaign(
+    runs: Sequence[CampaignRun], path: str | os.PathLike[str], title: str = ''
+) -> tuple[int, int]:
     """Several runs side by side, as the paper's Fig. 4 (oil "A") vs Fig. 5 (oil "B"):
     one column per run of a group, two rows per group (torsion moment envelope
-    above, mu0/mu_inf below), shared axes so runs compare at a glance."""
+    above, mu0/mu_inf below), shared axes so runs compare at a glance.
+
+    Returns the grid (rows, columns)."""
     if not runs:
         raise ValueError('campaign: no runs to plot')
     groups: list[str] = []
@@ -260,3 +280,4 @@ def plot_campaign(runs: Sequence[CampaignRun], path: str | os.PathLike[str], tit
         fig.suptitle(title)
     fig.tight_layout()
     _save(fig, path)
+    return nrow, ncol

@@ -53,7 +53,7 @@ DEFAULT_RIG: dict[str, float] = {
 #: (fields of tribo_estimation.core.model.Extensions, SI units).
 EFFECTS: dict[str, dict[str, float]] = {
     'none': {},
-    'dwell_time_stiction': {'stiction_gain': 0.03, 'stiction_tau': 0.02},
+    'dwell_time_stiction': {'stiction_gain': 0.03, 'stiction_tau': 0.005},
     'frictional_lag': {'lag_tau': 0.003},
     'viscous': {'viscous': 2.0},
     'drift': {'drift_mu0': -2.0e-4, 'drift_mu_inf': -1.0e-4},
@@ -93,7 +93,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--discrepancy-seconds',
         type=float,
-        default=8.0,
+        default=5.0,
         help='seconds of the bag the discrepancy workflow analyses (0: all; default %(default)s)',
     )
     p.add_argument('--no-discrepancy', action='store_true', help='skip the discrepancy workflow')
@@ -177,7 +177,6 @@ def run_graph(
     from tribo_bringup import bagio
     from tribo_bringup.graph import Graph, rig_overrides
     from tribo_bringup.recorder import Recorder
-    from tribo_common.params import ParameterError
 
     over = rig_overrides(rig_file)
     time_scale = 240.0 * 60.0 / duration  # the 240 min wear test fills the run
@@ -211,16 +210,17 @@ def run_graph(
             if cls is None:
                 notes.append(f'{name} not available (module missing): left out')
                 continue
+            overrides = [Parameter(k, value=v) for k, v in params.get(name, {}).items()]
             try:
-                node = cls(
-                    parameter_overrides=[
-                        Parameter(k, value=v) for k, v in params.get(name, {}).items()
-                    ]
-                )
-            except (ParameterError, ValueError, OSError) as exc:
+                try:
+                    node = cls(parameter_overrides=overrides)
+                except TypeError:  # a node class that takes no rclpy Node keyword arguments
+                    node = cls()
+                    notes.append(f'{name} does not take parameter overrides: ran with defaults')
+            except Exception as exc:  # one node failing leaves the others running
                 if name == 'sim_rig':
                     raise BringupError(f'the simulated rig cannot start: {exc}') from exc
-                notes.append(f'{name} failed to start ({exc}): left out')
+                notes.append(f'{name} failed to start ({type(exc).__name__}: {exc}): left out')
                 continue
             graph.extra_nodes.append(node)
             ran.append(name)
@@ -320,6 +320,9 @@ def run(args: argparse.Namespace) -> int:
     rig, source = rig_for_demo(args.rig, args.effect)
     rig_file = out / 'rig_used.yaml'
     rig_file.write_text(yaml.safe_dump(rig, sort_keys=False), encoding='utf-8')
+    # the analyses get the nominal rig: the hidden effect is for them to find
+    nominal_file = out / 'rig_nominal.yaml'
+    nominal_file.write_text(yaml.safe_dump({**rig, 'effects': {}}, sort_keys=False), 'utf-8')
     effects = rig.get('effects') or {}
     _say(
         f'hidden effect: {args.effect} ('
@@ -351,6 +354,7 @@ def run(args: argparse.Namespace) -> int:
         rig=rig_file,
         nvct=CONFIG / 'nvct.yaml',
         discrepancy=not args.no_discrepancy,
+        analysis_rig=nominal_file,
         analyses=('friction', 'wear'),
         extra_args=extra,
         notes=report_notes,

@@ -153,9 +153,7 @@ class ChannelAligner:
             missing samples are declared a gap [samples].
     """
 
-    def __init__(
-        self, channels: tuple[str, ...] = CHANNELS, max_skew: int = 200_000
-    ) -> None:
+    def __init__(self, channels: tuple[str, ...] = CHANNELS, max_skew: int = 200_000) -> None:
         if len(channels) < 1 or len(set(channels)) != len(channels):
             raise AlignmentError(f'channel names must be unique and non-empty: {channels!r}')
         if max_skew < 1:
@@ -289,7 +287,9 @@ class ChannelAligner:
                 self._discard_before(latest_start)
                 self._emit_index = latest_start
                 continue
-            end = min(c.blocks[0].first_index + c.blocks[0].data.shape[0] for c in self._ch.values())
+            end = min(
+                c.blocks[0].first_index + c.blocks[0].data.shape[0] for c in self._ch.values()
+            )
             # all channels' first blocks start at `start`... or earlier (already trimmed)
             t0 = self._time_at(start)
             parts = [self._take(self._ch[n], start, end) for n in self.channels]

@@ -443,7 +443,11 @@ _LEAD = 15
 
 #: Shortest stick phase used as a shooting node [samples].
 _MIN_NODE = 2
-_DEBUG = False
+
+#: Spacing of shooting nodes in long sliding stretches [s], and their distance
+#: after a breakaway (past the slip-speed peak) [s].
+_SLIDE_SPACING = 0.05
+_SLIDE_SETTLE = 0.02
 
 
 def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
@@ -466,57 +470,79 @@ def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
     return float(c[0]), float(c[1])
 
 
-def _stuck_state(
-    p: np.ndarray, d: BlockData, j: int, lo: int, hi: int, w0: float
-) -> np.ndarray:
-    """Full kernel state at sample j of a stick phase [lo, hi) from the measurements.
+def _stuck_states(
+    p: np.ndarray,
+    d: BlockData,
+    anchors: npt.NDArray[np.int64],
+    lo: npt.NDArray[np.int64],
+    hi: npt.NDArray[np.int64],
+    w0: float,
+) -> FloatArray:
+    """Full kernel states at samples ``anchors`` of stick phases ``[lo, hi)``.
 
     Sticking (Equ. 4): w1 = w2 = w. phi1 = M_t/C1 and w = phi1' = (dM_t/dt)/C1
-    from a local cubic through the stick samples around j (the observer's
-    w1 when the phase is too short). The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a:
-    ``Q2 = (I1 + I2)*a - Q1``, ``Q1 = -K1*w - C1*phi1``,
+    from a local cubic through the stick samples around the anchor (the
+    derivative estimate of :func:`chamber_speed` when the phase is too short).
+    The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a (measured):
+    ``Q1 = -K1*w - C1*phi1``, ``Q2 = (I1 + I2)*a - Q1``,
     ``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (phi0 = 0 at the segment start).
+    Returns an array (len(anchors), kernel.NS).
     """
     c1 = p[kn.P_C1]
-    mt, slope = _local_poly(d.torsion, j, max(lo, j - _HALF), min(hi, j + _HALF + 1))
-    if math.isfinite(slope):
-        w = slope * d.fs / c1
-    else:
-        w = float(d.chamber_speed[j])
+    m = anchors.shape[0]
+    mt = np.empty(m)
+    w = np.empty(m)
+    acc = np.empty(m)
+    sym = (anchors - _HALF >= lo) & (anchors + _HALF + 1 <= hi)
+    if sym.any():
+        j = anchors[sym]
+        win = j[:, None] + np.arange(-_HALF, _HALF + 1)[None, :]
+        seg = d.torsion[win]
+        mt[sym] = seg @ _SYM_ROWS[0]
+        w[sym] = (seg @ _SYM_ROWS[1]) * d.fs / c1
+        acc[sym] = d.accel[j[:, None] + np.arange(-2, 3)[None, :]].mean(axis=1)
+    for i in np.flatnonzero(~sym).tolist():
+        jj, a0, a1 = int(anchors[i]), int(lo[i]), int(hi[i])
+        v, slope = _local_poly(d.torsion, jj, max(a0, jj - _HALF), min(a1, jj + _HALF + 1))
+        mt[i] = v
+        w[i] = slope * d.fs / c1 if math.isfinite(slope) else float(d.chamber_speed[jj])
+        acc[i] = float(np.mean(d.accel[max(a0, jj - 2) : min(a1, jj + 3)]))
     phi1 = mt / c1
-    a_lo, a_hi = max(lo, j - 2), min(hi, j + 3)
-    a = float(np.mean(d.accel[a_lo:a_hi]))
     q1 = -p[kn.P_K1] * w - c1 * phi1
-    q2 = (p[kn.P_I1] + p[kn.P_I2]) * a - q1
-    phi2 = -(q2 + p[kn.P_K2] * (w - w0)) / p[kn.P_C2]
-    s = np.zeros(kn.NS)
-    s[kn.S_PHI1] = phi1
-    s[kn.S_W1] = w
-    s[kn.S_PHI2] = phi2
-    s[kn.S_W2] = w
-    s[kn.S_STUCK] = 1.0
-    s[kn.S_DIR] = 1.0
-    s[kn.S_SENSOR] = math.nan
+    q2 = (p[kn.P_I1] + p[kn.P_I2]) * acc - q1
+    s = np.zeros((m, kn.NS))
+    s[:, kn.S_PHI1] = phi1
+    s[:, kn.S_W1] = w
+    s[:, kn.S_PHI2] = -(q2 + p[kn.P_K2] * (w - w0)) / p[kn.P_C2]
+    s[:, kn.S_W2] = w
+    s[:, kn.S_STUCK] = 1.0
+    s[:, kn.S_DIR] = 1.0
+    s[:, kn.S_SENSOR] = math.nan
     return s
 
 
-def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> np.ndarray:
-    """Kernel state at sample j while sliding (no stick phase to anchor on).
+def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> FloatArray:
+    """Kernel state at sample j while sliding, past the slip-speed peak.
 
-    phi1 = M_t/C1, w1 from the observer, w2 from the tachometer; shaft twist
-    quasi-static from Equ. 2 with w2' = 0: ``C2*(phi2 - phi0) = -M - K2*(w2 - w0)``.
-    The phase is taken as past its slip-speed peak (mu = mu_inf, deceleration rule).
+    phi1 = M_t/C1 and w1 = phi1' from a local cubic through the torsion moment;
+    w2 and w2' from a local cubic through the tachometer signal; the shaft twist
+    from Equ. 2: ``C2*(phi2 - phi0) = -M - I2*w2' - K2*(w2 - w0)`` with M the
+    observer's friction moment (phi0 = 0 at the segment start). The phase is
+    taken as past its slip-speed peak (mu = mu_inf, deceleration rule); nodes
+    are placed accordingly (well after a breakaway).
     """
-    lo, hi = max(0, j - 5), min(len(d), j + 6)
-    mt = float(np.mean(d.torsion[lo:hi]))
-    m = float(np.mean(d.moment[lo:hi]))
-    w1 = float(d.chamber_speed[j])
-    w2 = float(np.mean(d.speed[lo:hi]))
+    n = len(d)
+    lo, hi = max(0, j - _HALF), min(n, j + _HALF + 1)
+    mt, dmt = _local_poly(d.torsion, j, lo, hi)
+    w2, dw2 = _local_poly(d.speed, j, lo, hi)
+    m, _ = _local_poly(d.moment, j, lo, hi)
+    w1 = dmt * d.fs / p[kn.P_C1] if math.isfinite(dmt) else float(d.chamber_speed[j])
+    w2d = dw2 * d.fs if math.isfinite(dw2) else 0.0
     s = np.zeros(kn.NS)
     s[kn.S_PHI1] = mt / p[kn.P_C1]
     s[kn.S_W1] = w1
     s[kn.S_W2] = w2
-    s[kn.S_PHI2] = -(m + p[kn.P_K2] * (w2 - w0)) / p[kn.P_C2]
+    s[kn.S_PHI2] = -(m + p[kn.P_I2] * w2d + p[kn.P_K2] * (w2 - w0)) / p[kn.P_C2]
     s[kn.S_STUCK] = 0.0
     v = w2 - w1
     s[kn.S_DIR] = 1.0 if v >= 0.0 else -1.0
@@ -524,6 +550,24 @@ def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> np.ndarray
     s[kn.S_VMAX] = abs(v)
     s[kn.S_SENSOR] = math.nan
     return s
+
+
+def _sliding_nodes(
+    n: int, stick_starts: npt.NDArray[np.int64], stick_ends: npt.NDArray[np.int64], fs: float
+) -> npt.NDArray[np.int64]:
+    """Extra shooting nodes in long sliding stretches (slip-slip), every
+    ``_SLIDE_SPACING`` s, at least ``_SLIDE_SETTLE`` s after a breakaway (past the
+    slip-speed peak) and before the next stick phase."""
+    spacing = max(1, round(_SLIDE_SPACING * fs))
+    settle = max(1, round(_SLIDE_SETTLE * fs))
+    nodes: list[int] = []
+    slide_starts = np.r_[0, stick_ends]
+    slide_ends = np.r_[stick_starts, n]
+    for a, b in zip(slide_starts, slide_ends, strict=True):
+        first = int(a) + (settle if a > 0 else _HALF)
+        last = int(b) - _HALF - 1
+        nodes.extend(range(first, last, spacing))
+    return np.array(sorted(set(nodes)), dtype=np.int64)
 
 
 def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[float, float]:
@@ -595,8 +639,8 @@ def _robust_se(
         Binv = np.linalg.inv(B)
     except np.linalg.LinAlgError:
         return np.full(n_par, math.nan)
-    uniq, inv = np.unique(clusters, return_inverse=True)
-    G = uniq.shape[0]
+    inv = clusters
+    G = int(inv.max()) + 1 if inv.size else 0
     if G >= 3:
         scores = np.zeros((G, n_par))
         np.add.at(scores, inv, J * r[:, None])
@@ -654,8 +698,11 @@ def fit_block(
     sig_m = sig_m if math.isfinite(sig_m) and sig_m > 0.0 else 1e-3 * max(1.0, fnr * muinf_i)
     sig_a = sig_a if math.isfinite(sig_a) and sig_a > 0.0 else 1.0
 
-    p = pack_params(rig, FrictionLaw(max(mu0_i, 0.0) if math.isfinite(mu0_i) else muinf_i,
-                                     max(muinf_i, 0.0), k), DriveProfile(w0))
+    p = pack_params(
+        rig,
+        FrictionLaw(max(mu0_i, 0.0) if math.isfinite(mu0_i) else muinf_i, max(muinf_i, 0.0), k),
+        DriveProfile(w0),
+    )
     dt = 1.0 / d.fs
     n_sub = kn.substeps_for(p, dt)
 
@@ -664,28 +711,31 @@ def fit_block(
     keep = (ends_s - starts_s) >= _MIN_NODE
     starts_s, ends_s = starts_s[keep], ends_s[keep]
     sticky = starts_s.size > 0
+    slide_nodes = _sliding_nodes(n, starts_s, ends_s, d.fs)
+    node_list: list[tuple[int, FloatArray]] = []
     if sticky:
         # the stuck motion does not depend on the friction law until breakaway: start
         # each segment late in its stick phase (fewer samples to simulate)
         anchors = np.maximum(
             starts_s + np.minimum(_HALF, (ends_s - starts_s - 1) // 2), ends_s - _LEAD
         )
-        states = np.vstack(
-            [_stuck_state(p, d, int(j), int(lo), int(hi), w0)
-             for j, lo, hi in zip(anchors, starts_s, ends_s, strict=True)]
-        )
-        seg_start = anchors.astype(np.int64)
-        seg_end = np.r_[anchors[1:], n].astype(np.int64)
+        st_states = _stuck_states(p, d, anchors, starts_s, ends_s, w0)
+        node_list.extend((int(j), st_states[i]) for i, j in enumerate(anchors))
         names = ['mu0', 'mu_inf'] + (['k'] if cfg.fit_k else [])
     else:
-        states = _sliding_state(p, d, 0, w0)[None, :]
-        seg_start = np.zeros(1, dtype=np.int64)
-        seg_end = np.array([n], dtype=np.int64)
         names = ['mu_inf']
-    used = np.zeros(n, dtype=bool)
+    node_list.extend((int(j), _sliding_state(p, d, int(j), w0)) for j in slide_nodes)
+    if not node_list:  # short block without a usable node: start at its first sample
+        node_list.append((0, _sliding_state(p, d, 0, w0)))
+    node_list.sort(key=lambda x: x[0])
+    seg_start = np.array([j for j, _ in node_list], dtype=np.int64)
+    seg_end = np.r_[seg_start[1:], n].astype(np.int64)
+    states = np.vstack([st for _, st in node_list])
+    used_mask = np.zeros(n, dtype=bool)
     for a, b in zip(seg_start, seg_end, strict=True):
-        used[a:b] = True
-    n_used = int(used.sum())
+        used_mask[a:b] = True
+    used = np.flatnonzero(used_mask)
+    n_used = int(used.shape[0])
     sim_t = np.full(n, np.nan)
     sim_a = np.full(n, np.nan)
     scratch = np.empty((kn.N_CH, int(np.max(seg_end - seg_start)) + 1))
@@ -706,7 +756,12 @@ def fit_block(
         n_eval[0] += 1
         set_theta(th)
         _shoot(p, states, seg_start, seg_end, dt, n_sub, sim_t, sim_a, scratch)
-        return np.concatenate(((sim_t[used] - meas_t) / sig_m, (sim_a[used] - meas_a) * w_acc))
+        out = np.empty(2 * n_used)
+        np.subtract(sim_t[used], meas_t, out=out[:n_used])
+        out[:n_used] *= 1.0 / sig_m
+        np.subtract(sim_a[used], meas_a, out=out[n_used:])
+        out[n_used:] *= w_acc
+        return out
 
     def jacobian(th: FloatArray, r0: FloatArray) -> FloatArray:
         """Forward-difference sensitivities (event-accurate kernel: smooth in theta)."""
@@ -721,16 +776,12 @@ def fit_block(
     start = {'mu0': mu0_i, 'mu_inf': muinf_i, 'k': k}
     theta = np.array([max(start[nm], 0.0) for nm in names], dtype=float)
     lower = np.zeros(len(names))
-    # clusters for the standard errors: the shooting segments (nearly independent),
-    # or 50 ms pieces of a single-shooting block
+    # clusters for the standard errors: the shooting segments (nearly independent)
     seg_id = np.full(n, -1, dtype=np.int64)
-    if sticky:
-        for i, (a, b) in enumerate(zip(seg_start, seg_end, strict=True)):
-            seg_id[a:b] = i
-    else:
-        seg_id[:] = np.arange(n) // max(1, round(0.05 * d.fs))
-    cl = seg_id[used]
-    clusters = np.concatenate((cl, cl))
+    for i, (a, b) in enumerate(zip(seg_start, seg_end, strict=True)):
+        seg_id[a:b] = i
+    _, cl = np.unique(seg_id[used], return_inverse=True)
+    clusters = np.concatenate((cl, cl)).astype(np.int64)
 
     # The acceleration jumps at switching events (stick onset, breakaway, slip-speed
     # peak); a sample next to an event changes discontinuously when the event time
@@ -752,16 +803,17 @@ def fit_block(
         g = J.T @ r
         A = J.T @ J
         accepted = False
+        good_model = False
         step = np.zeros_like(theta)
         for _ in range(5):
             step = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
             th_new = np.maximum(theta + step, lower)
             r_new = residual(th_new)
             c_new = float(np.dot(r_new, r_new))
-            if _DEBUG:
-                print('it', it, 'lam', lam, 'theta', theta, 'step', step, 'cost', cost, '->', c_new, 'se', se)
             if c_new <= cost:
                 step = th_new - theta
+                pred = cost - float(np.sum((r + J @ step) ** 2))
+                good_model = pred > 0.0 and (cost - c_new) >= 0.5 * pred
                 theta, r, cost = th_new, r_new, c_new
                 lam = max(lam / 10.0, 1e-9)
                 accepted = True
@@ -773,8 +825,11 @@ def fit_block(
         if not accepted or np.all(np.abs(step) <= tol):
             converged = True
             break
-        J = jacobian(theta, r)
-        at_theta = False
+        if not good_model:
+            # the linear model predicted the step poorly: new sensitivities
+            # (else keep J: a chord step costs one simulation instead of 1 + n_par)
+            J = jacobian(theta, r)
+            at_theta = False
         se = _robust_se(J, r, clusters, len(names))
     if not at_theta:
         r = residual(theta)  # leave the simulated arrays at the estimate
@@ -879,7 +934,11 @@ def evaluate_block(
     n = b - a
 
     def finish(
-        out: FitOutcome | None, stick: BoolArray, motion: str, n_sticks: int, w0: float,
+        out: FitOutcome | None,
+        stick: BoolArray,
+        motion: str,
+        n_sticks: int,
+        w0: float,
         data: BlockData | None,
     ) -> BlockDetail:
         order = [f for f in FLAGS if f in flags]
@@ -956,16 +1015,28 @@ def evaluate_block(
     n_sticks = sum(1 for ph in phases if ph.start > t0 + 0.5 / blk.fs)
     motion = classify_motion(time, tq, ac, sp, rig, sticks=phases)
     data = BlockData(t0, blk.fs, tq, ac, sp, moment, w1, stick)
-    if abs(w0) < 1e-3 or float(np.mean(stick)) > 0.99:
+    # sliding means a slip speed clearly above the noise of v = w2 - w1 somewhere
+    v_thr = max(0.1, min(0.3, 0.5 * abs(w0)))
+    sliding = float(np.mean(np.abs(sp - w1) > v_thr))
+    if abs(w0) < 1e-3 or float(np.mean(stick)) > 0.99 or sliding < 0.01:
         flags.add('no_sliding')
+        stick = np.abs(sp - w1) <= v_thr  # the discs move together (or not at all)
+        data = replace(data, stick=stick)
         return finish(None, stick, motion, n_sticks, w0, data)
     try:
         out = fit_block(rig, data, w0, friction.k, cfg, init=init)
     except FitError:
         flags.add('fit_failed')
         return finish(None, stick, motion, n_sticks, w0, data)
+    # a parameter the data do not determine (relative se above 50 %) is not reported
+    if not (math.isfinite(out.mu0_se) and out.mu0_se < 0.5 * max(abs(out.mu0), 1e-12)):
+        out = replace(out, mu0=math.nan, mu0_se=math.nan)
     vals = [out.mu_inf, out.mu_inf_se] + ([out.mu0] if phases else [])
-    if not out.converged or not all(math.isfinite(v) for v in vals):
+    if (
+        not out.converged
+        or not all(math.isfinite(v) for v in vals)
+        or out.mu_inf_se > 0.5 * max(abs(out.mu_inf), 1e-12)
+    ):
         flags.add('fit_failed')
     return finish(out, stick, motion, n_sticks, w0, data)
 
@@ -1004,8 +1075,7 @@ class BlockEstimator:
         t_start = t_first - (idx_first - start_idx) / self.fs
         flags: set[str] = set()
         if self._epoch_first is not None and (
-            start_idx <= self._epoch_first
-            or t_start < self._epoch_t0 + self.cfg.ramp_time - 1e-9
+            start_idx <= self._epoch_first or t_start < self._epoch_t0 + self.cfg.ramp_time - 1e-9
         ):
             flags.add('startup')
         return PendingBlock(
@@ -1123,6 +1193,95 @@ def with_flags(r: BlockResult, *extra: str) -> BlockResult:
     return replace(r, quality=tuple(q))
 
 
+@dataclass(frozen=True)
+class MomentChunk:
+    """Observer friction moment M [N m] for samples ``first_index ...`` (``/friction/moment``).
+
+    ``t0`` time of the first sample [s], ``sample_rate`` [Hz]."""
+
+    first_index: int
+    t0: float
+    sample_rate: float
+    moment: FloatArray
+
+
+class StreamingPipeline:
+    """Aligner + estimator for live input (the estimator node's core, no rclpy).
+
+    :meth:`push` takes one SampleBlock of one channel (cheap: alignment and the
+    observer) and returns the observer output chunks, the blocks ready to be
+    fitted and the notices (gaps, restarts) for logging. The fit of a block
+    (:meth:`evaluate`) is meant for a worker thread. Same input in the same
+    order gives the same blocks as the offline ``tribo friction``.
+    """
+
+    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+        from .align import ChannelAligner
+
+        self.aligner = ChannelAligner()
+        self.estimator = BlockEstimator(rig, friction, cfg)
+
+    def push(
+        self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
+    ) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
+        """Add one block of one channel; see the class docstring."""
+        from .align import AlignedChunk
+
+        moments: list[MomentChunk] = []
+        blocks: list[PendingBlock] = []
+        notes: list[str] = []
+        for ev in self.aligner.push(channel, first_index, sample_rate, stamp, data):
+            blocks.extend(self.estimator.push(ev))
+            if isinstance(ev, AlignedChunk):
+                moments.append(
+                    MomentChunk(ev.first_index, ev.t0, ev.sample_rate, self.estimator.last_moment)
+                )
+            elif isinstance(ev, GapEvent):
+                notes.append(
+                    f'gap: samples {ev.start_index}..{ev.end_index - 1} ({ev.n_missing}) '
+                    f'missing in {", ".join(ev.channels)}; not bridged'
+                )
+            elif isinstance(ev, RestartEvent):
+                notes.append(
+                    f'restart: {ev.channel} index went back from {ev.old_index} to '
+                    f'{ev.new_index}; new stream epoch'
+                )
+        return moments, blocks, notes
+
+    def flush(self) -> list[PendingBlock]:
+        """End of input: remaining aligned data and the partial block."""
+        blocks: list[PendingBlock] = []
+        for ev in self.aligner.flush():
+            blocks.extend(self.estimator.push(ev))
+        blocks.extend(self.estimator.flush())
+        return blocks
+
+    def evaluate(self, blk: PendingBlock) -> BlockResult:
+        """Fit one block (heavy; worker thread)."""
+        return self.estimator.evaluate(blk).result
+
+    def warm_up(self) -> None:
+        """Fit a short simulated stretch once, so the compiled code is loaded before
+        the first real block ends (keeps the first estimate's latency low)."""
+        from .simulate import simulate
+
+        est = self.estimator
+        w0 = est.cfg.nominal_speed or 1.0
+        r = simulate(est.rig, est.friction, DriveProfile(w0), 0.3)
+        n = r.time.shape[0]
+        blk = PendingBlock(
+            -1,
+            0,
+            0.0,
+            r.fs,
+            r.torsion_moment,
+            r.angular_acceleration,
+            r.speed,
+            np.ones(n, dtype=bool),
+        )
+        evaluate_block(est.rig, est.friction, replace(est.cfg, min_fraction=0.01), blk)
+
+
 __all__ = [
     'CSV_COLUMNS',
     'FLAGS',
@@ -1135,7 +1294,9 @@ __all__ = [
     'BlockResult',
     'FitError',
     'FitOutcome',
+    'MomentChunk',
     'PendingBlock',
+    'StreamingPipeline',
     'estimate_blocks',
     'evaluate_block',
     'fit_block',

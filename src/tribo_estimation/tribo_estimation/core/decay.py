@@ -29,8 +29,8 @@ from scipy.signal import hilbert
 
 from tribo_estimation.errors import (
     InvalidDataError,
-    NoOscillationError,
     NonMonotonicTimeError,
+    NoOscillationError,
     TooShortError,
 )
 
@@ -111,7 +111,9 @@ def _model(q: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s = np.sin(wd * tau)
     mt = m0 + e * (amp_a * c + amp_b * s)
     k = sigma * sigma - wd * wd
-    dd = e * ((amp_a * k - 2.0 * sigma * wd * amp_b) * c + (amp_b * k + 2.0 * sigma * wd * amp_a) * s)
+    dd = e * (
+        (amp_a * k - 2.0 * sigma * wd * amp_b) * c + (amp_b * k + 2.0 * sigma * wd * amp_a) * s
+    )
     return mt, a0 + inv_c1 * dd
 
 
@@ -199,8 +201,7 @@ def identify_free_decay(
     sm = float(np.std(mc)) or 1.0
     sa = float(np.std(ac)) or 1.0
     scale = np.array(
-        [max(abs(q0[0]), abs(q0[1]), 1e-12)] * 2
-        + [max(sigma0, 1e-3 * wd0), wd0, sm, q0[5], sa]
+        [max(abs(q0[0]), abs(q0[1]), 1e-12)] * 2 + [max(sigma0, 1e-3 * wd0), wd0, sm, q0[5], sa]
     )
 
     def resid(qs: np.ndarray, wm: float, wa: float) -> np.ndarray:
@@ -219,7 +220,7 @@ def identify_free_decay(
     sol = least_squares(resid, q, args=(sm, sa), method='lm', x_scale=1.0, max_nfev=2000)
     qs = sol.x
     qv = qs * scale
-    amp_a, amp_b, sigma, wd, m0, inv_c1, a0 = (float(x) for x in qv)
+    _, _, sigma, wd, m0, inv_c1, a0 = (float(x) for x in qv)
     wd = abs(wd)
     if inv_c1 <= 0.0:
         raise InvalidDataError('fit gave a non-positive stiffness: check signal signs and units')

@@ -248,7 +248,26 @@ def chamber_moment(p: np.ndarray, phi1: float, w1: float) -> float:
 )
 def shaft_moment(p: np.ndarray, t: float, phi2: float, w2: float) -> float:
     """External moment on the shaft except friction, Q2 = -K2*(w2-w0) - C2*(phi2-phi0) [N m]."""
-    return -p[P_K2] * (w2 - drive_speed(p, t)) - p[P_C2] * (phi2 - drive_angle(p, t))
+    if p[P_RIP_AMP] != 0.0:
+        w0 = drive_speed(p, t)
+        phi0 = drive_angle(p, t)
+    else:  # fast path without the ripple: same formulas as drive_speed/drive_angle
+        w0n = p[P_W0]
+        tr = p[P_RAMP]
+        if tr > 0.0:
+            if t >= tr:
+                w0 = w0n
+                phi0 = w0n * (t - 0.5 * tr)
+            elif t > 0.0:
+                w0 = w0n * (t / tr)
+                phi0 = 0.5 * w0n * t * t / tr
+            else:
+                w0 = 0.0
+                phi0 = 0.0
+        else:
+            w0 = w0n
+            phi0 = w0n * t
+    return -p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0)
 
 
 @njit(
@@ -293,9 +312,9 @@ def slip_friction_moment(
 
 @njit(
     cache=True,
+    inline='always',
     error_model='numpy',
     fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
-    inline='always',
 )
 def derivatives(
     p: np.ndarray,
@@ -332,6 +351,23 @@ def derivatives(
     return w1, (q1 + m) / i1, w2, (q2 - m) / i2, dlag, m
 
 
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def _derivatives_call(
+    p: np.ndarray,
+    t: float,
+    phi1: float,
+    w1: float,
+    phi2: float,
+    w2: float,
+    lag: float,
+    stuck: bool,
+    direction: float,
+    peak_passed: bool,
+) -> tuple[float, float, float, float, float, float]:
+    """Non-inlined :func:`derivatives` for the rare call sites (keeps compile time low)."""
+    return derivatives(p, t, phi1, w1, phi2, w2, lag, stuck, direction, peak_passed)
+
+
 # ================================================================ integrator
 #: Largest allowed product of step and the local slip-dynamics rate (see :func:`slip_rate`).
 STEP_RATE = 0.15
@@ -361,7 +397,6 @@ def slip_rate(p: np.ndarray, t: float, v_abs: float, peak_passed: bool) -> float
     cache=True,
     error_model='numpy',
     fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
-    inline='always',
 )
 def _rk4(
     p: np.ndarray,
@@ -429,7 +464,6 @@ def _rk4(
     cache=True,
     error_model='numpy',
     fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
-    inline='always',
 )
 def _event_value(
     p: np.ndarray,
@@ -445,7 +479,7 @@ def _event_value(
     if which == EV_SLIP_END:
         return direction * (y[3] - y[1])
     if which == EV_PEAK:
-        d = derivatives(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
+        d = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
         return direction * (d[3] - d[1])
     # breakaway: F_N*R*mu_s - |M_stick|
     ms = stick_moment(p, t, y[0], y[1], y[2])
@@ -520,9 +554,7 @@ def integrate(
 
     Returns the number of located stick/slip/peak events.
     """
-    return integrate_logged(
-        p, s, n_out, dt, n_sub, out, np.empty(0), np.empty(0, dtype=np.int64)
-    )
+    return integrate_logged(p, s, n_out, dt, n_sub, out, np.empty(0), np.empty(0, dtype=np.int64))
 
 
 @njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
@@ -557,7 +589,7 @@ def integrate_logged(
     if stuck:
         w = (p[P_I1] * y[1] + p[P_I2] * y[3]) / (p[P_I1] + p[P_I2])
         y = (y[0], w, y[2], w, y[4])
-    k1 = derivatives(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
+    k1 = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
     for i in range(n_out):
         out[OUT_TORSION, i] = p[P_C1] * y[0]
         out[OUT_ACCEL, i] = k1[1]
@@ -684,7 +716,7 @@ def integrate_logged(
                     peak = False
                     vmax = 0.0
                     y = (y[0], y[1], y[2], y[3], mus)
-                k1 = derivatives(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
+                k1 = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
     s[S_T] = t
     s[S_PHI1] = y[0]
     s[S_W1] = y[1]

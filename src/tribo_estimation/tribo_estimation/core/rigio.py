@@ -149,9 +149,7 @@ def write_rig_csv(
 
 
 # ----------------------------------------------------------------------------- reading
-def _parse_header(
-    fh: IO[str], path: Path
-) -> tuple[list[str], dict[str, str], int]:
+def _parse_header(fh: IO[str], path: Path) -> tuple[list[str], dict[str, str], int]:
     meta: dict[str, str] = {}
     line_no = 0
     for raw in fh:
@@ -178,9 +176,7 @@ def _parse_header(
     raise TooShortError(f'{path}: no header line (expected {",".join(COLUMNS)})')
 
 
-def _parse_rows(
-    lines: list[str], numbers: list[int], names: list[str], path: Path
-) -> np.ndarray:
+def _parse_rows(lines: list[str], numbers: list[int], names: list[str], path: Path) -> np.ndarray:
     ncol = len(names)
     try:
         data = np.loadtxt(lines, delimiter=',', dtype=float, ndmin=2)
@@ -236,15 +232,13 @@ def _check_block(
         if big.size:
             i = big[0]
             raise UnitError(
-                f'{path}: line {numbers[i]}, column \'speed\': {sp[i]!r} exceeds the plausible '
+                f"{path}: line {numbers[i]}, column 'speed': {sp[i]!r} exceeds the plausible "
                 f'{max_speed} rad/s of the rig; the speed looks like rpm (convert: '
                 f'rad/s = rpm*pi/30)'
             )
 
 
-def _record(
-    data: np.ndarray, names: list[str], meta: dict[str, str], first_line: int
-) -> RigRecord:
+def _record(data: np.ndarray, names: list[str], meta: dict[str, str], first_line: int) -> RigRecord:
     cols = {n: np.ascontiguousarray(data[:, i]) for i, n in enumerate(names)}
     return RigRecord(
         time=cols.pop('time'),

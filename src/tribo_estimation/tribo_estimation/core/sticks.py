@@ -77,9 +77,7 @@ def stick_residual(
     while sticking at constant drive speed; see the module docstring). ``speed`` is
     the measured shaft speed w2, equal to w1 = w while sticking."""
     return (
-        (rig.I1 + rig.I2) * accel
-        + (rig.K1 + rig.K2) * speed
-        + (rig.C1 + rig.C2) * torsion / rig.C1
+        (rig.I1 + rig.I2) * accel + (rig.K1 + rig.K2) * speed + (rig.C1 + rig.C2) * torsion / rig.C1
     )
 
 
@@ -121,7 +119,9 @@ def detect_sticks(
     still running at the end of the record ends at the last sample.
     """
     t, mt, ac, w2 = _validate(
-        ('time', time), ('torsion_moment', torsion), ('angular_acceleration', accel),
+        ('time', time),
+        ('torsion_moment', torsion),
+        ('angular_acceleration', accel),
         ('speed', speed),
     )
     if t.size < 16:
@@ -243,7 +243,9 @@ def classify_motion(
     levels and ``rel_oscillation`` of its mean; else steady.
     """
     t, mt, ac, w2 = _validate(
-        ('time', time), ('torsion_moment', torsion), ('angular_acceleration', accel),
+        ('time', time),
+        ('torsion_moment', torsion),
+        ('angular_acceleration', accel),
         ('speed', speed),
     )
     if sticks is None:

@@ -19,6 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
 
+from .localise import binned_for, torque_residual  # noqa: E402
+from .select import DiscrepancyResult  # noqa: E402
 from .stats import BinnedResidual, FloatArray  # noqa: E402
 
 
@@ -95,3 +97,53 @@ def plot_spectrum(
     fig.savefig(p)
     plt.close(fig)
     return p
+
+
+def write_plots(result: DiscrepancyResult, out_dir: str | Path) -> list[Path]:
+    """All PNG plots of a :class:`~.select.DiscrepancyResult` into ``out_dir``.
+
+    One ``residual_<localiser>.png`` per added effect (against the variable
+    that effect explains), or ``residual_test_time.png`` and
+    ``residual_phase.png`` when nothing was added; ``traces.png`` (a 0.25 s
+    window in the middle of the record) and ``spectrum.png``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tr = result.traces
+    pb = tr.problem
+    r0 = torque_residual(pb, tr.baseline)
+    r1 = torque_residual(pb, tr.final)
+    paths: list[Path] = []
+    names = [a.localiser for a in result.added] or ['test_time', 'phase']
+    done: set[str] = set()
+    for name in names:
+        var = 'test_time' if name == 'spectrum' else name
+        if var in done:
+            continue
+        done.add(var)
+        b0 = binned_for(var, pb, tr.baseline, r0)
+        b1 = binned_for(var, pb, tr.final, r1)
+        effects = ', '.join(a.effect for a in result.added) or 'none added'
+        paths.append(
+            plot_binned(b0, b1, out / f'residual_{var}.png', title=f'residual vs {var} ({effects})')
+        )
+    t = pb.record.time
+    mid = 0.5 * (t[0] + t[-1])
+    measured = {
+        'torsion_moment': pb.record.torsion_moment,
+        'angular_acceleration': pb.record.angular_acceleration,
+    }
+    sims = []
+    for sim in (tr.baseline, tr.final):
+        sims.append(
+            {
+                'torsion_moment': sim.torsion_moment,
+                'angular_acceleration': sim.angular_acceleration,
+            }
+        )
+    paths.append(
+        plot_traces(t, measured, sims[0], sims[1], out / 'traces.png', window=(mid, mid + 0.25))
+    )
+    cov0, cov1 = tr.baseline.covered, tr.final.covered
+    paths.append(plot_spectrum(r0[cov0], r1[cov1], pb.record.fs, out / 'spectrum.png'))
+    return paths

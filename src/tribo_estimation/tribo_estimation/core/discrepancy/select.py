@@ -75,8 +75,8 @@ class SelectionSettings:
     folds: int = 2
     block_time: float = 0.25
     corr_time: float = 1e-3
-    max_nfev: int = 40
-    screen_nfev: int = 12
+    max_nfev: int = 60
+    screen_nfev: int = 15
     cv_nfev: int = 15
     candidates: tuple[str, ...] | None = None
     propose_terms: bool = True
@@ -246,8 +246,10 @@ class _Selector:
         best_vals: dict[str, float] = dict(starts[0])
         best_cost = math.inf
         if len(starts) > 1:
+            # screen on one fold (half the data) to save time, refine on all
+            screen = self.fold_masks[0] if seg_mask is None else seg_mask
             for s in starts:
-                fo = self.pb.fit(specs, s, seg_mask=seg_mask, max_nfev=self.st.screen_nfev)
+                fo = self.pb.fit(specs, s, seg_mask=screen, max_nfev=self.st.screen_nfev)
                 if fo.cost < best_cost:
                     best_cost, best_vals = fo.cost, fo.values
         fo = self.pb.fit(specs, best_vals, seg_mask=seg_mask, max_nfev=self.st.max_nfev)
@@ -269,7 +271,7 @@ class _Selector:
             fo = self.pb.fit(specs, values, seg_mask=train_mask, max_nfev=self.st.cv_nfev)
             tsim = self.pb.simulate(fo.values, test_mask)
             v = self.pb.residual_vector(tsim)
-            held_sq += float(v @ v)
+            held_sq += float(np.sum(v * v))
             held_n += int(np.count_nonzero(tsim.covered))
             held_t.append(torque_residual(self.pb, tsim)[tsim.covered])
             del f
@@ -508,8 +510,18 @@ def run_discrepancy(
             )
         if not scores:
             break
-        best = min(scores, key=lambda s: s.model.cv_cost)
-        ok = best.gain >= st.min_gain and best.delta_bic <= -st.bic_threshold
+        # eligible: clearly better on held-out blocks AND by BIC; among those the
+        # lowest BIC wins (Occam: with equal fits the candidate with fewer
+        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf)
+        eligible = [
+            s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold
+        ]
+        ok = bool(eligible)
+        best = (
+            min(eligible, key=lambda s: s.model.bic)
+            if eligible
+            else min(scores, key=lambda s: s.model.cv_cost)
+        )
         scores = [
             CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best) for s in scores
         ]
@@ -518,21 +530,26 @@ def run_discrepancy(
             say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
             break
         c = cand_lib.get(best.effect)
+        # polish the accepted model to convergence before it becomes the reference
+        vals = pb.fit(_specs(best.model.effects), best.model.params, max_nfev=2 * st.max_nfev)
+        model = sel.score(best.model.effects, vals.values)
+        if model.cost > best.model.cost:
+            model = best.model
         added.append(
             AddedEffect(
                 effect=c.name,
-                params={n: best.model.params[n] for n in c.param_names},
+                params={n: model.params[n] for n in c.param_names},
                 units=c.units(),
                 rms_before=current.rms,
-                rms_after=best.model.rms,
+                rms_after=model.rms,
                 cv_rms_before=current.cv_rms,
-                cv_rms_after=best.model.cv_rms,
-                delta_bic=best.delta_bic,
+                cv_rms_after=model.cv_rms,
+                delta_bic=model.bic - current.bic,
                 localiser=c.localiser,
             )
         )
-        say(f'added {c.name}: rms {current.rms:.4g} -> {best.model.rms:.4g} N m')
-        current = best.model
+        say(f'added {c.name}: rms {current.rms:.4g} -> {model.rms:.4g} N m')
+        current = model
     final_sim = pb.simulate(current.params)
     sigma = noise_floor(torque_residual(pb, final_sim)[final_sim.covered])
     unexplained = describe_unexplained(pb, final_sim, sigma=sigma)

@@ -88,7 +88,7 @@ def stlsq(
         sol, *_ = np.linalg.lstsq(X[:, active], y, rcond=None)
         coef = np.zeros(X.shape[1])
         coef[active] = sol
-    resid = y - X @ coef
+    resid = y - np.sum(X * coef, axis=1)
     terms = tuple(
         SparseTerm(names[i], float(coef[i]), float(abs(coef[i]) * col_rms[i]))
         for i in np.argsort(-np.abs(coef) * col_rms)

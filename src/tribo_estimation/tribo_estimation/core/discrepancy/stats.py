@@ -224,8 +224,8 @@ def fit_sinusoid(
             continue
         w = 2.0 * math.pi * f
         s, c = np.sin(w * t), np.cos(w * t)
-        ss, cc, sc = float(s @ s), float(c @ c), float(s @ c)
-        ys, yc = float(y @ s), float(y @ c)
+        ss, cc, sc = float(np.sum(s * s)), float(np.sum(c * c)), float(np.sum(s * c))
+        ys, yc = float(np.sum(y * s)), float(np.sum(y * c))
         det = ss * cc - sc * sc
         if det <= 0:
             continue

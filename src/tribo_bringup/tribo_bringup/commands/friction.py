@@ -1,0 +1,252 @@
+"""``tribo friction``: block-wise friction estimation of a recorded session (paper 2.5).
+
+Reads a rig CSV (``time,torsion_moment,angular_acceleration,speed``) or a bag
+with the ``/rig/*`` SampleBlock streams, estimates mu0 and mu_inf (Equ. 8) per
+block, and writes ``OUT/blocks.csv`` plus the figures ``blocks.png`` (paper
+Fig. 4/5 layout), ``mu_slip.png`` (mu versus slip speed) and ``detail.png``
+(Fig. 6 style, stick phases shaded). Streaming: memory stays bounded whatever
+the length of the session.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tribo_bringup.errors import BagError
+
+#: Topics of the rig streams and their aligner channel names.
+RIG_CHANNELS: dict[str, str] = {
+    '/rig/torsion_moment': 'torsion_moment',
+    '/rig/angular_acceleration': 'angular_acceleration',
+    '/rig/speed': 'speed',
+}
+
+#: Observer samples kept per block for the mu-vs-slip-speed figure.
+_POINTS_PER_BLOCK = 60
+#: Length of each detail window (Fig. 6) [s].
+_DETAIL_S = 0.15
+
+
+def register(sub: Any) -> None:
+    """Add the ``friction`` subcommand."""
+    p = sub.add_parser(
+        'friction',
+        help='block-wise mu0/mu_inf estimation of a rig CSV or bag (paper Fig. 4-6)',
+        description='Estimate the friction law mu(|v|) = (mu0 - mu_inf)*exp(-k|v|) + mu_inf '
+        '(paper Equ. 8) block by block from the torsion moment, the chamber acceleration '
+        'and the shaft speed of a recorded session. Writes OUT/blocks.csv (one row per '
+        'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
+        'fit_failed, short) and the figures blocks.png, mu_slip.png and detail.png.',
+    )
+    p.add_argument(
+        'input', help='rig CSV (time,torsion_moment,angular_acceleration,speed in SI) or a bag'
+    )
+    p.add_argument('--rig', required=True, help='RIG.yaml with the rig parameters (SI)')
+    p.add_argument('--out', required=True, help='output directory (created if needed)')
+    p.add_argument(
+        '--block', type=float, default=1.0, metavar='S', help='block length [s] (default 1.0)'
+    )
+    p.add_argument('--fit-k', action='store_true', help='also fit the Stribeck constant k [s/rad]')
+    p.add_argument(
+        '--tacho-speed',
+        action='store_true',
+        help='drive each block at the tachometer mean instead of nominal_speed of RIG.yaml',
+    )
+    p.add_argument('--no-plots', action='store_true', help='write blocks.csv only')
+    p.add_argument('--quiet', action='store_true', help='no progress on stderr')
+    p.set_defaults(func=run)
+
+
+def _is_bag(path: Path) -> bool:
+    return path.is_dir() or path.suffix in ('.mcap', '.db3')
+
+
+def csv_events(path: Path) -> Iterator[Any]:
+    """Aligner events (chunks and gaps) from a rig CSV read block by block.
+
+    The sample index is ``round((t - t_first)*fs)``; a time step that skips
+    samples becomes a :class:`GapEvent` (never bridged).
+    """
+    from tribo_estimation.core.align import AlignedChunk, GapEvent
+    from tribo_estimation.core.rigio import iter_rig_csv
+    from tribo_estimation.errors import InvalidDataError
+
+    fs: float | None = None
+    t_first = math.nan
+    next_index: int | None = None
+    for rec in iter_rig_csv(path, 10_000):
+        t = rec.time
+        if fs is None:
+            if len(rec) < 2:
+                raise InvalidDataError(f'{path}: need at least two samples to find the rate')
+            fs = float(round(1.0 / float(np.median(np.diff(t[: min(len(t), 1000)]))), 6))
+            t_first = float(t[0])
+        idx = np.rint((t - t_first) * fs).astype(np.int64)
+        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(idx)], strict=True):
+            a, b = int(a), int(b)
+            first = int(idx[a])
+            if next_index is not None and first != next_index:
+                if first < next_index:
+                    raise InvalidDataError(
+                        f'{path}: line {rec.first_line + a}: sample time {t[a]!r} s falls '
+                        'on an earlier sample instant (irregular sampling)'
+                    )
+                yield GapEvent(next_index, first, ('csv',), t_first + next_index / fs)
+            yield AlignedChunk(
+                first,
+                float(t[a]),
+                fs,
+                rec.torsion_moment[a:b],
+                rec.angular_acceleration[a:b],
+                rec.speed[a:b],
+            )
+            next_index = int(idx[b - 1]) + 1
+
+
+def bag_events(path: Path) -> Iterator[Any]:
+    """Aligner events from the ``/rig/*`` SampleBlock streams of a bag."""
+    from tribo_bringup.bagio import iter_messages
+    from tribo_estimation.core.align import ChannelAligner
+
+    aligner = ChannelAligner()
+    seen = 0
+    for m in iter_messages(path, topics=list(RIG_CHANNELS)):
+        ch = RIG_CHANNELS.get(m.topic)
+        if ch is None:
+            continue
+        msg = m.msg
+        stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
+        seen += 1
+        yield from aligner.push(
+            ch, int(msg.first_index), float(msg.sample_rate), stamp, np.asarray(msg.data)
+        )
+    if seen == 0:
+        raise BagError(f'{path}: no /rig/torsion_moment, /rig/angular_acceleration, /rig/speed')
+    yield from aligner.flush()
+
+
+class _Collector:
+    """Bounded memory summaries for the figures (observer points, detail windows)."""
+
+    def __init__(self, fnr: float) -> None:
+        self.fnr = fnr
+        self.slip: list[np.ndarray] = []
+        self.mu: list[np.ndarray] = []
+        self.details: dict[str, Any] = {}
+
+    def add(self, det: Any) -> None:
+        from tribo_estimation.plots import DetailTrace
+
+        d = det.data
+        res = det.result
+        if d.moment.size == d.torsion.size and d.torsion.size:
+            slide = ~d.stick
+            idx = np.flatnonzero(slide)
+            if idx.size:
+                pick = idx[
+                    np.linspace(0, idx.size - 1, min(_POINTS_PER_BLOCK, idx.size)).astype(int)
+                ]
+                self.slip.append(np.abs(d.speed[pick] - d.chamber_speed[pick]))
+                self.mu.append(np.abs(d.moment[pick]) / self.fnr)
+        if res.ok and res.motion not in self.details:
+            n = min(d.torsion.size, round(_DETAIL_S * d.fs))
+            t = d.t0 + np.arange(n) / d.fs
+            sim = det.simulated[:n] if det.simulated.size >= n else np.full(n, np.nan)
+            mom = d.moment[:n] if d.moment.size >= n else np.full(n, np.nan)
+            self.details[res.motion] = DetailTrace(
+                f'{res.motion}, block at {res.t_start:.1f} s',
+                t,
+                d.torsion[:n].copy(),
+                mom.copy(),
+                sim.copy(),
+                d.stick[:n].copy(),
+            )
+
+    def points(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.slip:
+            return np.zeros(0), np.zeros(0)
+        return np.concatenate(self.slip), np.concatenate(self.mu)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Estimate, write blocks.csv and the figures."""
+    from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
+    from tribo_estimation.core.config import load_rig_config
+
+    src = Path(args.input)
+    if not src.exists():
+        raise FileNotFoundError(f'{src}: no such file or bag')
+    cfg_rig = load_rig_config(args.rig)
+    nominal = cfg_rig.drive.nominal_speed
+    cfg = BlockConfig(
+        block_length=args.block,
+        fit_k=bool(args.fit_k),
+        nominal_speed=None if args.tacho_speed or nominal <= 0.0 else nominal,
+        ramp_time=cfg_rig.drive.ramp_time,
+    )
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
+    events = bag_events(src) if _is_bag(src) else csv_events(src)
+    fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
+    coll = _Collector(fnr if fnr > 0 else 1.0)
+    results = []
+    t_wall = time.monotonic()
+    last_report = t_wall
+    with BlockCsvWriter(out / 'blocks.csv') as writer:
+
+        def handle(det: Any) -> None:
+            nonlocal last_report
+            writer.write(det.result)
+            results.append(det.result)
+            coll.add(det)
+            now = time.monotonic()
+            if not args.quiet and (now - last_report > 2.0 or len(results) == 1):
+                r = det.result
+                print(
+                    f'friction: block {r.index} t={r.t_start:.1f} s mu0={r.mu0:.4f} '
+                    f'mu_inf={r.mu_inf:.4f} {r.motion} {r.quality_str} '
+                    f'({len(results)} blocks, {now - t_wall:.0f} s)',
+                    file=sys.stderr,
+                )
+                last_report = now
+
+        for ev in events:
+            for det in est.feed(ev):
+                handle(det)
+        for det in est.finish():
+            handle(det)
+    if not results:
+        raise BagError(f'{src}: no complete block of data')
+    if not args.no_plots:
+        _plots(out, results, coll, cfg_rig.friction.k)
+    n_ok = sum(r.ok for r in results)
+    if not args.quiet:
+        print(
+            f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '
+            f'in {time.monotonic() - t_wall:.1f} s',
+            file=sys.stderr,
+        )
+    return 0
+
+
+def _plots(out: Path, results: list[Any], coll: _Collector, k: float) -> None:
+    from tribo_estimation.core.blockfit import results_table
+    from tribo_estimation.plots import plot_blocks, plot_detail, plot_mu_slip
+
+    table = results_table(results)
+    plot_blocks(table, out / 'blocks.png', title='friction per block')
+    v, mu = coll.points()
+    ks = np.array([r.k for r in results], dtype=float)
+    plot_mu_slip(table, out / 'mu_slip.png', ks if ks.size else k, v, mu)
+    traces = [coll.details[m] for m in ('stick-slip', 'slip-slip', 'steady') if m in coll.details]
+    plot_detail(traces[:2], out / 'detail.png')

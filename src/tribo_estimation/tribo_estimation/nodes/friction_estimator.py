@@ -1,0 +1,237 @@
+"""ROS 2 node ``friction_estimator``: online block-wise friction estimation (paper 2.5).
+
+Subscribes ``/rig/torsion_moment``, ``/rig/angular_acceleration``, ``/rig/speed``
+(tribo_msgs/SampleBlock), aligns them by sample index (gaps are reported and
+never bridged), publishes the observer's friction moment
+``M = I1*w1' + K1*w1 + C1*phi1`` on ``/friction/moment`` as the data arrive and
+one ``/friction/estimate`` (tribo_msgs/FrictionEstimate) per block.
+
+Thin shell: the work is :class:`tribo_estimation.core.blockfit.StreamingPipeline`.
+The subscriptions only align and run the observer; the fits run on a worker
+thread, so input is never held up by a fit. Parameters are the RIG.yaml names
+(SI units) plus ``block_length`` [s] and ``fit_k``; they are read-only after start.
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
+
+from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
+from tribo_common.node_main import run_node
+from tribo_common.params import ParameterError, declare
+from tribo_drivers.qos import data_qos
+from tribo_estimation.core.blockfit import (
+    BlockConfig,
+    BlockResult,
+    PendingBlock,
+    StreamingPipeline,
+)
+from tribo_estimation.core.model import FrictionLaw, RigParams
+from tribo_estimation.errors import EstimationError
+from tribo_msgs.msg import FrictionEstimate, SampleBlock
+
+#: Input topics and their channel names.
+TOPICS: dict[str, str] = {
+    '/rig/torsion_moment': 'torsion_moment',
+    '/rig/angular_acceleration': 'angular_acceleration',
+    '/rig/speed': 'speed',
+}
+
+#: (name, default, description with unit, low, high, low exclusive) of the float parameters.
+FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
+    ('I1', 0.0109, 'chamber inertia I1 [kg m^2]', 0.0, 100.0, True),
+    ('K1', 0.04034, 'chamber viscous damping K1 [N m s/rad]', 0.0, 1e4, False),
+    ('C1', 2338.6, 'torsion element stiffness C1 [N m/rad]', 0.0, 1e8, True),
+    ('I2', 0.0315, 'drive shaft inertia I2 [kg m^2]', 0.0, 100.0, True),
+    ('K2', 4.0, 'drive damping K2 [N m s/rad]', 0.0, 1e4, False),
+    ('C2', 5975.0, 'drive stiffness C2 [N m/rad]', 0.0, 1e8, True),
+    ('F_N', 8000.0, 'total normal force over all friction pairs F_N [N]', 0.0, 1e7, True),
+    ('R', 0.08, 'effective friction radius R [m]', 0.0, 10.0, True),
+    ('mu0', 0.13, 'start value of the static coefficient mu0 (Equ. 8) [-]', 0.0, 2.0, False),
+    ('mu_inf', 0.10, 'start value of the coefficient mu_inf (Equ. 8) [-]', 0.0, 2.0, False),
+    ('k', 2.0, 'Stribeck decay constant k (Equ. 8) [s/rad]', 0.0, 1e3, False),
+    (
+        'nominal_speed',
+        3.14159,
+        'nominal drive speed w0 [rad/s] (not rpm); 0 = tachometer mean per block',
+        0.0,
+        1000.0,
+        False,
+    ),
+    (
+        'ramp_time',
+        0.0,
+        'start-up ramp of the drive [s] (blocks in it are flagged)',
+        0.0,
+        1e5,
+        False,
+    ),
+    ('block_length', 1.0, 'block length of the fit [s] (paper: 1 s)', 0.01, 600.0, False),
+)
+
+
+class FrictionEstimatorNode(Node):
+    """Online friction estimator (see the module docstring)."""
+
+    def __init__(self) -> None:
+        super().__init__('friction_estimator')
+        v: dict[str, Any] = {}
+        for name, default, desc, low, high, excl in FLOAT_PARAMS:
+            v[name] = float(
+                declare(
+                    self,
+                    name,
+                    default,
+                    desc,
+                    low=low,
+                    high=high,
+                    low_exclusive=excl,
+                    read_only=True,
+                )
+            )
+        fit_k = bool(declare(self, 'fit_k', False, 'also fit k [s/rad] per block', read_only=True))
+        try:
+            rig = RigParams(
+                I1=v['I1'],
+                K1=v['K1'],
+                C1=v['C1'],
+                I2=v['I2'],
+                K2=v['K2'],
+                C2=v['C2'],
+                F_N=v['F_N'],
+                R=v['R'],
+            )
+            friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
+            cfg = BlockConfig(
+                block_length=v['block_length'],
+                fit_k=fit_k,
+                nominal_speed=v['nominal_speed'] if v['nominal_speed'] > 0.0 else None,
+                ramp_time=v['ramp_time'],
+            )
+        except EstimationError as exc:
+            raise ParameterError(str(exc)) from exc
+        self._pipe = StreamingPipeline(rig, friction, cfg)
+        self._lock = threading.Lock()
+        self._queue: queue.Queue[PendingBlock | None] = queue.Queue()
+        qos = data_qos()
+        self._pub_moment = self.create_publisher(SampleBlock, '/friction/moment', qos)
+        self._pub_est = self.create_publisher(FrictionEstimate, '/friction/estimate', qos)
+        group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
+        self._subs = [
+            self.create_subscription(
+                SampleBlock, topic, self._callback(ch), qos, callback_group=group
+            )
+            for topic, ch in TOPICS.items()
+        ]
+        self._stop = threading.Event()
+        self._worker = threading.Thread(target=self._work, name='friction_fit', daemon=True)
+        self._worker.start()
+        self.published = 0
+        w0 = 'tachometer mean' if cfg.nominal_speed is None else f'{cfg.nominal_speed:g} rad/s'
+        self.get_logger().info(
+            f'friction estimator: {cfg.block_length:g} s blocks, '
+            f'F_N*R = {rig.F_N * rig.R:g} N m, w0 = {w0}'
+        )
+
+    # ------------------------------------------------------------------ input
+    def _callback(self, channel: str) -> Callable[[SampleBlock], None]:
+        def cb(msg: SampleBlock) -> None:
+            self._on_block(channel, msg)
+
+        return cb
+
+    def _on_block(self, channel: str, msg: SampleBlock) -> None:
+        b = block_from_msg(msg, channel)
+        try:
+            with self._lock:
+                moments, blocks, notes = self._pipe.push(
+                    channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
+                )
+        except EstimationError as exc:
+            self.get_logger().error(f'{channel}: block dropped: {exc}')
+            return
+        for note in notes:
+            self.get_logger().warning(note)
+        for mc in moments:
+            self._pub_moment.publish(
+                make_sample_block(
+                    mc.moment,
+                    first_index=mc.first_index,
+                    sample_rate=mc.sample_rate,
+                    stamp_ns=round(mc.t0 * 1e9),
+                    channel='friction_moment',
+                    unit='N m',
+                )
+            )
+        for blk in blocks:
+            self._queue.put(blk)
+
+    # ----------------------------------------------------------------- worker
+    def _work(self) -> None:
+        try:
+            self._pipe.warm_up()  # load the compiled kernel before the first block ends
+        except EstimationError as exc:
+            self.get_logger().warning(f'warm-up failed: {exc}')
+        while not self._stop.is_set():
+            try:
+                blk = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            if blk is None:
+                break
+            try:
+                res = self._pipe.evaluate(blk)
+            except EstimationError as exc:  # e.g. speed in rpm: a configuration problem
+                self.get_logger().error(f'block {blk.index}: {exc}')
+                continue
+            self._pub_est.publish(to_msg(res))
+            self.published += 1
+
+    def close(self) -> None:
+        """Stop the worker after the queued blocks."""
+        self._queue.put(None)
+        self._stop.set()
+        self._worker.join(timeout=5.0)
+
+
+def to_msg(r: BlockResult) -> FrictionEstimate:
+    """FrictionEstimate message of one block result."""
+    m = FrictionEstimate()
+    m.header.stamp = (
+        time_from_ns(round(r.t_start * 1e9)) if math.isfinite(r.t_start) else m.header.stamp
+    )
+    m.header.frame_id = 'friction'
+    m.t_start = float(r.t_start)
+    m.t_end = float(r.t_end)
+    m.first_index = int(r.first_index)
+    m.mu0 = float(r.mu0)
+    m.mu0_se = float(r.mu0_se)
+    m.mu_inf = float(r.mu_inf)
+    m.mu_inf_se = float(r.mu_inf_se)
+    m.k = float(r.k)
+    m.k_se = float(r.k_se)
+    m.moment_min = float(r.moment_min)
+    m.moment_max = float(r.moment_max)
+    m.moment_mean = float(r.moment_mean)
+    m.motion = r.motion
+    m.n_sticks = int(r.n_sticks)
+    m.stick_fraction = float(r.stick_fraction)
+    m.rms_residual = float(r.rms_residual)
+    m.quality = r.quality_str
+    return m
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point of the ``friction_estimator`` executable."""
+    return run_node(FrictionEstimatorNode, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
