@@ -16,15 +16,29 @@ from tribo_bringup.commands import demo
 from tribo_bringup.errors import ConfigError
 
 
-def test_builtin_effect_is_merged_into_the_rig(tmp_path: Path) -> None:
-    base = tmp_path / 'rig.yaml'
+def test_builtin_effect_is_merged_into_the_rig(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(demo, 'CONFIG', tmp_path)  # no config/rig_hidden_*.yaml here
+    base = tmp_path / 'base.yaml'
     base.write_text(yaml.safe_dump({**demo.DEFAULT_RIG, 'mu0': 0.2}))
-    if (demo.CONFIG / 'rig_hidden_frictional_lag.yaml').exists():
-        pytest.skip('config/rig_hidden_frictional_lag.yaml overrides the built-in effect')
     rig, source = demo.rig_for_demo(str(base), 'frictional_lag')
     assert rig['mu0'] == 0.2  # the base file wins over the defaults
     assert rig['effects'] == demo.EFFECTS['frictional_lag']
     assert 'built-in' in source
+
+
+def test_hidden_rig_file_of_the_discrepancy_workflow_is_preferred(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(demo, 'CONFIG', tmp_path)
+    (tmp_path / 'rig_hidden_viscous.yaml').write_text(
+        yaml.safe_dump({'mu0': 0.14, 'effects': {'viscous': 1.0}})
+    )
+    rig, source = demo.rig_for_demo(None, 'viscous')
+    assert rig['effects'] == {'viscous': 1.0} and rig['mu0'] == 0.14
+    assert rig['C1'] == demo.DEFAULT_RIG['C1']  # missing keys from the paper rig
+    assert source.endswith('rig_hidden_viscous.yaml')
 
 
 def test_every_builtin_effect_names_model_extensions() -> None:
@@ -64,3 +78,51 @@ def test_duration_is_checked() -> None:
     args = argparse.Namespace(duration=0.5, discrepancy_seconds=5.0)
     with pytest.raises(ConfigError, match='--duration'):
         demo.run(args)
+
+
+@pytest.mark.ros
+def test_short_demo_end_to_end(tmp_path: Path) -> None:
+    """3 s on the live graph, recorded and reported (the minute-long run is `make demo`)."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    pytest.importorskip('rclpy', reason='needs rclpy: run under `make test`')
+    pytest.importorskip('tribo_msgs.msg', reason='needs the built workspace (source env.sh)')
+    out = tmp_path / 'demo'
+    harness = (
+        'import argparse, sys\n'
+        'from tribo_bringup.commands import demo\n'
+        'p = argparse.ArgumentParser(); demo.register(p.add_subparsers())\n'
+        'a = p.parse_args(sys.argv[1:]); sys.exit(a.func(a))\n'
+    )
+    env = {
+        **os.environ,
+        'ROS_DOMAIN_ID': str(20 + (os.getpid() + 7) % 70),
+        'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+    }
+    args = [sys.executable, '-c', harness, 'demo', '--duration', '3', '--out', str(out)]
+    args += ['--no-discrepancy', '--no-bridge']
+    proc = subprocess.Popen(
+        args, env=env, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
+    )
+    try:
+        text, _ = proc.communicate(timeout=240)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGINT)
+        text, _ = proc.communicate(timeout=30)
+        pytest.fail(f'demo did not finish: {text.decode()[-2000:]}')
+    log = text.decode(errors='replace')
+    assert proc.returncode == 0, log[-3000:]
+    assert f'Report: {(out / "report" / "report.html").resolve()}' in log
+    results = json.loads((out / 'report' / 'results.json').read_text())
+    assert len(results['summary']) == 5
+    streams = {s['topic']: s for s in results['session']['streams']}
+    torsion = streams['/rig/torsion_moment']
+    # the recorder is subscribed before the rig starts: the record begins at sample 0
+    assert torsion['first_index'] == 0 and results['session']['missing_samples'] == 0
+    # 3 s at 10 kHz recorded (>= 2.5 s: the stop is not sample-exact)
+    assert torsion['samples'] >= 25_000
+    assert (out / 'rig_used.yaml').is_file() and (out / 'bag' / 'metadata.yaml').is_file()

@@ -280,6 +280,7 @@ def test_rig_table(report: dict[str, Any]) -> None:
 def test_empty_or_missing_bag_is_an_error(tmp_path: Path) -> None:
     with pytest.raises(BagError, match='no such bag'):
         build_report(tmp_path / 'nope', tmp_path / 'out', progress=lambda s: None)
+    assert not (tmp_path / 'out').exists()  # nothing written for a bad input
 
 
 def test_opens_in_headless_chromium(report: dict[str, Any], tmp_path: Path) -> None:
@@ -326,3 +327,31 @@ def test_offline_blocks_csv_is_read(tmp_path: Path) -> None:
     assert blocks[0]['n_sticks'] == 80 and blocks[1]['quality'] == 'no_sliding'
     assert blocks[0]['first_index'] is None  # not in blocks.csv: no Fig. 6 detail
     assert offline_blocks(tmp_path / 'nothing') == []
+
+
+def test_discrepancy_result_is_summarised_and_embedded(tmp_path: Path) -> None:
+    from tribo_bringup.report import analysis_section, discrepancy_finding
+
+    result = {
+        'baseline': {'rms': 1.415, 'params': {'mu0': 0.13}},
+        'added': [
+            {
+                'effect': 'dwell_time_stiction',
+                'params': {'stiction_gain': 0.0191, 'stiction_tau': 0.00516},
+                'units': {'stiction_gain': '-', 'stiction_tau': 's'},
+            }
+        ],
+        'final': {'rms': 0.0609},
+    }
+    text = discrepancy_finding(result)
+    assert text.startswith('found dwell_time_stiction')
+    assert 'stiction_tau = 0.00516 s' in text and '1.42 -> 0.0609 N m' in text
+    assert discrepancy_finding({'added': []}).startswith('no missing effect found')
+    d = tmp_path / 'analyses' / 'discrepancy'
+    d.mkdir(parents=True)
+    (d / 'discrepancy.json').write_text(json.dumps(result))
+    status = {'ok': True, 'dir': 'analyses/discrepancy', 'command': 'tribo discrepancy x',
+              'seconds': 1.0, 'note': 'analysed 5 s'}  # fmt: skip
+    sec = analysis_section('discrepancy', 'Discrepancy', status, tmp_path)
+    assert sec.available and 'id="discrepancy-finding"' in sec.body
+    assert 'dwell_time_stiction' in sec.body and 'analysed 5 s' in sec.body

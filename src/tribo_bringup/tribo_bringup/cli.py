@@ -27,6 +27,7 @@ COMMANDS: tuple[str, ...] = (
     'wear',
     'discrepancy',
     'report',
+    'demo',
 )
 
 EXIT_BAD_INPUT = 2

@@ -55,7 +55,7 @@ def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
     )
     for f in fields(cfg.extensions):
         sim[f'effects.{f.name}'] = float(getattr(cfg.extensions, f.name))
-    return {'sim_rig': sim, 'friction_estimator': common}
+    return {'sim_rig': sim, 'friction_estimator': common, 'live_bridge': {'C1': common['C1']}}
 
 
 @dataclass

@@ -364,6 +364,7 @@ def session_section(bag: Path, scan: BagScan, results: dict, out: Path) -> Secti
         'streams': [
             {
                 'topic': s.topic,
+                'first_index': s.first_index,
                 'messages': s.messages,
                 'samples': s.samples,
                 'missing': s.missing,
@@ -376,16 +377,21 @@ def session_section(bag: Path, scan: BagScan, results: dict, out: Path) -> Secti
     _write_csv(
         out / 'streams.csv',
         results['session']['streams'],
-        ('topic', 'messages', 'samples', 'missing', 'gaps', 'duplicates'),
+        ('topic', 'first_index', 'messages', 'samples', 'missing', 'gaps', 'duplicates'),
     )
     body = _kv(
         {'recorded duration': duration, 'missing samples (all streams)': missing},
         'session-summary',
         {'recorded duration': 's', 'missing samples (all streams)': 'samples'},
     )
-    rows = [(s.topic, s.messages, s.samples, s.missing, s.gaps, s.duplicates) for s in scan.streams]
+    rows = [
+        (s.topic, s.first_index, s.messages, s.samples, s.missing, s.gaps, s.duplicates)
+        for s in scan.streams
+    ]
     body += _table(
-        rows, ('stream', 'blocks', 'samples', 'missing', 'gaps', 'duplicates'), 'streams'
+        rows,
+        ('stream', 'first index', 'blocks', 'samples', 'missing', 'gaps', 'duplicates'),
+        'streams',
     )
     rows2 = sorted(scan.counts.items())
     body += _table(rows2, ('topic', 'messages'), 'topics')
@@ -609,7 +615,7 @@ def analysis_section(key: str, title: str, status: Mapping[str, Any], out: Path)
             continue
         body += f'<details><summary>{html.escape(str(js.relative_to(out)))}</summary>'
         body += _json_html(data) + '</details>'
-        if key == 'discrepancy' and isinstance(data, dict):
+        if key == 'discrepancy' and js.name.startswith('discrepancy') and isinstance(data, dict):
             body = _discrepancy_findings(data) + body
     for png in sorted(d.rglob('*.png')):
         b64 = base64.b64encode(png.read_bytes()).decode('ascii')
@@ -640,29 +646,29 @@ def _json_html(data: Any, depth: int = 0) -> str:
 
 
 def _discrepancy_findings(data: Mapping[str, Any]) -> str:
-    added = data.get('added') or []
-    base = (data.get('baseline') or {}).get('rms')
-    final = (data.get('final') or {}).get('rms')
-    if not added:
-        text = 'No missing effect found: the paper model explains the data to the noise floor.'
-    else:
-        parts = []
-        for a in added:
-            params = ', '.join(f'{k} = {fmt(v)}' for k, v in (a.get('params') or {}).items())
-            parts.append(f'{a.get("effect")} ({params})')
-        text = 'Effects added to the model: ' + '; '.join(parts)
     return (
-        f'<p class="finding" id="discrepancy-finding">{html.escape(text)} Residual RMS '
-        f'{fmt(base)} N m (paper model) -> {fmt(final)} N m (final model).</p>'
+        f'<p class="finding" id="discrepancy-finding">Finding: '
+        f'{html.escape(discrepancy_finding(data))}.</p>'
     )
 
 
 def discrepancy_finding(data: Mapping[str, Any]) -> str:
-    """One-line text of a discrepancy.json result."""
+    """One-line text of a discrepancy.json result (effects found, their values, residual RMS)."""
     added = data.get('added') or []
+    base = (data.get('baseline') or {}).get('rms')
+    final = (data.get('final') or {}).get('rms')
+    rms = f'torque residual RMS {fmt(base, 3)} -> {fmt(final, 3)} N m'
     if not added:
-        return 'no missing effect found'
-    return ', '.join(str(a.get('effect')) for a in added)
+        return f'no missing effect found ({rms})'
+    parts = []
+    for a in added:
+        units = a.get('units') or {}
+        params = ', '.join(
+            f'{k} = {fmt(v, 3)} {units.get(k, "").strip("-")}'.rstrip()
+            for k, v in (a.get('params') or {}).items()
+        )
+        parts.append(f'{a.get("effect")} ({params})')
+    return f'found {"; ".join(parts)}; {rms}'
 
 
 # --- plots ---------------------------------------------------------------------------
@@ -1048,6 +1054,8 @@ def build_report(
     say = progress or (lambda s: print(f'report: {s}', file=sys.stderr, flush=True))
     bag_p = Path(bag)
     out_p = Path(out)
+    if not bag_p.exists():
+        raise BagError(f'{bag_p}: no such bag')
     out_p.mkdir(parents=True, exist_ok=True)
     rig_s = str(rig) if rig is not None else None
     nvct_s = str(nvct) if nvct is not None else None

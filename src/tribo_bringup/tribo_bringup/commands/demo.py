@@ -194,9 +194,10 @@ def run_graph(
         },
         'live_bridge': {'C1': float(over['friction_estimator']['C1'])},
     }
-    wanted = ['sim_rig', 'sim_detector', 'friction_estimator', 'wear_monitor']
+    # the rig last: its stream starts at once, every subscriber should be there first
+    wanted = ['sim_detector', 'friction_estimator', 'wear_monitor', 'sim_rig']
     if bridge:
-        wanted.append('live_bridge')
+        wanted.insert(0, 'live_bridge')
     graph = Graph(nodes=[])
     warm_up(over['sim_rig'])
     writer = bagio.BagWriter(bag)
@@ -205,6 +206,7 @@ def run_graph(
     notes: list[str] = []
     try:
         graph.start()
+        graph.extra_nodes.append(Recorder(writer))
         for name in wanted:
             cls = _node_class(name)
             if cls is None:
@@ -231,8 +233,6 @@ def run_graph(
                 )
         if 'sim_rig' not in ran:
             raise BringupError('the simulated rig (tribo_drivers sim_rig) is not available')
-        recorder = Recorder(writer)
-        graph.extra_nodes.append(recorder)
         for n in notes:
             _say(n)
         _say(f'live graph: {", ".join(ran)} + recorder -> {bag}')
@@ -338,7 +338,9 @@ def run(args: argparse.Namespace) -> int:
         opts = command_options('discrepancy') or set()
         span = float(args.discrepancy_seconds)
         if span > 0:
-            start = min(2.0, 0.25 * args.duration)  # skip the drive's start-up ramp
+            # from the first sample: the start from rest gives sticks of different lengths,
+            # which tells dwell-time effects apart from a plain higher mu0
+            start = 0.0
             pair = next((p for p in WINDOW_OPTIONS if p[0] in opts and p[1] in opts), None)
             if pair is not None:
                 extra['discrepancy'] = [pair[0], f'{start:g}', pair[1], f'{span:g}']

@@ -78,9 +78,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--min-gain',
         type=float,
-        default=0.10,
+        default=0.25,
         metavar='F',
-        help='relative held-out improvement needed to add an effect (0.10)',
+        help='relative held-out improvement needed to add an effect (0.25)',
     )
     p.add_argument('--no-plots', action='store_true', help='write only discrepancy.json')
     p.set_defaults(func=run)

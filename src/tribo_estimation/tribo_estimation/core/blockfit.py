@@ -17,19 +17,26 @@ Steps per block:
    sliding phase it equals ``F_N*R*mu_inf`` (deceleration rule); medians of
    the observer moment at these instants give mu0 and mu_inf.
 3. **Output-error refinement (multiple shooting)**: the block is split at the
-   measured stick phases. During sticking ``w1 = w2`` and the full state is
-   known from the measurements: ``phi1 = M_t/C1``, ``w`` from the slope of
-   ``M_t`` (or the observer), and the shaft twist ``phi2 - phi0`` from the
-   stuck equations of motion (Equ. 1, 2 with Equ. 4). Every segment is
-   simulated from the state at its stick phase to the next stick phase, so a
-   1 s fit cannot drift out of phase. A Levenberg-Marquardt iteration with
-   forward-difference sensitivities (a handful of kernel calls) minimises the
-   weighted residuals. Blocks without sticking are simulated in one piece from
-   the observer state; there the deceleration rule keeps ``mu = mu_inf`` and
-   mu0 is not identifiable (reported as NaN).
-4. **Standard errors** from the Jacobian and the residual variance, inflated
-   by ``(1 + rho)/(1 - rho)`` for the lag-1 autocorrelation ``rho`` of the
-   residuals (effective number of independent samples).
+   measured stick phases (:func:`sticks.detect_sticks`). During sticking
+   ``w1 = w2`` and the full state is known from the measurements:
+   ``phi1 = M_t/C1``, ``w = phi1'`` from a local cubic through ``M_t``, and the
+   shaft twist ``phi2 - phi0`` from the stuck equations of motion (Equ. 1, 2
+   with Equ. 4). Each segment is simulated with the compiled kernel from the
+   state late in its stick phase (the stuck motion does not depend on the
+   friction law before breakaway) to the next stick phase, so a 1 s fit
+   cannot drift out of phase. Long sliding stretches (slip-slip) get further
+   nodes every 50 ms, their state from the torsion moment, the tachometer and
+   Equ. 2. A Levenberg-Marquardt iteration with forward-difference
+   sensitivities (typically five kernel passes over the block) minimises the
+   weighted residuals. Acceleration samples next to a switching event (where
+   the acceleration jumps) are left out of the comparison: their value changes
+   discontinuously when the event crosses a sample instant.
+4. **Identifiability**: mu0 acts only at breakaway. Blocks with fewer than
+   :data:`MIN_BREAKAWAYS` stick phases report ``mu0 = NaN`` (in slip-slip the
+   deceleration rule keeps ``mu = mu_inf``); so does a relative standard
+   error above 50 %.
+5. **Standard errors**: cluster-robust (sandwich) over the shooting segments,
+   so correlated residuals within a segment do not make them optimistic.
 
 Every value is in SI units: moments N m, speeds rad/s, accelerations rad/s^2,
 time s, coefficients dimensionless, k in s/rad.
@@ -351,7 +358,7 @@ def stick_phases(stick: BoolArray) -> tuple[npt.NDArray[np.int64], npt.NDArray[n
 
 
 # ============================================================ compiled multiple shooting
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _shoot(
     p: np.ndarray,
     states: np.ndarray,
@@ -440,6 +447,9 @@ _HALF = 7
 #: Shooting nodes sit this many samples before the detected end of a stick phase
 #: (the stuck motion before it does not depend on the friction law) [samples].
 _LEAD = 15
+
+#: Fewest stick phases (breakaways) in a block for mu0 to be reported [-].
+MIN_BREAKAWAYS = 3
 
 #: Shortest stick phase used as a shooting node [samples].
 _MIN_NODE = 2
@@ -601,6 +611,27 @@ def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[floa
             tails.append(m[mid:s_next])
     mu_inf = float(np.median(np.concatenate(tails))) / fnr if tails else float(np.min(m)) / fnr
     return mu0, mu_inf
+
+
+def initial_k(d: BlockData, fnr: float, mu0: float, mu_inf: float) -> float:
+    """Equation-error estimate of the Stribeck constant k [s/rad] (Equ. 8).
+
+    In the acceleration part of a sliding phase ``y = (|M|/(F_N*R) - mu_inf) /
+    (mu0 - mu_inf) = exp(-k*|v|)`` with the slip speed ``v = w2 - w1``; samples
+    with ``0.1 < y < 0.9`` (after the peak y = 0) give ``k`` by least squares of
+    ``log y = -k*|v|`` through the origin. NaN when there are too few samples.
+    """
+    dmu = mu0 - mu_inf
+    if not (math.isfinite(dmu) and dmu > 0.0) or d.moment.size != d.torsion.size:
+        return math.nan
+    y = (np.abs(d.moment) / fnr - mu_inf) / dmu
+    v = np.abs(d.speed - d.chamber_speed)
+    sel = (~d.stick) & (y > 0.1) & (y < 0.9) & (v > 0.05)
+    if int(sel.sum()) < 10:
+        return math.nan
+    vv = v[sel]
+    k = -float(np.dot(vv, np.log(y[sel]))) / float(np.dot(vv, vv))
+    return k if math.isfinite(k) and k > 0.0 else math.nan
 
 
 #: Acceleration samples this close to a switching event are not compared [samples].
@@ -773,7 +804,11 @@ def fit_block(
             out[:, j] = (residual(tj) - r0) / h
         return out
 
-    start = {'mu0': mu0_i, 'mu_inf': muinf_i, 'k': k}
+    k_i = k
+    if cfg.fit_k and sticky:
+        k_eq = initial_k(d, fnr, mu0_i, muinf_i)
+        k_i = k_eq if math.isfinite(k_eq) else k
+    start = {'mu0': mu0_i, 'mu_inf': muinf_i, 'k': k_i}
     theta = np.array([max(start[nm], 0.0) for nm in names], dtype=float)
     lower = np.zeros(len(names))
     # clusters for the standard errors: the shooting segments (nearly independent)
@@ -1028,10 +1063,14 @@ def evaluate_block(
     except FitError:
         flags.add('fit_failed')
         return finish(None, stick, motion, n_sticks, w0, data)
-    # a parameter the data do not determine (relative se above 50 %) is not reported
-    if not (math.isfinite(out.mu0_se) and out.mu0_se < 0.5 * max(abs(out.mu0), 1e-12)):
+    # mu0 is seen only at breakaways: with fewer than MIN_BREAKAWAYS stick phases, or
+    # a relative se above 50 %, the data do not determine it and it is not reported
+    mu0_known = len(phases) >= MIN_BREAKAWAYS
+    if not (
+        mu0_known and math.isfinite(out.mu0_se) and out.mu0_se < 0.5 * max(abs(out.mu0), 1e-12)
+    ):
         out = replace(out, mu0=math.nan, mu0_se=math.nan)
-    vals = [out.mu_inf, out.mu_inf_se] + ([out.mu0] if phases else [])
+    vals = [out.mu_inf, out.mu_inf_se] + ([out.mu0] if mu0_known else [])
     if (
         not out.converged
         or not all(math.isfinite(v) for v in vals)

@@ -186,6 +186,34 @@ def detect_stick_runs(
     return starts[keep].astype(np.int64), stops[keep].astype(np.int64)
 
 
+def refine_onsets(accel: FloatArray, starts: IntArray, *, search: int = 20) -> FloatArray:
+    """Sub-sample stick onsets from the acceleration jump where the discs lock.
+
+    When sliding ends the chamber acceleration jumps from its sliding value to
+    that of the stuck system. Within ``search`` samples before/after each
+    detected start, the jump is the largest first difference that stands out
+    of its neighbours' trend, ``e[j] = d[j] - (d[j-1] + d[j+1])/2``; the onset
+    is then half a sample before the first stuck sample. Starts without a
+    clear jump (below 8 x the noise of e) stay as they are. Returns onsets in
+    (fractional) samples.
+    """
+    a = np.asarray(accel, dtype=np.float64)
+    d = np.diff(a)
+    e = np.zeros_like(d)
+    e[1:-1] = d[1:-1] - 0.5 * (d[:-2] + d[2:])
+    noise = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    out = starts.astype(np.float64).copy()
+    for k, s in enumerate(starts):
+        lo = max(1, int(s) - search)
+        hi = min(e.size - 1, int(s) + search // 2)
+        if hi <= lo:
+            continue
+        j = lo + int(np.argmax(np.abs(e[lo:hi])))
+        if abs(e[j]) > 8.0 * noise:
+            out[k] = j + 1 - 0.5
+    return out
+
+
 def make_segments(
     record: Record,
     C1: float,
@@ -222,8 +250,14 @@ def make_segments(
         starts, stops = starts[:-1], stops[:-1]
     start_arr = np.asarray(starts, dtype=np.int64)
     stop_arr = np.asarray(stops, dtype=np.int64)
-    run_start_of = {int(a) + min(delay, (int(b) - int(a)) // 2): int(a) for a, b in zip(s_start, s_stop, strict=True)}
-    stick_time = np.asarray([(s - run_start_of[int(s)]) / fs for s in start_arr], dtype=np.float64)
+    onsets = refine_onsets(record.angular_acceleration, s_start)
+    run_start_of = {
+        int(a) + min(delay, (int(b) - int(a)) // 2): float(o)
+        for a, b, o in zip(s_start, s_stop, onsets, strict=True)
+    }
+    stick_time = np.asarray(
+        [max((s - run_start_of[int(s)]) / fs, 0.0) for s in start_arr], dtype=np.float64
+    )
     t_rel = (start_arr - start_arr[0]) / fs
     n_blocks = max(2, round((stop_arr[-1] - start_arr[0]) / fs / block_time))
     block = np.minimum((t_rel / block_time).astype(np.int64), n_blocks - 1)
@@ -443,7 +477,14 @@ class Problem:
         # measurement-side extensions: offset, then first-order lag)
         t0 = self._t0[sel]
         m_lagged = self._m_val[sel] - ext.torque_offset - ext.torque_offset_drift * t0
-        m_true = m_lagged + ext.torque_lag_tau * (self._m_slope[sel] - ext.torque_offset_drift)
+        # the sensor lag is the discrete filter y[n] = a*y[n-1] + (1 - a)*x[n] of
+        # simulate.simulate, a = exp(-dt/tau): on a ramp of slope S it lags by
+        # S*dt*a/(1 - a) (-> S*tau for dt << tau)
+        lag_eff = 0.0
+        if ext.torque_lag_tau > 0.0:
+            a_l = math.exp(-rec.dt / ext.torque_lag_tau)
+            lag_eff = rec.dt * a_l / (1.0 - a_l)
+        m_true = m_lagged + lag_eff * (self._m_slope[sel] - ext.torque_offset_drift)
         states = _stick_states(
             p, t0, m_true, self._w0[sel], self._a0[sel], seg.stick_time[sel]
         )
@@ -457,8 +498,10 @@ class Problem:
             # the same exact first-order discretisation as simulate.simulate, per segment
             a = math.exp(-rec.dt / ext.torque_lag_tau)
             for k, (i0, i1) in enumerate(zip(seg.start[sel], seg.stop[sel], strict=True)):
-                y0 = m_lagged[k]
-                f, _ = lfilter([1.0 - a], [1.0, -a], torsion[i0:i1], zi=np.array([a * y0]))
+                # filter state chosen so that the first output equals the measured
+                # (lagged) value: y0 = a*y_prev + (1 - a)*x0
+                zi = m_lagged[k] - (1.0 - a) * torsion[i0]
+                f, _ = lfilter([1.0 - a], [1.0, -a], torsion[i0:i1], zi=np.array([zi]))
                 torsion[i0:i1] = f
         if ext.torque_offset != 0.0 or ext.torque_offset_drift != 0.0:
             torsion = torsion + ext.torque_offset + ext.torque_offset_drift * rec.time

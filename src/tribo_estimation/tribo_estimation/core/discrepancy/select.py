@@ -13,9 +13,13 @@ Forward selection over the candidate library (:mod:`.candidates`):
    with ``n_eff`` the number of compared samples thinned to one per
    ``corr_time`` (residuals of a model mismatch are correlated over about a
    millisecond; counting every 0.1 ms sample would overstate the evidence).
-4. Accept the candidate with the lowest held-out cost only if it improves
-   clearly: held-out cost lower by at least ``min_gain`` (relative) AND
-   ``delta_BIC <= -bic_threshold``. Repeat until nothing improves.
+4. A candidate is eligible only if it improves clearly: held-out cost lower
+   by at least ``min_gain`` (relative) AND ``delta_BIC <= -bic_threshold``.
+   The eligible candidate with the lowest BIC is added, unless one with fewer
+   parameters fits practically as well (whole-record cost within
+   ``parsimony``; e.g. a torque-offset drift vs equal drifts of mu0 and
+   mu_inf, which predict the same signals); the model is polished, and the
+   next round starts from it. Repeat until no candidate is eligible.
 5. Describe what remains (:func:`describe_unexplained`): spectral lines, a
    phase-concentrated excess, a trend, a shaft-angle dependence, each with
    where / how large / which frequency, rather than forcing a name; and
@@ -69,7 +73,7 @@ class SelectionSettings:
     registered); ``propose_terms`` run the sparse regression on what remains.
     """
 
-    min_gain: float = 0.10
+    min_gain: float = 0.25
     bic_threshold: float = 10.0
     max_effects: int = 3
     folds: int = 2
@@ -78,6 +82,7 @@ class SelectionSettings:
     max_nfev: int = 60
     screen_nfev: int = 15
     cv_nfev: int = 15
+    parsimony: float = 0.03
     candidates: tuple[str, ...] | None = None
     propose_terms: bool = True
 
@@ -437,6 +442,7 @@ def propose_terms(
         shaft_angle=shaft_angle(problem)[cov],
         chamber_speed=np.nan_to_num(sim.chamber_speed)[cov],
         line_frequencies=lines,
+        include_angle=float(np.sum(rec.speed) * rec.dt) >= 4 * math.pi,
     )
     r = torque_residual(problem, sim)[cov]
     model = stlsq(lib, r, threshold=0.5 * sigma)
@@ -522,6 +528,16 @@ def run_discrepancy(
             if eligible
             else min(scores, key=lambda s: s.model.cv_cost)
         )
+        # parsimony: a candidate with fewer parameters that fits practically as
+        # well (whole-record cost within `parsimony`) is preferred
+        simpler = [
+            s
+            for s in eligible
+            if s.model.n_params < best.model.n_params
+            and s.model.cost <= (1.0 + st.parsimony) * best.model.cost
+        ]
+        if simpler:
+            best = min(simpler, key=lambda s: (s.model.n_params, s.model.cost))
         scores = [
             CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best) for s in scores
         ]

@@ -105,29 +105,38 @@ def feature_library(
     shaft_angle: FloatArray,
     chamber_speed: FloatArray,
     line_frequencies: tuple[float, ...] = (),
+    include_angle: bool = True,
 ) -> dict[str, FloatArray]:
     """The default term library (names say what each feature is, SI units).
 
     ``time`` s, ``slip_speed`` rad/s (simulated), ``stick`` 0/1,
-    ``shaft_angle`` rad, ``chamber_speed`` rad/s, ``line_frequencies`` Hz.
+    ``shaft_angle`` rad, ``chamber_speed`` rad/s, ``line_frequencies`` Hz;
+    ``include_angle`` adds shaft-angle harmonics (only meaningful when the
+    record covers several revolutions, else they mimic a trend).
     """
     t = np.asarray(time, dtype=np.float64)
     v = np.asarray(slip_speed, dtype=np.float64)
     th = np.asarray(shaft_angle, dtype=np.float64)
     tc = t - t[0]
     lib: dict[str, FloatArray] = {
-        '1': np.ones_like(t),
         't': tc,
         'v': v,
         'sgn(v)': np.sign(v),
         'stick': np.asarray(stick, dtype=np.float64),
         'sgn(w1)': np.sign(np.asarray(chamber_speed, dtype=np.float64)),
-        'cos(theta2)': np.cos(th),
-        'sin(theta2)': np.sin(th),
-        'cos(2*theta2)': np.cos(2 * th),
-        'sin(2*theta2)': np.sin(2 * th),
     }
+    if include_angle:
+        lib['cos(theta2)'] = np.cos(th)
+        lib['sin(theta2)'] = np.sin(th)
+        lib['cos(2*theta2)'] = np.cos(2 * th)
+        lib['sin(2*theta2)'] = np.sin(2 * th)
     for f in line_frequencies:
         lib[f'cos(2*pi*{f:.3f}*t)'] = np.cos(2 * np.pi * f * t)
         lib[f'sin(2*pi*{f:.3f}*t)'] = np.sin(2 * np.pi * f * t)
-    return lib
+    # centred features, so that '1' carries the mean and no pair of large,
+    # nearly collinear columns cancels each other
+    out: dict[str, FloatArray] = {'1': np.ones_like(t)}
+    for name, col in lib.items():
+        ok = np.isfinite(col)
+        out[name] = col - (float(np.mean(col[ok])) if np.any(ok) else 0.0)
+    return out
