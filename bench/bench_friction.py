@@ -4,8 +4,9 @@ Prints:
 1. accuracy per block at 10, 30 and 60 rpm with the issue's noise (0.05 N m,
    2 rad/s^2, 10 kHz): largest relative error of mu0 and mu_inf after the
    start-up block, and how often the truth lies within 2 standard errors;
-2. CPU time per 1 s block (median, one core): the fit alone (``fit_block``)
-   and the whole block evaluation (stick detection + fit), side by side with a
+2. CPU time per 1 s block (median, one core): the fit alone (``fit_block``),
+   the whole block evaluation (stick detection + fit) and the stick detection
+   (``sticks.detect_sticks``) alone, side by side with a
    plain scipy ``least_squares`` + ``solve_ivp`` fit of the same block
    (single shooting with the reference integrator of ``core/reference.py``,
    started from the TRUE state, which a real fit does not have);
@@ -47,6 +48,7 @@ from tribo_estimation.core.model import (  # noqa: E402
     RigState,
 )
 from tribo_estimation.core.simulate import NoiseSpec, simulate  # noqa: E402
+from tribo_estimation.core.sticks import detect_sticks  # noqa: E402
 
 RIG = RigParams.tab1()
 TRUTH = FrictionLaw(0.13, 0.10, 2.0)
@@ -88,17 +90,21 @@ def _blocks(
     return out, states
 
 
+def blk_time(blk: PendingBlock) -> np.ndarray:
+    return blk.t_start + np.arange(blk.torsion.shape[0]) / blk.fs
+
+
 def accuracy_and_speed(n_blocks: int) -> None:
     print('1) accuracy per block (blocks after the start-up block) and 2) CPU time per block')
     print(
         f'{"rpm":>4} {"blocks":>6} {"max|dmu0|/mu0":>14} {"max|dmuinf|/muinf":>18} '
-        f'{"within 2se":>10} {"fit ms":>7} {"block ms":>8} {"evals":>5}'
+        f'{"within 2se":>10} {"fit ms":>7} {"block ms":>8} {"sticks ms":>9} {"evals":>5}'
     )
     for rpm in (10.0, 30.0, 60.0):
         blocks, _ = _blocks(rpm, n_blocks, seed=int(rpm))
         cfg = BlockConfig(nominal_speed=rad_s(rpm), ramp_time=0.5)
         evaluate_block(RIG, GUESS, cfg, blocks[1])  # warm-up (compiled code loaded)
-        e0, e1, cover, t_fit, t_blk, evals = [], [], [], [], [], []
+        e0, e1, cover, t_fit, t_blk, t_stk, evals = [], [], [], [], [], [], []
         for blk in blocks[1:]:
             t = time.process_time()
             det = evaluate_block(RIG, GUESS, cfg, blk)
@@ -107,6 +113,9 @@ def accuracy_and_speed(n_blocks: int) -> None:
             out = fit_block(RIG, det.data, rad_s(rpm), 2.0, cfg)
             t_fit.append(time.process_time() - t)
             evals.append(out.n_eval)
+            t = time.process_time()
+            detect_sticks(blk_time(blk), blk.torsion, blk.accel, blk.speed, RIG)
+            t_stk.append(time.process_time() - t)
             res = det.result
             e0.append(abs(res.mu0 - TRUTH.mu0) / TRUTH.mu0)
             e1.append(abs(res.mu_inf - TRUTH.mu_inf) / TRUTH.mu_inf)
@@ -115,7 +124,8 @@ def accuracy_and_speed(n_blocks: int) -> None:
         print(
             f'{rpm:4.0f} {len(e0):6d} {max(e0):14.2e} {max(e1):18.2e} '
             f'{np.mean(cover):10.0%} {np.median(t_fit) * 1e3:7.1f} '
-            f'{np.median(t_blk) * 1e3:8.1f} {int(np.median(evals)):5d}'
+            f'{np.median(t_blk) * 1e3:8.1f} {np.median(t_stk) * 1e3:9.1f} '
+            f'{int(np.median(evals)):5d}'
         )
 
 

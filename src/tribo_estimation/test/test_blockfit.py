@@ -145,31 +145,33 @@ def test_observer_recovers_friction_moment_torsion_alone_does_not() -> None:
 
 def test_oil_b_converging_mu0_and_motion_switch() -> None:
     # paper Fig. 5 (oil "B"): mu0 converges to mu_inf during the run; at 60 rpm the
-    # stick-slip stops and the rig slides
-    T = 12.0
-    drift = -(TRUTH.mu0 - TRUTH.mu_inf) / T
+    # stick-slip stops (slip-slip), later the oscillation dies out (steady)
+    T = 20.0
+    drift = -(TRUTH.mu0 - TRUTH.mu_inf) / 15.0
     r = _sim(60.0, T, seed=7, drift_mu0=drift)
     dets = _run(r, BlockConfig(nominal_speed=rad_s(60.0), ramp_time=0.5), chunk=2500)
-    assert len(dets) == 12
+    assert len(dets) == 20
     motions = [d.result.motion for d in dets]
     assert motions[0] == 'stick-slip'
-    assert motions[-1] in ('slip-slip', 'steady')
+    assert 'slip-slip' in motions
+    assert motions[-1] == 'steady'
     mu0_est = []
     for d in dets[1:]:
         res = d.result
         assert 'fit_failed' not in res.quality
-        if res.motion == 'stick-slip' and math.isnan(res.mu0):
-            # only one or two breakaways in the block do not determine mu0
-            assert res.n_sticks < MIN_BREAKAWAYS
-        elif res.motion == 'stick-slip':
-            true_mu0 = TRUTH.mu0 + drift * 0.5 * (res.t_start + res.t_end)  # mid-block
+        true_mu0 = TRUTH.mu0 + drift * 0.5 * (res.t_start + res.t_end)  # mid-block
+        if math.isfinite(res.mu0):
             assert abs(res.mu0 - true_mu0) < 0.02 * true_mu0
             mu0_est.append(res.mu0)
-        else:
-            # no sticking: the deceleration rule keeps mu = mu_inf, mu0 not identifiable
+        elif res.motion == 'stick-slip':
+            # only one or two breakaways in the block do not determine mu0
+            assert res.n_sticks < MIN_BREAKAWAYS
+        # steady sliding: past the slip-speed peak mu = mu_inf (deceleration
+        # rule), so mu0 has no influence and must not be reported
+        if res.motion == 'steady':
             assert math.isnan(res.mu0)
         assert abs(res.mu_inf - TRUTH.mu_inf) < 0.01 * TRUTH.mu_inf
-    assert len(mu0_est) >= 5
+    assert len(mu0_est) >= 8
     assert np.all(np.diff(mu0_est) < 0.0)  # the trend is followed block by block
 
 

@@ -53,7 +53,7 @@ def test_phase_labels_follow_the_deceleration_rule() -> None:
 
 
 def test_stick_durations_and_preceding_stick() -> None:
-    v, stick = _stick_pattern()
+    _, stick = _stick_pattern()
     # complete stick phases (not touching the ends): only the middle one, 6 samples
     assert stick_durations(stick, FS) == pytest.approx([6 / FS])
     pre = preceding_stick_duration(stick, FS)
@@ -163,8 +163,10 @@ def test_candidate_library_is_complete_and_nested() -> None:
         assert set(c.param_names) <= ext_fields, c.name
         # nested: the candidate's fields at zero give the paper's model
         assert Extensions(**{n: 0.0 for n in c.param_names}).is_baseline
-        vals = {p.name: 0.5 * (p.lower + p.upper) if not p.log else math.sqrt(p.lower * p.upper)
-                for p in c.params}
+        vals = {
+            p.name: 0.5 * (p.lower + p.upper) if not p.log else math.sqrt(p.lower * p.upper)
+            for p in c.params
+        }
         back = c.from_unit(c.to_unit(vals))
         assert back == pytest.approx(vals, rel=1e-12)
 
@@ -189,7 +191,7 @@ def test_levenberg_marquardt_exponential_fit_and_bounds() -> None:
         return x[0] * np.exp(-x[1] * t) - y
 
     lo, hi = np.array([0.0, 0.0]), np.array([10.0, 10.0])
-    x, sq, nfev, conv = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_nfev=200)
+    x, _, nfev, conv = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_nfev=200)
     assert conv and nfev <= 200
     assert x == pytest.approx([3.0, 2.5], rel=1e-4)  # noise-free: converges to the truth
     # with the decay rate capped below its true value the solution sits on the bound

@@ -50,3 +50,11 @@ class ConfigFileError(EstimationError, ValueError):
 
 class SimulationError(EstimationError, RuntimeError):
     """The simulator failed (non-finite state, event location did not converge)."""
+
+
+class AlignmentError(InvalidDataError):
+    """A sample block cannot be aligned (unknown channel, bad rate, index or stamp)."""
+
+
+class FitError(EstimationError):
+    """The block fit could not produce an estimate (too little or unusable data)."""

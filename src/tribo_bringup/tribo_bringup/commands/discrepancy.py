@@ -31,7 +31,7 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         'discrepancy',
         help='find where model and measurement disagree and name the missing effect',
-        description='Fit the paper\'s rig model (Equ. 1-8) to a record segment by segment, '
+        description="Fit the paper's rig model (Equ. 1-8) to a record segment by segment, "
         'localise the residual (phase, breakaway, slip speed, stick duration, test time, '
         'shaft angle, spectral lines), try every candidate effect of the library '
         '(dwell-time stiction, frictional lag, viscous friction, friction drift, drive speed '
@@ -116,8 +116,7 @@ def _load_bag(path: Path) -> tuple[Any, Any, Any, Any]:
                 _say(f'{type(ev).__name__}: {ev}')
                 runs.append([])
 
-    n_msgs = 0
-    for m in iter_messages(path, topics=list(TOPICS)):
+    for n_msgs, m in enumerate(iter_messages(path, topics=list(TOPICS)), start=1):
         msg = m.msg
         stamp = getattr(getattr(msg, 'header', None), 'stamp', None)
         t = (
@@ -126,11 +125,8 @@ def _load_bag(path: Path) -> tuple[Any, Any, Any, Any]:
             else m.timestamp_ns * 1e-9
         )
         take(
-            aligner.push(
-                TOPICS[m.topic], int(msg.first_index), float(msg.sample_rate), t, msg.data
-            )
+            aligner.push(TOPICS[m.topic], int(msg.first_index), float(msg.sample_rate), t, msg.data)
         )
-        n_msgs += 1
         if n_msgs % 5000 == 0:
             _say(f'read {n_msgs} messages')
     take(aligner.flush())

@@ -30,13 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import InvalidDataError
+from ..errors import AlignmentError
 
 FloatArray = npt.NDArray[np.float64]
-
-
-class AlignmentError(InvalidDataError):
-    """A sample block cannot be aligned (unknown channel, bad rate, index or stamp)."""
 
 
 #: Channel names in the order of :class:`AlignedChunk` fields (SampleBlock ``frame_id``).

@@ -55,7 +55,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from ..errors import EstimationError, InvalidDataError, InvalidParameterError, UnitError
+from ..errors import EstimationError, FitError, InvalidDataError, InvalidParameterError, UnitError
 from . import kernel as kn
 from .align import AlignEvent, GapEvent, RestartEvent
 from .model import DriveProfile, FrictionLaw, RigParams, pack_params
@@ -64,10 +64,6 @@ from .sticks import classify_motion, detect_sticks
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-
-
-class FitError(EstimationError):
-    """The block fit could not produce an estimate (too little or unusable data)."""
 
 
 # ============================================================ configuration and results
@@ -563,11 +559,17 @@ def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> FloatArray
 
 
 def _sliding_nodes(
-    n: int, stick_starts: npt.NDArray[np.int64], stick_ends: npt.NDArray[np.int64], fs: float
+    vabs: FloatArray,
+    stick_starts: npt.NDArray[np.int64],
+    stick_ends: npt.NDArray[np.int64],
+    fs: float,
 ) -> npt.NDArray[np.int64]:
-    """Extra shooting nodes in long sliding stretches (slip-slip), every
-    ``_SLIDE_SPACING`` s, at least ``_SLIDE_SETTLE`` s after a breakaway (past the
-    slip-speed peak) and before the next stick phase."""
+    """Extra shooting nodes in long sliding stretches (slip-slip): in every
+    ``_SLIDE_SPACING`` s window, at least ``_SLIDE_SETTLE`` s after a breakaway
+    and before the next stick phase, the sample of the largest slip speed
+    ``vabs`` = |w2 - w1| [rad/s] (its slip-speed peak: the deceleration rule
+    holds right after it)."""
+    n = vabs.shape[0]
     spacing = max(1, round(_SLIDE_SPACING * fs))
     settle = max(1, round(_SLIDE_SETTLE * fs))
     nodes: list[int] = []
@@ -576,7 +578,9 @@ def _sliding_nodes(
     for a, b in zip(slide_starts, slide_ends, strict=True):
         first = int(a) + (settle if a > 0 else _HALF)
         last = int(b) - _HALF - 1
-        nodes.extend(range(first, last, spacing))
+        for w in range(first, last - spacing // 2, spacing):
+            hi = min(w + spacing, last)
+            nodes.append(w + int(np.argmax(vabs[w:hi])))
     return np.array(sorted(set(nodes)), dtype=np.int64)
 
 
@@ -664,7 +668,16 @@ def _robust_se(
     clusters: ``cov = B^-1 (sum_s g_s g_s^T) B^-1 * G/(G - 1)``, ``B = J^T J``,
     ``g_s = J_s^T r_s``. With fewer than 3 clusters the classical
     ``s^2 (J^T J)^-1`` with a lag-1 autocorrelation inflation is used.
+    A parameter without any influence (zero Jacobian column, e.g. mu0 in
+    steady sliding) gets NaN and is left out for the others.
     """
+    norms = np.sqrt(np.sum(J * J, axis=0))
+    live = norms > 1e-9 * max(float(norms.max()) if norms.size else 0.0, 1e-300)
+    if not live.all():
+        out = np.full(n_par, math.nan)
+        if live.any():
+            out[live] = _robust_se(J[:, live], r, clusters, int(live.sum()))
+        return out
     B = J.T @ J
     try:
         Binv = np.linalg.inv(B)
@@ -742,7 +755,7 @@ def fit_block(
     keep = (ends_s - starts_s) >= _MIN_NODE
     starts_s, ends_s = starts_s[keep], ends_s[keep]
     sticky = starts_s.size > 0
-    slide_nodes = _sliding_nodes(n, starts_s, ends_s, d.fs)
+    slide_nodes = _sliding_nodes(np.abs(d.speed - d.chamber_speed), starts_s, ends_s, d.fs)
     node_list: list[tuple[int, FloatArray]] = []
     if sticky:
         # the stuck motion does not depend on the friction law until breakaway: start
@@ -754,7 +767,11 @@ def fit_block(
         node_list.extend((int(j), st_states[i]) for i, j in enumerate(anchors))
         names = ['mu0', 'mu_inf'] + (['k'] if cfg.fit_k else [])
     else:
-        names = ['mu_inf']
+        # slip-slip: mu0 acts only where a sliding phase restarts on the curve of
+        # Equ. 8 (slip speed back to zero without sticking); the fit finds out
+        names = ['mu0', 'mu_inf']
+        if not math.isfinite(mu0_i):
+            mu0_i = float(np.max(np.abs(d.moment))) / fnr
     node_list.extend((int(j), _sliding_state(p, d, int(j), w0)) for j in slide_nodes)
     if not node_list:  # short block without a usable node: start at its first sample
         node_list.append((0, _sliding_state(p, d, 0, w0)))
@@ -778,8 +795,6 @@ def fit_block(
     def set_theta(th: FloatArray) -> None:
         for name, v in zip(names, th, strict=True):
             p[idx[name]] = v
-        if not sticky:
-            p[kn.P_MU0] = p[kn.P_MUINF]  # irrelevant after the peak; kept consistent
 
     n_eval = [0]
 
@@ -1065,7 +1080,13 @@ def evaluate_block(
         return finish(None, stick, motion, n_sticks, w0, data)
     # mu0 is seen only at breakaways: with fewer than MIN_BREAKAWAYS stick phases, or
     # a relative se above 50 %, the data do not determine it and it is not reported
-    mu0_known = len(phases) >= MIN_BREAKAWAYS
+    # (slip-slip without any stick: only where sliding restarts on the curve, so
+    # the data must pin it down to 10 % of mu0 - mu_inf)
+    mu0_known = len(phases) >= MIN_BREAKAWAYS or (
+        not phases
+        and math.isfinite(out.mu0_se)
+        and out.mu0_se < 0.1 * max(abs(out.mu0 - out.mu_inf), 1e-12)
+    )
     if not (
         mu0_known and math.isfinite(out.mu0_se) and out.mu0_se < 0.5 * max(abs(out.mu0), 1e-12)
     ):

@@ -80,8 +80,8 @@ FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
 class FrictionEstimatorNode(Node):
     """Online friction estimator (see the module docstring)."""
 
-    def __init__(self) -> None:
-        super().__init__('friction_estimator')
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('friction_estimator', **kwargs)
         v: dict[str, Any] = {}
         for name, default, desc, low, high, excl in FLOAT_PARAMS:
             v[name] = float(

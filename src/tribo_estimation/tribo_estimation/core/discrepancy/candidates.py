@@ -123,9 +123,18 @@ class Candidate:
         """The default start values."""
         return {p.name: p.initial for p in self.params}
 
+    def nested_start(self) -> dict[str, float]:
+        """The start closest to the current model: every parameter at zero, or at
+        its lower bound for log-scaled time constants (a lag of 0.2 ms ~ none)."""
+        return {
+            p.name: (p.lower if p.log else min(max(0.0, p.lower), p.upper)) for p in self.params
+        }
+
     def start_points(self, ctx: StartContext | None) -> list[dict[str, float]]:
-        """Default start plus the data-driven ones, clipped to the bounds."""
+        """Default start, the nested start and the data-driven ones, clipped to the bounds."""
         pts = [self.default_start()]
+        if self.nested_start() != pts[0]:
+            pts.append(self.nested_start())
         if ctx is not None:
             for extra in self.starts(ctx):
                 pt = self.default_start()

@@ -15,13 +15,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import signal  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy import signal
 
-from .localise import binned_for, torque_residual  # noqa: E402
-from .select import DiscrepancyResult  # noqa: E402
-from .stats import BinnedResidual, FloatArray  # noqa: E402
+from .localise import binned_for, torque_residual
+from .select import DiscrepancyResult
+from .stats import BinnedResidual, FloatArray
 
 
 def plot_binned(
@@ -59,7 +59,18 @@ def plot_traces(
     p = Path(path)
     sel = (time >= window[0]) & (time <= window[1])
     channels = [('torsion_moment', 'N m'), ('angular_acceleration', 'rad/s^2')]
-    fig, axes = plt.subplots(len(channels), 2, figsize=(11.0, 6.0), dpi=100, sharex=True)
+    fig, axes = plt.subplots(len(channels) + 1, 2, figsize=(11.0, 8.0), dpi=100, sharex=True)
+    for col, sim in enumerate((baseline, final)):
+        ax = axes[len(channels), col]
+        ax.plot(
+            time[sel],
+            measured['torsion_moment'][sel] - sim['torsion_moment'][sel],
+            color='tab:red',
+            lw=0.7,
+        )
+        ax.set_ylabel('torque residual [N m]')
+        ax.set_xlabel('time [s]')
+        ax.grid(alpha=0.3)
     for row, (ch, unit) in enumerate(channels):
         for col, (sim, label) in enumerate(((baseline, 'baseline'), (final, 'final'))):
             ax = axes[row, col]
@@ -70,17 +81,13 @@ def plot_traces(
             if row == 0:
                 ax.set_title(f'{label} model')
                 ax.legend(fontsize=8, loc='upper right')
-            if row == len(channels) - 1:
-                ax.set_xlabel('time [s]')
     fig.tight_layout()
     fig.savefig(p)
     plt.close(fig)
     return p
 
 
-def plot_spectrum(
-    before: FloatArray, after: FloatArray, fs: float, path: str | Path
-) -> Path:
+def plot_spectrum(before: FloatArray, after: FloatArray, fs: float, path: str | Path) -> Path:
     """Amplitude spectral density of the torque residual before/after (N m/sqrt(Hz))."""
     p = Path(path)
     fig, ax = plt.subplots(figsize=(7.0, 4.0), dpi=100)

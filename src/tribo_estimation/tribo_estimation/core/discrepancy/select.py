@@ -479,17 +479,19 @@ def run_discrepancy(
     )
     base_vals = sel.fit_best([MU0, MU_INF], _baseline_starts(pb))
     base_sim = pb.simulate(base_vals)
-    floors = {}
-    for c in CHANNELS:
-        m = pb.measured(c)[base_sim.covered]
-        floors[c] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
+    floors: dict[str, float] = {}
+    for ch in CHANNELS:
+        m = pb.measured(ch)[base_sim.covered]
+        floors[ch] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
     pb.set_residual_weights(base_sim, floors)
     base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
     base_sim = pb.simulate(base_vals)
     current = sel.score((), base_vals)
     baseline = current
-    say(f'baseline: mu0={base_vals["mu0"]:.4f} mu_inf={base_vals["mu_inf"]:.4f} '
-        f'torque rms {current.rms:.4g} N m (held-out {current.cv_rms:.4g})')
+    say(
+        f'baseline: mu0={base_vals["mu0"]:.4f} mu_inf={base_vals["mu_inf"]:.4f} '
+        f'torque rms {current.rms:.4g} N m (held-out {current.cv_rms:.4g})'
+    )
     ctx = _start_context(pb, base_sim)
     names = st.candidates if st.candidates is not None else cand_lib.names()
     pool: list[Candidate] = [cand_lib.get(n) for n in names]
@@ -519,9 +521,7 @@ def run_discrepancy(
         # eligible: clearly better on held-out blocks AND by BIC; among those the
         # lowest BIC wins (Occam: with equal fits the candidate with fewer
         # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf)
-        eligible = [
-            s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold
-        ]
+        eligible = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
         ok = bool(eligible)
         best = (
             min(eligible, key=lambda s: s.model.bic)
@@ -547,8 +547,8 @@ def run_discrepancy(
             break
         c = cand_lib.get(best.effect)
         # polish the accepted model to convergence before it becomes the reference
-        vals = pb.fit(_specs(best.model.effects), best.model.params, max_nfev=2 * st.max_nfev)
-        model = sel.score(best.model.effects, vals.values)
+        pol = pb.fit(_specs(best.model.effects), best.model.params, max_nfev=2 * st.max_nfev)
+        model = sel.score(best.model.effects, pol.values)
         if model.cost > best.model.cost:
             model = best.model
         added.append(
@@ -573,8 +573,10 @@ def run_discrepancy(
     if unexplained and st.propose_terms:
         terms = propose_terms(pb, final_sim, unexplained, sigma)
     for u in unexplained:
-        say(f'unexplained: {u.kind}: {u.where}, size {u.size:.3g} N m'
-            + (f' at {u.frequency:.2f} Hz' if u.frequency else ''))
+        say(
+            f'unexplained: {u.kind}: {u.where}, size {u.size:.3g} N m'
+            + (f' at {u.frequency:.2f} Hz' if u.frequency else '')
+        )
     say(f'done in {_time.perf_counter() - t_start:.1f} s ({pb.n_evals} simulations)')
     return DiscrepancyResult(
         baseline=baseline,
