@@ -4,8 +4,9 @@ Prints:
 1. accuracy per block at 10, 30 and 60 rpm with the issue's noise (0.05 N m,
    2 rad/s^2, 10 kHz): largest relative error of mu0 and mu_inf after the
    start-up block, and how often the truth lies within 2 standard errors;
-2. CPU time per 1 s block (median, one core): the fit alone (``fit_block``),
-   the whole block evaluation (stick detection + fit) and the stick detection
+2. CPU time per 1 s block (median, one core: BLAS limited to one thread): the
+   fit alone (``fit_block``), the whole block evaluation (stick detection + fit)
+   and the stick detection
    (``sticks.detect_sticks``) alone, side by side with a
    plain scipy ``least_squares`` + ``solve_ivp`` fit of the same block
    (single shooting with the reference integrator of ``core/reference.py``,
@@ -13,20 +14,27 @@ Prints:
 3. a long streaming run: synthetic 10 kHz data generated chunk by chunk
    through aligner -> estimator -> blocks.csv, with the peak RSS.
 
-Usage: ``.venv/bin/python bench/bench_friction.py [--hours 1.0] [--quick]``
+Usage: ``.venv/bin/python bench/bench_friction.py [--hours 1.0] [--quick] [--timing-only]``
+(``--timing-only``: part 1/2 only, for iterating on speed)
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import resource
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
+# one core: OpenBLAS worker threads busy-wait after each call (lstsq in the fit and its
+# standard errors) and would be counted in process_time() as a second core
+for _var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
+    os.environ.setdefault(_var, '1')
+
+import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src' / 'tribo_estimation'))
@@ -230,8 +238,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--hours', type=float, default=1.0, help='length of the streaming run [h]')
     ap.add_argument('--quick', action='store_true', help='short run (6 min of data)')
+    ap.add_argument(
+        '--timing-only',
+        action='store_true',
+        help='only part 1/2 (accuracy and CPU time per block), no scipy comparison or streaming',
+    )
     args = ap.parse_args()
     accuracy_and_speed(8 if args.quick else 21)
+    if args.timing_only:
+        return
     plain_scipy_fit()
     streaming_memory(0.1 if args.quick else args.hours)
 

@@ -15,37 +15,33 @@ import yaml
 from tribo_bringup.commands import demo
 from tribo_bringup.errors import ConfigError
 
-
-def test_builtin_effect_is_merged_into_the_rig(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    monkeypatch.setattr(demo, 'CONFIG', tmp_path)  # no config/rig_hidden_*.yaml here
-    base = tmp_path / 'base.yaml'
-    base.write_text(yaml.safe_dump({**demo.DEFAULT_RIG, 'mu0': 0.2}))
-    rig, source = demo.rig_for_demo(str(base), 'frictional_lag')
-    assert rig['mu0'] == 0.2  # the base file wins over the defaults
-    assert rig['effects'] == demo.EFFECTS['frictional_lag']
-    assert 'built-in' in source
+CONFIG = Path(__file__).resolve().parents[3] / 'config'
 
 
-def test_hidden_rig_file_of_the_discrepancy_workflow_is_preferred(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    monkeypatch.setattr(demo, 'CONFIG', tmp_path)
-    (tmp_path / 'rig_hidden_viscous.yaml').write_text(
-        yaml.safe_dump({'mu0': 0.14, 'effects': {'viscous': 1.0}})
-    )
-    rig, source = demo.rig_for_demo(None, 'viscous')
-    assert rig['effects'] == {'viscous': 1.0} and rig['mu0'] == 0.14
-    assert rig['C1'] == demo.DEFAULT_RIG['C1']  # missing keys from the paper rig
-    assert source.endswith('rig_hidden_viscous.yaml')
+def test_every_candidate_effect_has_a_hidden_rig_file() -> None:
+    from tribo_estimation.core.discrepancy import candidates
+
+    for name in candidates.names():
+        rig, source = demo.rig_for_demo(None, name)
+        assert source.endswith(f'rig_hidden_{name}.yaml')
+        assert rig['effects'], name  # the effect is switched on
 
 
-def test_every_builtin_effect_names_model_extensions() -> None:
-    model = pytest.importorskip('tribo_estimation.core.model')
-    for name, effects in demo.EFFECTS.items():
-        model.Extensions(**effects)  # unknown field names or bad values raise here
-        assert name == 'none' or effects, name
+def test_none_is_the_nominal_rig() -> None:
+    rig, source = demo.rig_for_demo(None, 'none')
+    assert source.endswith('rig.yaml') and not rig.get('effects')
+
+
+def test_explicit_rig_file_is_used_and_validated(tmp_path: Path) -> None:
+    data = yaml.safe_load((CONFIG / 'rig.yaml').read_text())
+    good = tmp_path / 'mine.yaml'
+    good.write_text(yaml.safe_dump({**data, 'mu0': 0.2}))
+    rig, source = demo.rig_for_demo(str(good), 'ignored')
+    assert rig['mu0'] == 0.2 and source == str(good)
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text(yaml.safe_dump({k: v for k, v in data.items() if k != 'C1'}))
+    with pytest.raises(Exception, match='C1'):
+        demo.rig_for_demo(str(bad), 'none')
 
 
 def test_unknown_effect_is_rejected() -> None:

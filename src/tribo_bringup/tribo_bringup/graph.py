@@ -74,10 +74,9 @@ class Graph:
     extra_nodes: list[Any] = field(default_factory=list)
     _instances: list[Any] = field(default_factory=list, init=False)
 
-    def start(self, ros_args: Sequence[str] = ()) -> None:
-        """Initialise rclpy and create the nodes."""
+    def init_ros(self, ros_args: Sequence[str] = ()) -> None:
+        """Initialise rclpy with the parameter files (no node created yet)."""
         import rclpy
-        from rclpy.parameter import Parameter
 
         args = ['tribo-run', '--ros-args']
         for f in self.params_files:
@@ -86,13 +85,25 @@ class Graph:
             args += ['--params-file', str(f)]
         args += list(ros_args)
         rclpy.init(args=args)
+
+    def add(self, name: str, overrides: dict[str, Any] | None = None) -> Any:
+        """Create node ``name`` (a key of :data:`NODES`) with its parameter overrides."""
+        from rclpy.parameter import Parameter
+
+        if name not in NODES:
+            raise ConfigError(f'unknown node {name!r}; known: {", ".join(NODES)}')
+        module, cls_name = NODES[name]
+        cls = getattr(importlib.import_module(module), cls_name)
+        values = {**self.overrides.get(name, {}), **(overrides or {})}
+        node = cls(parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+        self._instances.append(node)
+        return node
+
+    def start(self, ros_args: Sequence[str] = ()) -> None:
+        """Initialise rclpy and create the nodes in list order."""
+        self.init_ros(ros_args)
         for name in self.nodes:
-            if name not in NODES:
-                raise ConfigError(f'unknown node {name!r}; known: {", ".join(NODES)}')
-            module, cls_name = NODES[name]
-            cls = getattr(importlib.import_module(module), cls_name)
-            over = [Parameter(k, value=v) for k, v in self.overrides.get(name, {}).items()]
-            self._instances.append(cls(parameter_overrides=over))
+            self.add(name)
 
     def spin(
         self,

@@ -763,18 +763,6 @@ def _plot_wear(ws: Sequence[Mapping[str, Any]]) -> str:
 # --- analyses ---------------------------------------------------------------------
 
 
-def command_options(name: str) -> set[str] | None:
-    """Option strings of a tribo subcommand (None when the command is not installed)."""
-    from tribo_bringup.cli import build_parser
-
-    parser = build_parser()
-    for action in parser._actions:  # the subparsers action
-        choices = getattr(action, 'choices', None)
-        if isinstance(choices, dict) and name in choices:
-            return set(choices[name]._option_string_actions)
-    return None
-
-
 def run_command(argv: Sequence[str]) -> None:
     """Run ``tribo <argv>`` in this process; raises on failure."""
     from tribo_bringup.cli import build_parser
@@ -803,11 +791,8 @@ def run_analysis(
     t0 = time.monotonic()
     progress(f'{key}: {command}')
     try:
-        if command_options(argv[0]) is None:
-            status['reason'] = f'the tribo {argv[0]} command is not installed'
-        else:
-            run_command(argv)
-            status['ok'] = True
+        run_command(argv)
+        status['ok'] = True
     except SystemExit as exc:  # argparse usage error
         status['reason'] = f'tribo {argv[0]}: bad arguments (exit {exc.code})'
     except Exception as exc:  # any failure of one analysis leaves the rest of the report
@@ -831,17 +816,15 @@ def analysis_argv(
     rig: str | None,
     nvct: str | None,
     extra: Sequence[str] = (),
-) -> list[str] | None:
-    """Command line of an analysis, using only the options the command has."""
+) -> list[str]:
+    """Command line of an analysis (``tribo friction|wear|discrepancy BAG ...``)."""
     cmd = ANALYSES[key][0]
-    opts = command_options(cmd)
-    if opts is None:
-        return [cmd, str(bag)]
     argv = [cmd, str(bag), '--out', str(out / 'analyses' / key)]
-    if rig and '--rig' in opts and key != 'wear':
+    if key == 'wear':
+        if nvct:
+            argv += ['--nvct', nvct]
+    elif rig:
         argv += ['--rig', rig]
-    if nvct and '--nvct' in opts:
-        argv += ['--nvct', nvct]
     return argv + list(extra)
 
 
@@ -1085,7 +1068,6 @@ def build_report(
                 nvct_s,
                 (extra_args or {}).get(key, ()),
             )
-            assert argv is not None
             status = run_analysis(key, argv, out_p, say, (notes or {}).get(key, ''))
         if key == 'discrepancy' and status.get('ok'):
             found = sorted((out_p / str(status['dir'])).rglob('discrepancy*.json'))

@@ -16,7 +16,6 @@ report marks its section unavailable); only the simulated rig is required.
 from __future__ import annotations
 
 import argparse
-import importlib
 import shutil
 import sys
 import time
@@ -26,44 +25,10 @@ from typing import Any
 import yaml
 
 from tribo_bringup.errors import BringupError, ConfigError
+from tribo_estimation.core.config import load_rig_config
 
 CONFIG = Path(__file__).resolve().parents[4] / 'config'
 MARKER = '.tribo-demo'
-
-#: The paper's rig (Tab. 1) and a friction law with stick-slip at the nominal speed.
-DEFAULT_RIG: dict[str, float] = {
-    'I1': 0.0109,
-    'K1': 0.04034,
-    'C1': 2338.6,
-    'I2': 0.0315,
-    'K2': 4.0,
-    'C2': 5975.0,
-    'F_N': 8000.0,
-    'R': 0.08,
-    'mu0': 0.13,
-    'mu_inf': 0.10,
-    'k': 2.0,
-    'nominal_speed': 3.1416,
-    'ramp_time': 0.5,
-    'noise_torque': 0.05,
-    'noise_accel': 2.0,
-}
-
-#: Hidden effects used when config/rig_hidden_<name>.yaml does not exist
-#: (fields of tribo_estimation.core.model.Extensions, SI units).
-EFFECTS: dict[str, dict[str, float]] = {
-    'none': {},
-    'dwell_time_stiction': {'stiction_gain': 0.03, 'stiction_tau': 0.005},
-    'frictional_lag': {'lag_tau': 0.003},
-    'viscous': {'viscous': 2.0},
-    'drift': {'drift_mu0': -2.0e-4, 'drift_mu_inf': -1.0e-4},
-    'speed_ripple': {'ripple_amp': 0.3, 'ripple_freq': 4.0},
-    'bearing_friction': {'bearing_moment': 2.0},
-    'torque_offset': {'torque_offset': 1.5},
-}
-
-#: Options a discrepancy command may offer to limit the analysed span (first found is used).
-WINDOW_OPTIONS = (('--start', '--duration'), ('--t-start', '--t-duration'), ('--t0', '--seconds'))
 
 
 def register(sub: Any) -> None:
@@ -84,12 +49,11 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--effect',
         default='dwell_time_stiction',
-        help='hidden effect switched on in the simulated rig: config/rig_hidden_<EFFECT>.yaml '
-        f'if present, else one of {", ".join(EFFECTS)} (default %(default)s)',
+        help='hidden effect switched on in the simulated rig: the rig of '
+        'config/rig_hidden_<EFFECT>.yaml (one per candidate of the discrepancy workflow), '
+        "or 'none' for config/rig.yaml (default %(default)s)",
     )
-    p.add_argument(
-        '--rig', help='RIG.yaml to start from (default: config/rig.yaml or the paper rig)'
-    )
+    p.add_argument('--rig', help='run this RIG.yaml (with its own effects) instead of --effect')
     p.add_argument(
         '--discrepancy-seconds',
         type=float,
@@ -108,29 +72,19 @@ def register(sub: Any) -> None:
 
 
 def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
-    """RIG.yaml contents with the hidden effect, and where the effect came from."""
-    hidden = CONFIG / f'rig_hidden_{effect}.yaml'
-    if hidden.is_file():
-        data = yaml.safe_load(hidden.read_text(encoding='utf-8'))
-        if not isinstance(data, dict):
-            raise ConfigError(f'{hidden}: a rig file is a mapping')
-        merged = dict(DEFAULT_RIG)
-        merged.update(data)
-        return merged, str(hidden)
-    if effect not in EFFECTS:
-        raise ConfigError(
-            f'unknown effect {effect!r}: no {hidden.name} in config/ and not one of '
-            f'{", ".join(EFFECTS)}'
-        )
-    base_path = Path(base) if base else CONFIG / 'rig.yaml'
-    rig: dict[str, Any] = dict(DEFAULT_RIG)
-    if base or base_path.is_file():
-        data = yaml.safe_load(base_path.read_text(encoding='utf-8'))
-        if not isinstance(data, dict):
-            raise ConfigError(f'{base_path}: a rig file is a mapping')
-        rig.update(data)
-    rig['effects'] = dict(EFFECTS[effect])
-    return rig, f'built-in effect {effect}'
+    """RIG.yaml contents with the hidden effect, and the file they came from."""
+    if base:
+        path = Path(base)
+    elif effect == 'none':
+        path = CONFIG / 'rig.yaml'
+    else:
+        path = CONFIG / f'rig_hidden_{effect}.yaml'
+        if not path.is_file():
+            known = sorted(p.stem.removeprefix('rig_hidden_') for p in CONFIG.glob('rig_hidden_*'))
+            raise ConfigError(f'unknown effect {effect!r}; known: none, {", ".join(known)}')
+    load_rig_config(path)  # validates (names a missing key, a bad value)
+    data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    return dict(data), str(path)
 
 
 def prepare_out(out: Path) -> None:
@@ -144,36 +98,12 @@ def prepare_out(out: Path) -> None:
             shutil.rmtree(out / name)
 
 
-def _node_class(name: str) -> Any | None:
-    """The node class of a graph node name (tolerant of class-name variants); None if absent."""
-    from rclpy.node import Node
-
-    from tribo_bringup.graph import NODES
-
-    module_name, cls_name = NODES[name]
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError:
-        return None
-    cls = getattr(module, cls_name, None)
-    if cls is not None:
-        return cls
-    for obj in vars(module).values():
-        if isinstance(obj, type) and issubclass(obj, Node) and obj.__module__ == module.__name__:
-            return obj
-    return None
-
-
 def _say(msg: str) -> None:
     print(f'demo: {msg}', file=sys.stderr, flush=True)
 
 
-def run_graph(
-    rig_file: Path, bag: Path, duration: float, bridge: bool
-) -> tuple[list[str], list[str]]:
-    """Run the live graph with a recorder; returns (nodes run, notes about nodes left out)."""
-    from rclpy.parameter import Parameter
-
+def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[str]:
+    """Run the live graph with a recorder; returns the nodes run."""
     from tribo_bringup import bagio
     from tribo_bringup.graph import Graph, rig_overrides
     from tribo_bringup.recorder import Recorder
@@ -198,69 +128,39 @@ def run_graph(
     wanted = ['sim_detector', 'friction_estimator', 'wear_monitor', 'sim_rig']
     if bridge:
         wanted.insert(0, 'live_bridge')
-    graph = Graph(nodes=[])
-    warm_up(over['sim_rig'])
+    graph = Graph(nodes=[], overrides=params)
+    warm_up(rig_file)
     writer = bagio.BagWriter(bag)
     writer.__enter__()
     ran: list[str] = []
-    notes: list[str] = []
     try:
-        graph.start()
+        graph.init_ros()
+        # the recorder before the rig: the recording starts at the stream's first sample
         graph.extra_nodes.append(Recorder(writer))
         for name in wanted:
-            cls = _node_class(name)
-            if cls is None:
-                notes.append(f'{name} not available (module missing): left out')
-                continue
-            overrides = [Parameter(k, value=v) for k, v in params.get(name, {}).items()]
-            try:
-                try:
-                    node = cls(parameter_overrides=overrides)
-                except TypeError:  # a node class that takes no rclpy Node keyword arguments
-                    node = cls()
-                    notes.append(f'{name} does not take parameter overrides: ran with defaults')
-            except Exception as exc:  # one node failing leaves the others running
-                if name == 'sim_rig':
-                    raise BringupError(f'the simulated rig cannot start: {exc}') from exc
-                notes.append(f'{name} failed to start ({type(exc).__name__}: {exc}): left out')
-                continue
-            graph.extra_nodes.append(node)
+            node = graph.add(name)
             ran.append(name)
             if name == 'live_bridge':
                 _say(
                     f'watch live in Foxglove: open ws://127.0.0.1:{node.port} with the layout '
                     f'{CONFIG / "foxglove_layout.json"}'
                 )
-        if 'sim_rig' not in ran:
-            raise BringupError('the simulated rig (tribo_drivers sim_rig) is not available')
-        for n in notes:
-            _say(n)
         _say(f'live graph: {", ".join(ran)} + recorder -> {bag}')
         _spin_recording(graph, writer, duration)
     finally:
         graph.close()
         writer.close()
-    return ran, notes
+    return ran
 
 
-def warm_up(rig: dict[str, Any]) -> None:
+def warm_up(rig_file: Path) -> None:
     """Compile (or load from numba's cache) the rig model before the clock starts."""
-    try:
-        from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
-        from tribo_estimation.core.simulate import simulate
-    except ImportError:
-        return
+    from tribo_estimation.core.simulate import simulate
+
     _say('preparing the rig model (numba kernel; compiled once, then cached)')
     t0 = time.monotonic()
-    effects = {k[len('effects.') :]: v for k, v in rig.items() if k.startswith('effects.')}
-    simulate(
-        RigParams(*(float(rig[k]) for k in ('I1', 'K1', 'C1', 'I2', 'K2', 'C2', 'F_N', 'R'))),
-        FrictionLaw(float(rig['mu0']), float(rig['mu_inf']), float(rig['k'])),
-        DriveProfile(float(rig['nominal_speed']), float(rig.get('ramp_time', 0.0))),
-        0.001,
-        10_000.0,
-        extensions=Extensions(**effects),
-    )
+    cfg = load_rig_config(rig_file)
+    simulate(cfg.rig, cfg.friction, cfg.drive, 0.001, 10_000.0, extensions=cfg.extensions)
     _say(f'rig model ready ({time.monotonic() - t0:.1f} s)')
 
 
@@ -308,7 +208,7 @@ def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 
 
 def run(args: argparse.Namespace) -> int:
     """Run the demo; prints the report location and the summary."""
-    from tribo_bringup.report import build_report, command_options
+    from tribo_bringup.report import build_report
 
     if not 2.0 <= args.duration <= 3600.0:
         raise ConfigError(f'--duration must be between 2 and 3600 s, got {args.duration}')
@@ -330,25 +230,19 @@ def run(args: argparse.Namespace) -> int:
         + f'; from {source})'
     )
     bag = out / 'bag'
-    _ran, notes = run_graph(rig_file, bag, float(args.duration), bool(args.bridge))
+    run_graph(rig_file, bag, float(args.duration), bool(args.bridge))
 
     extra: dict[str, list[str]] = {}
     report_notes: dict[str, str] = {}
     if not args.no_discrepancy:
-        opts = command_options('discrepancy') or set()
         span = float(args.discrepancy_seconds)
         if span > 0:
             # from the first sample: the start from rest gives sticks of different lengths,
             # which tells dwell-time effects apart from a plain higher mu0
-            start = 0.0
-            pair = next((p for p in WINDOW_OPTIONS if p[0] in opts and p[1] in opts), None)
-            if pair is not None:
-                extra['discrepancy'] = [pair[0], f'{start:g}', pair[1], f'{span:g}']
-                report_notes['discrepancy'] = (
-                    f'analysed {span:g} s of the bag (from t = {start:g} s) to keep the demo short'
-                )
-            else:
-                report_notes['discrepancy'] = 'whole bag analysed (no window option)'
+            extra['discrepancy'] = ['--start', '0', '--duration', f'{span:g}']
+            report_notes['discrepancy'] = (
+                f'analysed the first {span:g} s of the bag to keep the demo short'
+            )
     _say('analysing the recording')
     res = build_report(
         bag,
@@ -369,6 +263,4 @@ def run(args: argparse.Namespace) -> int:
     print(f'(finished in {time.monotonic() - t0:.0f} s; hidden effect: {args.effect})')
     for line in res.summary:
         print(f'  {line}')
-    for n in notes:
-        print(f'  note: {n}')
     return 0

@@ -49,7 +49,7 @@ def register(sub: Any) -> None:
         '--rig',
         required=True,
         metavar='RIG.yaml',
-        help='rig parameters (SI); its mu0/mu_inf are only start values, its effects ignored',
+        help='rig parameters (SI); mu0/mu_inf are fitted, its effects are not used',
     )
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     p.add_argument(
