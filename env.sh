@@ -25,10 +25,14 @@ esac
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
 
 # The workspace overlay (PYTHONPATH, LD_LIBRARY_PATH, AMENT_PREFIX_PATH).
+# (colcon's setup.sh reads unset variables: relax `set -u` while it runs)
+case $- in *u*) _tribo_nounset=1; set +u ;; *) _tribo_nounset= ;; esac
 COLCON_CURRENT_PREFIX="$_tribo_root/install"
 # shellcheck disable=SC1091
 . "$_tribo_root/install/setup.sh"
 unset COLCON_CURRENT_PREFIX
+[ -n "$_tribo_nounset" ] && set -u
+unset _tribo_nounset
 
 # Node executables, as `ros2 run <pkg> <exe>` finds them.
 for _tribo_bin in "$_tribo_root"/install/*/lib/tribo_*; do

@@ -39,12 +39,22 @@ def _good_mask(table: BlockTable) -> npt.NDArray[np.bool_]:
     return np.array([str(v) == 'ok' for v in q], dtype=bool)
 
 
+def time_origin(t_first: float) -> float:
+    """Origin of a figure's time axis [s]: 0 for record time, the first block's start
+    for wall-clock stamps (bags; anything after 1 Jan 1971)."""
+    return float(t_first) if float(t_first) > 3.2e7 else 0.0
+
+
 def _time_axis(table: BlockTable) -> tuple[FloatArray, str]:
-    """Block mid times in s, or min for runs longer than 10 min."""
+    """Block mid times in s, or min for runs longer than 10 min (from the first block
+    when the times are wall-clock stamps)."""
     t = 0.5 * (np.asarray(table['t_start'], float) + np.asarray(table['t_end'], float))
+    origin = time_origin(float(np.nanmin(t))) if t.size else 0.0
+    since = ' since first block' if origin else ''
+    t = t - origin
     if t.size and np.nanmax(t) - np.nanmin(t) > 600.0:
-        return t / 60.0, 'time [min]'
-    return t, 'time [s]'
+        return t / 60.0, f'time{since} [min]'
+    return t, f'time{since} [s]'
 
 
 def _draw_moment(ax: Axes, table: BlockTable, x: FloatArray) -> None:
@@ -143,13 +153,16 @@ def plot_mu_slip(
         vmax = float(max(1.0, np.nanpercentile(np.abs(slip_speed), 99.5)))
     v = np.linspace(0.0, vmax, 200)
     ks = np.broadcast_to(np.asarray(k, float), np.asarray(table['mu0']).shape)
+    starts = np.asarray(table['t_start'], float)
+    origin = time_origin(float(np.nanmin(starts))) if starts.size else 0.0
     if good.size:
         pick = good[np.unique(np.linspace(0, good.size - 1, min(n_curves, good.size)).astype(int))]
         cmap = plt.get_cmap('viridis')
         for j, i in enumerate(pick):
             c = cmap(j / max(1, len(pick) - 1))
             mu = stribeck(v, float(table['mu0'][i]), float(table['mu_inf'][i]), float(ks[i]))
-            ax.plot(v, mu, color=c, lw=1.5, label=f'block at {float(table["t_start"][i]):.0f} s')
+            t_block = float(table['t_start'][i]) - origin
+            ax.plot(v, mu, color=c, lw=1.5, label=f'block at {t_block:.0f} s')
     ax.set_xlabel('slip speed $|\\omega_2-\\omega_1|$ [rad/s]')
     ax.set_ylabel('friction coefficient $\\mu$ [-]')
     ax.set_xlim(0.0, vmax)

@@ -142,12 +142,16 @@ class _Collector:
         self.slip: list[np.ndarray] = []
         self.mu: list[np.ndarray] = []
         self.details: dict[str, Any] = {}
+        #: time origin of the figures [s]: bags carry wall-clock stamps, shown from the start
+        self.origin: float | None = None
 
     def add(self, det: Any) -> None:
-        from tribo_estimation.plots import DetailTrace
+        from tribo_estimation.plots import DetailTrace, time_origin
 
         d = det.data
         res = det.result
+        if self.origin is None:
+            self.origin = time_origin(res.t_start)
         if d.moment.size == d.torsion.size and d.torsion.size:
             slide = ~d.stick
             idx = np.flatnonzero(slide)
@@ -159,11 +163,11 @@ class _Collector:
                 self.mu.append(np.abs(d.moment[pick]) / self.fnr)
         if res.ok and res.motion not in self.details:
             n = min(d.torsion.size, round(_DETAIL_S * d.fs))
-            t = d.t0 + np.arange(n) / d.fs
+            t = d.t0 - self.origin + np.arange(n) / d.fs
             sim = det.simulated[:n] if det.simulated.size >= n else np.full(n, np.nan)
             mom = d.moment[:n] if d.moment.size >= n else np.full(n, np.nan)
             self.details[res.motion] = DetailTrace(
-                f'{res.motion}, block at {res.t_start:.1f} s',
+                f'{res.motion}, block at {res.t_start - self.origin:.1f} s',
                 t,
                 d.torsion[:n].copy(),
                 mom.copy(),

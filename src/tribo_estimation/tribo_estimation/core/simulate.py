@@ -74,6 +74,27 @@ class SimResult:
     event_kinds: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
+def sensor_lag(x: np.ndarray, dt: float, tau: float, y_prev: float) -> np.ndarray:
+    """First-order lag of the torque sensor (extension ``torque_lag_tau``), exact
+    discretisation ``y[n] = a*y[n-1] + (1 - a)*x[n]``, ``a = exp(-dt/tau)``.
+
+    x: true torsion moment C1*phi1 [N m] per sample; dt: sample period [s];
+    tau: lag time constant [s] (> 0); y_prev: sensor output before x[0] [N m].
+    Returns the sensor output [N m].
+    """
+    a = math.exp(-dt / tau)
+    y, _ = lfilter([1.0 - a], [1.0, -a], x, zi=np.array([a * y_prev]))
+    return np.asarray(y)
+
+
+def sensor_offset(x: np.ndarray, time: np.ndarray, ext: Extensions) -> np.ndarray:
+    """Torque sensor zero offset and its drift (extensions ``torque_offset`` [N m],
+    ``torque_offset_drift`` [N m/s]) added to the torsion output at ``time`` [s]."""
+    if ext.torque_offset == 0.0 and ext.torque_offset_drift == 0.0:
+        return x
+    return x + ext.torque_offset + ext.torque_offset_drift * time
+
+
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
@@ -137,16 +158,13 @@ def simulate(
     # measurement side: sensor lag (exact first-order discretisation), then offset
     sensor = float(s[kn.S_SENSOR])
     if ext.torque_lag_tau > 0.0:
-        a = math.exp(-dt / ext.torque_lag_tau)
         y_prev = torsion[0] if not math.isfinite(sensor) else sensor
-        filtered, _ = lfilter([1.0 - a], [1.0, -a], torsion, zi=np.array([a * y_prev]))
-        torsion = np.asarray(filtered)
+        torsion = sensor_lag(torsion, dt, ext.torque_lag_tau, y_prev)
         sensor = float(torsion[-1])
     else:
         sensor = float(torsion[-1])
     s[kn.S_SENSOR] = sensor
-    if ext.torque_offset != 0.0 or ext.torque_offset_drift != 0.0:
-        torsion = torsion + ext.torque_offset + ext.torque_offset_drift * time
+    torsion = sensor_offset(torsion, time, ext)
     accel = out[kn.OUT_ACCEL].copy()
     speed = out[kn.OUT_SPEED].copy()
     if noise is not None and (noise.torque > 0.0 or noise.accel > 0.0 or noise.speed > 0.0):

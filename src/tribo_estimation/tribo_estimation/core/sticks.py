@@ -133,6 +133,9 @@ def slip_speed(
     return np.asarray(speed - w1)
 
 
+#: Significance (standard errors) a stick parabola's curvature needs to be kept.
+_CURVATURE_Z = 3.0
+
 #: Filter time constants the forward pass of :func:`slip_speed` runs before its state is
 #: used to start the backward pass (start-up error reduced by e^-8 = 3e-4).
 _SETTLE_TAU = 8.0
@@ -185,7 +188,7 @@ def detect_sticks(
         sig = 1e-9 * (float(np.max(np.abs(r))) + 1.0)
     starts = np.empty(c_lo.size)
     ends = np.empty(c_lo.size)
-    m = _stick_bounds(t, r, c_lo, c_hi, n_sigma * sig, dt, starts, ends)
+    m = _stick_bounds(t, r, c_lo, c_hi, sig, n_sigma * sig, dt, starts, ends)
     return [
         StickPhase(float(a), float(b))
         for a, b in zip(starts[:m].tolist(), ends[:m].tolist(), strict=True)
@@ -194,11 +197,12 @@ def detect_sticks(
 
 
 @njit(cache=True, nogil=True)
-def _fit_poly(t: np.ndarray, r: np.ndarray, a0: int, a1: int, deg: int, poly: np.ndarray) -> None:
+def _fit_poly(t: np.ndarray, r: np.ndarray, a0: int, a1: int, deg: int, poly: np.ndarray) -> float:
     """Least-squares polynomial (degree 1 or 2) through ``r[a0..a1]`` over ``t``.
 
     Stored as ``poly = [tc, h, c0, c1, c2]``: ``p(t) = c0 + c1*x + c2*x^2`` with the
-    centred, scaled ``x = (t - tc)/h`` (well conditioned normal equations)."""
+    centred, scaled ``x = (t - tc)/h`` (well conditioned normal equations). Returns
+    var(c2)/sigma^2 for white noise of std sigma on r (0 for a line)."""
     tc = 0.5 * (t[a0] + t[a1])
     h = 0.5 * (t[a1] - t[a0])
     if h <= 0.0:
@@ -224,7 +228,7 @@ def _fit_poly(t: np.ndarray, r: np.ndarray, a0: int, a1: int, deg: int, poly: np
         poly[2] = (q0 * s2 - q1 * s1) / det
         poly[3] = (s0 * q1 - s1 * q0) / det
         poly[4] = 0.0
-        return
+        return 0.0
     # 3x3 symmetric system [[s0 s1 s2] [s1 s2 s3] [s2 s3 s4]] c = q by Cramer's rule
     m00 = s2 * s4 - s3 * s3
     m01 = s1 * s4 - s3 * s2
@@ -233,6 +237,7 @@ def _fit_poly(t: np.ndarray, r: np.ndarray, a0: int, a1: int, deg: int, poly: np
     poly[2] = (q0 * m00 - s1 * (q1 * s4 - s3 * q2) + s2 * (q1 * s3 - s2 * q2)) / det
     poly[3] = (s0 * (q1 * s4 - s3 * q2) - q0 * m01 + s2 * (s1 * q2 - q1 * s2)) / det
     poly[4] = (s0 * (s2 * q2 - q1 * s3) - s1 * (s1 * q2 - q1 * s2) + q0 * m02) / det
+    return (s0 * s2 - s1 * s1) / det
 
 
 @njit(cache=True, nogil=True, inline='always')
@@ -241,12 +246,18 @@ def _poly_at(poly: np.ndarray, t: float) -> float:
     return poly[2] + x * (poly[3] + x * poly[4])
 
 
+@njit(cache=True, nogil=True, inline='always')
+def _in_band(t: np.ndarray, r: np.ndarray, poly: np.ndarray, i: int, band: float) -> bool:
+    return abs(r[i] - _poly_at(poly, t[i])) <= band
+
+
 @njit(cache=True, nogil=True)
 def _stick_bounds(
     t: np.ndarray,
     r: np.ndarray,
     c_lo: np.ndarray,
     c_hi: np.ndarray,
+    sig: float,
     band: float,
     dt: float,
     starts: np.ndarray,
@@ -255,7 +266,8 @@ def _stick_bounds(
     """Boundary stage of :func:`detect_sticks` for the candidate runs ``[c_lo, c_hi]``.
 
     Per candidate: fit the stick line (a parabola from 12 samples on) to its inside,
-    grow/shrink it to the samples within ``band`` [N m] of the line (up to four
+    grow/shrink it to the samples within ``band`` [N m] of the line (``sig`` [N m]
+    noise level of ``r``; up to four
     refits), start half a sample before the first in-band sample, end by
     :func:`_breakaway`. Writes ``starts``/``ends`` [s]; returns how many."""
     n = t.shape[0]
@@ -277,17 +289,35 @@ def _stick_bounds(
                 ok = False
                 break
             # line at constant drive speed; a parabola absorbs a changing drive speed
-            # (start-up ramp, ripple) on longer sticks
-            _fit_poly(t, r, a0, a1, 2 if a1 - a0 + 1 >= 12 else 1, poly)
+            # (start-up ramp, ripple) on longer sticks, where its curvature stands out
+            # of the noise (an insignificant curvature only bends the extrapolation
+            # to the stick's ends)
+            var_c2 = _fit_poly(t, r, a0, a1, 2, poly) if a1 - a0 + 1 >= 12 else -1.0
+            if var_c2 < 0.0 or abs(poly[4]) < _CURVATURE_Z * sig * math.sqrt(var_c2):
+                _fit_poly(t, r, a0, a1, 1, poly)
+            # grow from an in-band sample near the middle; one sample out of the band
+            # with its next neighbour back in is noise (a 4-sigma sample turns up
+            # every few hundred samples), two in a row end the stick
             mid = (a0 + a1) // 2
-            if abs(r[mid] - _poly_at(poly, t[mid])) > band:
-                ok = False
-                break
+            if not _in_band(t, r, poly, mid, band):
+                if _in_band(t, r, poly, mid + 1, band):
+                    mid += 1
+                elif _in_band(t, r, poly, mid - 1, band):
+                    mid -= 1
+                else:
+                    ok = False
+                    break
             lo = mid
-            while lo > 0 and abs(r[lo - 1] - _poly_at(poly, t[lo - 1])) <= band:
+            while lo > 0 and (
+                _in_band(t, r, poly, lo - 1, band)
+                or (lo > 1 and _in_band(t, r, poly, lo - 2, band))
+            ):
                 lo -= 1
             hi = mid
-            while hi < n - 1 and abs(r[hi + 1] - _poly_at(poly, t[hi + 1])) <= band:
+            while hi < n - 1 and (
+                _in_band(t, r, poly, hi + 1, band)
+                or (hi < n - 2 and _in_band(t, r, poly, hi + 2, band))
+            ):
                 hi += 1
             if lo + 1 == a0 and hi - 1 == a1:
                 break

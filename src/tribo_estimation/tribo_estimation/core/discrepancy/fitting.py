@@ -25,7 +25,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import numpy.typing as npt
 from numba import njit
-from scipy.signal import lfilter, savgol_filter
+from scipy.signal import savgol_filter
 
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.model import (
@@ -35,6 +35,7 @@ from tribo_estimation.core.model import (
     RigParams,
     pack_params,
 )
+from tribo_estimation.core.simulate import sensor_lag, sensor_offset
 from tribo_estimation.errors import InvalidDataError, InvalidParameterError, TooShortError
 
 from .candidates import ParamSpec
@@ -499,16 +500,14 @@ class Problem:
         self.n_evals += 1
         torsion = out[kn.OUT_TORSION].copy()
         if ext.torque_lag_tau > 0.0:
-            # the same exact first-order discretisation as simulate.simulate, per segment
+            # the sensor model of simulate.simulate, per segment
             a = math.exp(-rec.dt / ext.torque_lag_tau)
             for k, (i0, i1) in enumerate(zip(seg.start[sel], seg.stop[sel], strict=True)):
-                # filter state chosen so that the first output equals the measured
-                # (lagged) value: y0 = a*y_prev + (1 - a)*x0
-                zi = m_lagged[k] - (1.0 - a) * torsion[i0]
-                f, _ = lfilter([1.0 - a], [1.0, -a], torsion[i0:i1], zi=np.array([zi]))
-                torsion[i0:i1] = f
-        if ext.torque_offset != 0.0 or ext.torque_offset_drift != 0.0:
-            torsion = torsion + ext.torque_offset + ext.torque_offset_drift * rec.time
+                # state chosen so that the first output equals the measured (lagged)
+                # value: y0 = a*y_prev + (1 - a)*x0
+                y_prev = (m_lagged[k] - (1.0 - a) * torsion[i0]) / a
+                torsion[i0:i1] = sensor_lag(torsion[i0:i1], rec.dt, ext.torque_lag_tau, y_prev)
+        torsion = sensor_offset(torsion, rec.time, ext)
         covered = np.isfinite(out[kn.OUT_TORSION])
         return SimulatedRecord(
             torsion_moment=torsion,
