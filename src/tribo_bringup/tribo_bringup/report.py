@@ -28,7 +28,6 @@ from __future__ import annotations
 import base64
 import csv
 import html
-import io
 import json
 import math
 import platform
@@ -39,7 +38,7 @@ import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -48,8 +47,15 @@ import yaml
 from tribo_bringup import bagio
 from tribo_bringup import bridge_core as bc
 from tribo_bringup.errors import BagError, ConfigError
+from tribo_estimation.core.config import load_rig_config
+from tribo_estimation.errors import EstimationError
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.model import RigParams
+    from tribo_estimation.plots import DetailTrace
 
 NS = 1_000_000_000
+DETAIL_S = 0.25  # length of the Fig. 6 detail windows [s]
 UM3 = 1e-18  # m^3 per um^3 (display unit of wear volumes)
 FloatArray = npt.NDArray[np.float64]
 Progress = Callable[[str], None]
@@ -137,76 +143,76 @@ def scan_bag(path: str | Path) -> BagScan:
 
 
 @dataclass(frozen=True)
-class Detail:
-    """A torsion-moment trace for the Fig. 6 style plot.
+class RigWindow:
+    """Aligned full-rate rig samples of a window (NaN where a channel lost samples).
 
     Attributes:
-        time: time from the window start [s]; torsion: C1*phi1 [N m];
-        stick: per-sample stick flag (from 1 ms bins); label: what the window shows.
+        sample_rate: sample rate [Hz].
+        torsion: torsion moment C1*phi1 [N m].
+        accel: chamber angular acceleration w1' [rad/s^2].
+        speed: shaft speed w2 [rad/s].
     """
 
-    time: FloatArray
+    sample_rate: float
     torsion: FloatArray
-    stick: npt.NDArray[np.bool_]
-    label: str
+    accel: FloatArray
+    speed: FloatArray
 
 
-def read_detail(
-    path: str | Path,
-    first_index: int,
-    seconds: float,
-    C1: float,
-    label: str,
-    tol: float = 0.05,
-) -> Detail | None:
-    """Torsion moment and stick flags of ``seconds`` [s] of samples from ``first_index``.
+def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWindow | None:
+    """``seconds`` [s] of the /rig/* streams from sample ``first_index``, aligned by
+    sample index as ``tribo friction`` aligns them; None when the bag has none there.
 
-    Stick flags: the slope of C1*phi1 over 1 ms bins gives w1 (= slope/C1);
-    sticking while ``|w2 - w1| <= tol`` [rad/s] (physics notes, section 1).
+    Raises:
+        BagError: no rig stream in the bag, or the bag is truncated before the window.
     """
-    topics = ('/rig/torsion_moment', '/rig/speed')
-    chunks: dict[str, list[tuple[int, FloatArray]]] = {t: [] for t in topics}
-    fs = 0.0
-    n = 0
-    end = first_index
-    done = {t: False for t in topics}
-    for m in bagio.iter_messages(path, topics, on_error='warn'):
-        fi = int(m.msg.first_index)
-        data = np.asarray(m.msg.data, dtype=np.float64)
-        if fs == 0.0 and float(m.msg.sample_rate) > 0:
-            fs = float(m.msg.sample_rate)
-            n = max(1, round(seconds * fs))
-            end = first_index + n
-        if fi + data.size <= first_index or done[m.topic]:
+    from tribo_bringup.commands.friction import bag_events
+    from tribo_estimation.core.align import AlignedChunk, RestartEvent
+
+    chunks: list[AlignedChunk] = []
+    end: int | None = None
+    for ev in bag_events(Path(path)):  # the generator (and the bag) closes on return
+        if isinstance(ev, RestartEvent) and chunks:
+            break  # a new stream epoch reuses the indices
+        if not isinstance(ev, AlignedChunk):
             continue
-        chunks[m.topic].append((fi, data))
-        if fi + data.size >= end:
-            done[m.topic] = True
-            if all(done.values()):
-                break
-    if not chunks['/rig/torsion_moment'] or fs <= 0:
+        if end is None:
+            end = first_index + max(1, round(seconds * ev.sample_rate))
+        if ev.first_index >= end:
+            break
+        if ev.end_index > first_index:
+            chunks.append(ev)
+    if not chunks or end is None:
         return None
-    arrays: dict[str, FloatArray] = {}
-    for t, parts in chunks.items():
-        if not parts:
+    rows = np.full((3, end - first_index), np.nan)
+    for c in chunks:
+        a, b = max(c.first_index, first_index), min(c.end_index, end)
+        for row, data in zip(rows, (c.torsion, c.accel, c.speed), strict=True):
+            row[a - first_index : b - first_index] = data[a - c.first_index : b - c.first_index]
+    return RigWindow(chunks[0].sample_rate, rows[0], rows[1], rows[2])
+
+
+def stick_flags(win: RigWindow, rig: RigParams) -> npt.NDArray[np.bool_]:
+    """Per-sample stick flags of a window from the friction analysis' own stick detection
+    (:func:`tribo_estimation.core.sticks.detect_sticks`: slip speed w2 - w1 and the stick
+    residual of Equ. 1 + 2, phases >= 2 ms), run on each gap-free stretch."""
+    from tribo_estimation.core.sticks import detect_sticks
+
+    fs = win.sample_rate
+    stick = np.zeros(win.torsion.size, dtype=bool)
+    ok = np.isfinite(win.torsion) & np.isfinite(win.accel) & np.isfinite(win.speed)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
+    for a, b in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        t = np.arange(a, b) / fs
+        try:
+            phases = detect_sticks(t, win.torsion[a:b], win.accel[a:b], win.speed[a:b], rig)
+        except EstimationError:  # stretch too short for the detection
             continue
-        start = parts[0][0]
-        joined = np.concatenate([p for _, p in parts])
-        arrays[t] = joined[max(0, first_index - start) : max(0, first_index - start) + n]
-    torsion = arrays['/rig/torsion_moment']
-    stick = np.zeros(torsion.size, dtype=bool)
-    speed = arrays.get('/rig/speed')
-    if speed is not None and speed.size == torsion.size:
-        factor = max(2, round(fs / 1000.0))
-        det = bc.StickDetector(C1=C1, tolerance=tol)
-        tor_pts = bc.Downsampler(fs / factor).push(first_index, 0, fs, torsion)
-        flags = det.add_torsion(tor_pts)
-        flags += det.add_speed(bc.Downsampler(fs / factor).push(first_index, 0, fs, speed))
-        for f in flags:
-            if f.stick:
-                i0 = f.index - first_index
-                stick[i0 : i0 + factor] = True
-    return Detail(np.arange(torsion.size) / fs, torsion, stick, label)
+        for ph in phases:  # sample i sticks for start <= t_i < end, as in the block fit
+            i0 = max(a, math.ceil(ph.start * fs - 1e-9))
+            i1 = min(b, math.ceil(ph.end * fs - 1e-9))
+            stick[i0:i1] = True
+    return stick
 
 
 # --- small helpers -----------------------------------------------------------------
@@ -245,13 +251,15 @@ def clean_json(obj: Any) -> Any:
     return obj
 
 
-def _png(fig: Any) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format='png', dpi=110, bbox_inches='tight')
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode('ascii')
+def _figure(draw: Callable[[Path], object], path: Path, caption: str) -> str:
+    """Draw a figure into ``path`` (PNG) and embed it; a failing figure becomes a note."""
+    try:
+        draw(path)
+        b64 = base64.b64encode(path.read_bytes()).decode('ascii')
+    except Exception as exc:  # a figure never takes the report down
+        why = html.escape(f'{type(exc).__name__}: {exc}')
+        return f'<p class="na">Figure {html.escape(path.name)} unavailable: {why}</p>'
+    return _img(b64, caption)
 
 
 def _img(b64: str, caption: str) -> str:
@@ -408,40 +416,87 @@ FRICTION_COLUMNS = (
 
 
 def offline_blocks(directory: Path) -> list[dict[str, Any]]:
-    """Blocks of a ``tribo friction`` run (its ``blocks.csv``) as estimate dicts; [] if none."""
+    """Blocks of a ``tribo friction`` run (its ``blocks.csv``) as estimate dicts; [] if none.
+
+    Read with :func:`tribo_estimation.core.blockfit.read_blocks_csv`; NaN becomes None and
+    fields that blocks.csv lacks (``first_index``, ``k``, ``k_se``) are None.
+    """
+    from tribo_estimation.core.blockfit import read_blocks_csv
+
     found = sorted(directory.rglob('blocks.csv')) if directory.is_dir() else []
     if not found:
         return []
+    try:
+        table = read_blocks_csv(found[0])
+    except EstimationError:
+        return []
     out: list[dict[str, Any]] = []
-    with found[0].open(newline='', encoding='utf-8') as fh:
-        for row in csv.DictReader(fh):
-            e: dict[str, Any] = {}
-            for name, (kind, _desc) in bc.FRICTION_FIELDS.items():
-                raw = row.get(name)
-                if raw is None or raw == '':
-                    e[name] = None
-                elif kind == 'string':
-                    e[name] = raw
-                else:
-                    try:
-                        v = float(raw)
-                    except ValueError:
-                        v = math.nan
-                    e[name] = (
-                        int(v)
-                        if kind == 'integer' and math.isfinite(v)
-                        else (v if math.isfinite(v) else None)
-                    )
-            if e.get('t_start') is None or e.get('quality') is None:
-                continue
+    for i in range(len(table['t_start'])):
+        e: dict[str, Any] = {}
+        for name, (kind, _desc) in bc.FRICTION_FIELDS.items():
+            v = table[name][i] if name in table else None
+            if v is None or kind == 'string':
+                e[name] = v if v is None else str(v)
+            elif not math.isfinite(float(v)):
+                e[name] = None
+            else:
+                e[name] = int(v) if kind == 'integer' else float(v)
+        if e['t_start'] is not None:
             out.append(e)
     return out
 
 
+def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+    """Estimates as a block table: ``blocks.csv`` column -> array (None -> NaN), the input
+    of :mod:`tribo_estimation.plots`."""
+    from tribo_estimation.core.blockfit import CSV_COLUMNS
+
+    table: dict[str, np.ndarray] = {}
+    for c in CSV_COLUMNS:
+        if bc.FRICTION_FIELDS[c][0] == 'string':
+            table[c] = np.array([str(e[c]) for e in ests], dtype=object)
+        else:
+            table[c] = np.array([np.nan if e[c] is None else e[c] for e in ests], dtype=float)
+    return table
+
+
+def detail_trace(
+    bag: Path, est: Mapping[str, Any], t_ref: float, rig: RigParams | None, seconds: float
+) -> DetailTrace | None:
+    """Fig. 6 trace: ``seconds`` [s] of torsion moment from the start of block ``est``
+    with the stick phases of the core detection (:func:`stick_flags`, run over the whole
+    block as the friction fit does; none without rig parameters). Time axis [s] from
+    ``t_ref``, the first block's start. None when the bag has no rig samples there."""
+    from tribo_estimation.plots import DetailTrace
+
+    span = float(est['t_end'] - est['t_start']) if est.get('t_end') is not None else seconds
+    win = read_rig_window(bag, int(est['first_index']), min(max(span, seconds), 5.0))
+    if win is None:
+        return None
+    stick = stick_flags(win, rig) if rig is not None else np.zeros(win.torsion.size, bool)
+    n = min(win.torsion.size, max(1, round(seconds * win.sample_rate)))
+    t0 = float(est['t_start']) - t_ref
+    nan = np.full(n, np.nan)
+    title = f'{est["motion"]} block at t = {t0:.0f} s'
+    return DetailTrace(
+        title, t0 + np.arange(n) / win.sample_rate, win.torsion[:n], nan, nan, stick[:n]
+    )
+
+
 def friction_section(
-    ests: list[dict[str, Any]], source: str, results: dict, out: Path, bag: Path, C1: float
+    ests: list[dict[str, Any]],
+    source: str,
+    results: dict,
+    out: Path,
+    bag: Path,
+    rig: RigParams | None,
+    rig_note: str = '',
 ) -> list[Section]:
-    """Per-block friction table, Fig. 4/5 and Fig. 6 style plots (paper 2.5, Equ. 8)."""
+    """Per-block friction table, Fig. 4/5 and Fig. 6 style plots (paper 2.5, Equ. 8).
+
+    ``rig``: parameters for the stick detection of the Fig. 6 detail (None: no stick
+    phases drawn, ``rig_note`` says why). Figures are written into ``out`` and embedded.
+    """
     title = f'Friction per block ({source})'
     if not ests:
         results['friction'] = None
@@ -484,10 +539,13 @@ def friction_section(
         + (', '.join(f'{html.escape(k)}: <b>{v}</b>' for k, v in sorted(motions.items())) or 'none')
         + '</p>'
     )
-    body += _img(
-        _plot_mu(ests),
-        'Fig. 4/5 style: mu0 and mu_inf per block (+-1 SE) with the '
-        'torsion-moment envelope (min/max per block); flagged blocks grey',
+    from tribo_estimation.plots import plot_blocks, plot_detail
+
+    body += _figure(
+        lambda p: plot_blocks(block_table(ests), p, title=f'friction per block ({source})'),
+        out / 'friction_blocks.png',
+        'Fig. 4/5 style: torsion moment max/mean/min per block (top), mu0 and mu_inf per '
+        'block with +-1 SE (bottom); flagged blocks grey crosses',
     )
     rows = [
         (
@@ -522,36 +580,39 @@ def friction_section(
     body += '</details>'
     sections = [Section('friction', title, body)]
     # Fig. 6: one stick-slip and one slip-slip block in detail (0.25 s each)
-    picks: list[tuple[dict[str, Any], str]] = []
+    picks: list[dict[str, Any]] = []
     for motion in ('stick-slip', 'slip-slip'):
         cand = [e for e in good if e['motion'] == motion]
         if cand:
-            picks.append((cand[len(cand) // 2], motion))
-    details: list[Detail] = []
-    for e, motion in picks:
+            picks.append(cand[len(cand) // 2])
+    details: list[DetailTrace] = []
+    reasons: list[str] = []
+    for e in picks:
         if e.get('first_index') is None:
             continue
-        d = read_detail(
-            bag,
-            int(e['first_index']),
-            0.25,
-            C1,
-            f'{motion} block at t = {e["t_start"] - ests[0]["t_start"]:.0f} s',
-        )
-        if d is not None:
+        try:
+            d = detail_trace(bag, e, float(ests[0]['t_start']), rig, DETAIL_S)
+        except (BagError, EstimationError) as exc:
+            reasons.append(f'{e["motion"]} block: {exc}')
+            continue
+        if d is None:
+            reasons.append(f'{e["motion"]} block: no aligned /rig/* samples in the bag there')
+        else:
             details.append(d)
     if details:
-        sections.append(
-            Section(
-                'detail',
-                'Motion detail (Fig. 6 style)',
-                _img(
-                    _plot_detail(details),
-                    'Torsion moment C1*phi1 over 0.25 s; stick phases shaded '
-                    '(w1 = w2 from the 1 ms slope of C1*phi1)',
-                ),
-            )
+        how = (
+            'stick phases (shaded) from the stick detection of the friction analysis'
+            if rig is not None
+            else f'no stick phases: {rig_note}'
         )
+        img = _figure(
+            lambda p: plot_detail(details, p),
+            out / 'motion_detail.png',
+            f'Torsion moment C1*phi1 over {DETAIL_S:g} s from the block start; {how}',
+        )
+        sections.append(Section('detail', 'Motion detail (Fig. 6 style)', img))
+    elif reasons:
+        sections.append(_unavailable('detail', 'Motion detail (Fig. 6 style)', '; '.join(reasons)))
     return sections
 
 
@@ -590,8 +651,9 @@ def wear_section(scan: BagScan, nvct: Mapping[str, Any], results: dict, out: Pat
         'k_w_progressive_m3_per_N_m': 'm^3/(N m)',
     }  # fmt: skip
     body = _kv(summary, 'wear-summary', units)
-    body += _img(
-        _plot_wear(ws),
+    body += _figure(
+        lambda p: _plot_wear(ws, p),
+        out / 'wear_states.png',
         'Fig. 10/11 style: wear volume over test time (+-2 SE band), '
         'progressive wear line (slope 120-180 min) and running-in volume',
     )
@@ -618,8 +680,7 @@ def analysis_section(key: str, title: str, status: Mapping[str, Any], out: Path)
         if key == 'discrepancy' and js.name.startswith('discrepancy') and isinstance(data, dict):
             body = _discrepancy_findings(data) + body
     for png in sorted(d.rglob('*.png')):
-        b64 = base64.b64encode(png.read_bytes()).decode('ascii')
-        body += _img(b64, str(png.relative_to(out)))
+        body += _img(base64.b64encode(png.read_bytes()).decode('ascii'), str(png.relative_to(out)))
     csvs = sorted(d.rglob('*.csv'))
     if csvs:
         body += (
@@ -683,52 +744,8 @@ def _plt() -> Any:
     return plt
 
 
-def _plot_mu(ests: Sequence[Mapping[str, Any]]) -> str:
-    plt = _plt()
-    t0 = ests[0]['t_start']
-    t = np.array([e['t_start'] - t0 for e in ests], dtype=float)
-    ok = np.array([e['quality'] == 'ok' for e in ests], dtype=bool)
-
-    def col(name: str) -> FloatArray:
-        return np.array([np.nan if e[name] is None else e[name] for e in ests], dtype=float)
-
-    fig, ax = plt.subplots(figsize=(9, 4.2))
-    for name, se, color in (('mu0', 'mu0_se', 'tab:red'), ('mu_inf', 'mu_inf_se', 'tab:blue')):
-        y, s = col(name), col(se)
-        ax.errorbar(t[ok], y[ok], yerr=s[ok], fmt='o', ms=3, color=color, label=name)
-        if (~ok).any():
-            ax.plot(t[~ok], y[~ok], 'x', color='0.6')
-    if (~ok).any():
-        ax.plot([], [], 'x', color='0.6', label='flagged block')
-    ax.set_xlabel('time from first block [s]')
-    ax.set_ylabel('friction coefficient [-]')
-    ax2 = ax.twinx()
-    ax2.plot(t, col('moment_max'), '-', color='0.4', lw=0.8, label='max C1*phi1')
-    ax2.plot(t, col('moment_min'), '--', color='0.4', lw=0.8, label='min C1*phi1')
-    ax2.set_ylabel('torsion moment envelope [N m]')
-    h1, l1 = ax.get_legend_handles_labels()
-    h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, loc='best', fontsize=8)
-    ax.grid(alpha=0.3)
-    return _png(fig)
-
-
-def _plot_detail(details: Sequence[Detail]) -> str:
-    plt = _plt()
-    fig, axes = plt.subplots(len(details), 1, figsize=(9, 2.8 * len(details)), squeeze=False)
-    for ax, d in zip(axes[:, 0], details, strict=True):
-        ax.plot(d.time * 1e3, d.torsion, lw=0.7, color='tab:blue')
-        edges = np.flatnonzero(np.diff(np.concatenate(([0], d.stick.astype(int), [0]))))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            ax.axvspan(d.time[a] * 1e3, d.time[b - 1] * 1e3, color='tab:orange', alpha=0.3)
-        ax.set_title(d.label + (' (stick phases shaded)' if d.stick.any() else ''), fontsize=9)
-        ax.set_ylabel('C1*phi1 [N m]')
-        ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel('time [ms]')
-    return _png(fig)
-
-
-def _plot_wear(ws: Sequence[Mapping[str, Any]]) -> str:
+def _plot_wear(ws: Sequence[Mapping[str, Any]], path: Path) -> None:
+    """Fig. 10/11 style wear volume over test time from the live wear states."""
     plt = _plt()
 
     def col(name: str) -> FloatArray:
@@ -757,7 +774,8 @@ def _plot_wear(ws: Sequence[Mapping[str, Any]]) -> str:
     ax.set_ylabel('wear volume [um^3]')
     ax.legend(fontsize=8, loc='upper left')
     ax.grid(alpha=0.3)
-    return _png(fig)
+    fig.savefig(path, dpi=110, bbox_inches='tight')
+    plt.close(fig)
 
 
 # --- analyses ---------------------------------------------------------------------
@@ -1023,7 +1041,7 @@ def build_report(
     Args:
         bag: recorded bag (directory or .mcap).
         out: output directory (created; existing report files are replaced).
-        rig: RIG.yaml of the run (rig parameter table; C1 for the stick flags).
+        rig: RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
         nvct: NVCT.yaml (wear analysis, k_w).
         discrepancy: also run ``tribo discrepancy`` on the bag.
         analysis_rig: RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
@@ -1047,7 +1065,12 @@ def build_report(
     results: dict[str, Any] = {'analyses': {}}
     say(f'reading {bag_p}')
     scan = scan_bag(bag_p)
-    C1 = float(rig_data.get('C1', 2338.6))
+    rig_params, rig_note = None, 'no RIG.yaml given (--rig)'
+    if rig is not None:
+        try:
+            rig_params = load_rig_config(rig).rig
+        except EstimationError as exc:
+            rig_note = f'rig parameters unusable: {exc}'
     sections = [session_section(bag_p, scan, results, out_p), rig_section(rig_data, rig_s, results)]
     wear_sec = wear_section(scan, nvct_data, results, out_p)
     todo = [a for a in analyses if a in ANALYSES]
@@ -1084,7 +1107,7 @@ def build_report(
         ests = offline_blocks(out_p / 'analyses' / 'friction')
         source = 'offline fit, tribo friction'
     say('friction section and plots')
-    sections += friction_section(ests, source, results, out_p, bag_p, C1)
+    sections += friction_section(ests, source, results, out_p, bag_p, rig_params, rig_note)
     sections.append(wear_sec)
     sections += analysis_sections
     prov = provenance(command)

@@ -78,7 +78,7 @@ def spin_until(node: Any, cond: Callable[[], bool], timeout: float) -> None:
 def test_daq_node_publishes_contiguous_blocks(listener: Any) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
 
-    from tribo_drivers.qos import data_qos
+    from tribo_common.qos import data_qos
     from tribo_msgs.msg import SampleBlock
 
     emu = DaqEmulator(2000.0, start_index=1000)
@@ -126,7 +126,7 @@ def test_daq_node_publishes_contiguous_blocks(listener: Any) -> None:
 
 
 def test_counter_node(listener: Any) -> None:
-    from tribo_drivers.qos import data_qos
+    from tribo_common.qos import data_qos
     from tribo_msgs.msg import DetectorCounts
 
     emu = CounterEmulator(1000)
@@ -149,8 +149,8 @@ def test_counter_node(listener: Any) -> None:
 
 
 def test_can_node_over_slcan(listener: Any) -> None:
+    from tribo_common.qos import data_qos
     from tribo_drivers.core.can_protocol import ACCEL_ID, FORCE_TEMP_ID, SPEED_ID, CanCodec
-    from tribo_drivers.qos import data_qos
     from tribo_msgs.msg import SampleBlock
 
     dev = SlcanPtyDevice()

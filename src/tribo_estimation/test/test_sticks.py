@@ -104,3 +104,27 @@ def test_bad_input() -> None:
         detect_sticks(t, z, z, np.full(100, np.nan), RIG)
     with pytest.raises(InvalidDataError, match='torsion_moment'):
         detect_sticks(t, z[:50], z, z, RIG)
+
+
+@pytest.mark.parametrize(('rpm', 'seed'), [(10, 6), (30, 7), (60, 8)])
+def test_sticks_at_block_start_found(rpm: int, seed: int) -> None:
+    # blocks cut from a running record start in mid-slide, where the chamber-speed
+    # filter's state is unknown: sticks in the first tens of ms must still be found
+    r = simulate(RIG, LAW, DriveProfile(rpm * np.pi / 30, 0.1), 1.0, noise=NOISE, seed=seed)
+    truth = _true_sticks(r)
+    n_checked = 0
+    for k in range(40):
+        i0 = 4000 + 25 * k  # block starts every 2.5 ms from 0.4 s on
+        sl = slice(i0, i0 + 2000)
+        t = r.time[sl]
+        found = detect_sticks(t, r.torsion_moment[sl], r.angular_acceleration[sl], r.speed[sl], RIG)
+        # sticks that start within the first 40 ms of the block and end inside it
+        early = [(a, b) for a, b in truth if t[0] < a < t[0] + 0.04 and b < t[-1] and b - a >= 2e-3]
+        for a, b in early:
+            n_checked += 1
+            match = [p for p in found if abs(p.start - a) < 1e-3]
+            assert len(match) == 1, f'stick {a:.4f} s, {1e3 * (a - t[0]):.1f} ms into block'
+            # same 0.3 ms tolerance as the issue's target for any stick
+            assert abs(match[0].start - a) < 3e-4
+            assert abs(match[0].end - b) < 3e-4
+    assert n_checked >= 20  # the blocks do cover many early sticks

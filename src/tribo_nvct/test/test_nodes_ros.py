@@ -74,7 +74,7 @@ def test_pipeline_and_restart(tmp_path: Path) -> None:
     rclpy.init()
     node = rclpy.create_node('nvct_test_listener')
     got: list[Any] = []
-    from tribo_drivers.qos import data_qos
+    from tribo_common.qos import data_qos
 
     node.create_subscription(WearState, '/nvct/wear', got.append, data_qos())
     pub = node.create_publisher(DetectorCounts, '/nvct/counts', data_qos())

@@ -14,15 +14,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_drivers.core.can_protocol import CanCodec
-from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import CanStream, DeviceStream
 from tribo_drivers.core.transports import CanTransport
 from tribo_drivers.errors import DriverError
-from tribo_drivers.nodes.driver_base import DriverNode, data_qos
+from tribo_drivers.nodes.driver_base import SampleBlockDriver
 
 CHANNEL_TOPICS = {
     'angular_acceleration': '/rig/angular_acceleration',
@@ -43,7 +41,7 @@ def default_dbc() -> str:
     return str(candidates[0])
 
 
-class CanDriver(DriverNode):
+class CanDriver(SampleBlockDriver):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('can_driver', **kwargs)
 
@@ -68,7 +66,6 @@ class CanDriver(DriverNode):
             self.codec = CanCodec(self.dbc)
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
-        self._pubs: dict[str, Any] = {}
 
     def build_stream(self) -> DeviceStream[Any]:
         kwargs: dict[str, Any] = {}
@@ -81,34 +78,8 @@ class CanDriver(DriverNode):
             backoff=self.backoff,
         )
 
-    def create_publishers(self) -> None:
-        from tribo_msgs.msg import SampleBlock as SampleBlockMsg
-
-        self._pubs = {
-            ch: self.create_lifecycle_publisher(SampleBlockMsg, topic, data_qos())
-            for ch, topic in self.topics.items()
-            if topic
-        }
-
-    def destroy_publishers(self) -> None:
-        for pub in self._pubs.values():
-            self.destroy_lifecycle_publisher(pub)
-        self._pubs = {}
-
-    def publish_items(self, items: list[SampleBlock]) -> None:
-        for b in items:
-            pub = self._pubs.get(b.channel)
-            if pub is not None:
-                pub.publish(
-                    make_sample_block(
-                        b.data,
-                        first_index=b.first_index,
-                        sample_rate=b.sample_rate,
-                        stamp_ns=round(b.stamp * 1e9),
-                        channel=b.channel,
-                        unit=b.unit,
-                    )
-                )
+    def channel_topics(self) -> dict[str, str]:
+        return dict(self.topics)
 
     def expected_rate(self) -> float:
         return float(sum(s.frame_rate for s in self.codec.specs.values()))

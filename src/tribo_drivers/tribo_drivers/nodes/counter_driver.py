@@ -14,9 +14,10 @@ from typing import Any
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import declare
+from tribo_common.qos import data_qos
 from tribo_drivers.core.streams import CounterStream, CountMessage, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
-from tribo_drivers.nodes.driver_base import DriverNode, data_qos
+from tribo_drivers.nodes.driver_base import DriverNode
 
 
 class CounterDriver(DriverNode):

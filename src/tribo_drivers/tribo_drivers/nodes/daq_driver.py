@@ -12,15 +12,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_drivers.core.daq_protocol import DaqScaling
-from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import DaqStream, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.errors import DriverError
-from tribo_drivers.nodes.driver_base import DriverNode, data_qos
+from tribo_drivers.nodes.driver_base import SampleBlockDriver
 
 TOPICS = {
     'torsion_moment': '/rig/torsion_moment',
@@ -34,7 +32,7 @@ SCALING = (
 )
 
 
-class DaqDriver(DriverNode):
+class DaqDriver(SampleBlockDriver):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('daq_driver', **kwargs)
 
@@ -66,7 +64,6 @@ class DaqDriver(DriverNode):
                 f'baudrate {self.baudrate} bit/s is too low for {self.sample_rate} frames/s '
                 '(20 bytes of 10 bits each per frame)'
             )
-        self._pubs: dict[str, Any] = {}
 
     def build_stream(self) -> DeviceStream[Any]:
         return DaqStream(
@@ -77,34 +74,8 @@ class DaqDriver(DriverNode):
             backoff=self.backoff,
         )
 
-    def create_publishers(self) -> None:
-        from tribo_msgs.msg import SampleBlock as SampleBlockMsg
-
-        self._pubs = {
-            ch: self.create_lifecycle_publisher(SampleBlockMsg, topic, data_qos())
-            for ch, topic in TOPICS.items()
-        }
-
-    def destroy_publishers(self) -> None:
-        for pub in self._pubs.values():
-            self.destroy_lifecycle_publisher(pub)
-        self._pubs = {}
-
-    def publish_items(self, items: list[SampleBlock]) -> None:
-        for b in items:
-            pub = self._pubs.get(b.channel)
-            if pub is None:
-                continue
-            pub.publish(
-                make_sample_block(
-                    b.data,
-                    first_index=b.first_index,
-                    sample_rate=b.sample_rate,
-                    stamp_ns=round(b.stamp * 1e9),
-                    channel=b.channel,
-                    unit=b.unit,
-                )
-            )
+    def channel_topics(self) -> dict[str, str]:
+        return dict(TOPICS)
 
     def expected_rate(self) -> float:
         return float(self.sample_rate)

@@ -19,27 +19,13 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from tribo_common.msgconv import make_sample_block
 from tribo_common.params import ParameterError, declare
+from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DeviceStream
 from tribo_drivers.errors import DriverError
-
-try:
-    from tribo_drivers.qos import data_qos, status_qos
-except ImportError:  # pragma: no cover - qos.py absent: the documented profile inline
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    def data_qos() -> QoSProfile:
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_ALL,
-            depth=10000,
-            reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.VOLATILE,
-        )
-
-    def status_qos() -> QoSProfile:
-        return QoSProfile(depth=10)
 
 
 class DriverNode(LifecycleNode):
@@ -213,3 +199,49 @@ class DriverNode(LifecycleNode):
             )
         arr.status = [status]
         self._diag_pub.publish(arr)
+
+
+class SampleBlockDriver(DriverNode):
+    """A driver whose items are sample blocks, published per channel as SampleBlock.
+
+    Subclasses provide :meth:`channel_topics` (channel -> topic; empty topic: not
+    published) and the stream.
+    """
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        self._pubs: dict[str, Any] = {}
+        super().__init__(name, **kwargs)
+
+    @abstractmethod
+    def channel_topics(self) -> dict[str, str]:
+        """Topic of each channel of the stream (empty: the channel is not published)."""
+
+    def create_publishers(self) -> None:
+        from tribo_msgs.msg import SampleBlock as SampleBlockMsg
+
+        self._pubs = {
+            ch: self.create_lifecycle_publisher(SampleBlockMsg, topic, data_qos())
+            for ch, topic in self.channel_topics().items()
+            if topic
+        }
+
+    def destroy_publishers(self) -> None:
+        for pub in self._pubs.values():
+            self.destroy_lifecycle_publisher(pub)
+        self._pubs = {}
+
+    def publish_items(self, items: list[Any]) -> None:
+        for b in items:
+            pub = self._pubs.get(b.channel)
+            if pub is None:
+                continue
+            pub.publish(
+                make_sample_block(
+                    b.data,
+                    first_index=b.first_index,
+                    sample_rate=b.sample_rate,
+                    stamp_ns=round(b.stamp * 1e9),
+                    channel=b.channel,
+                    unit=b.unit,
+                )
+            )

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-from tribo_drivers.qos import data_qos
+from tribo_common.qos import data_qos
 from tribo_nvct.core.simulate import ForwardSimulator, load_sim_config
 from tribo_nvct.errors import NvctError
 

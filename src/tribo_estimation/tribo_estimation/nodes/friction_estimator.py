@@ -26,7 +26,7 @@ from rclpy.node import Node
 from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-from tribo_drivers.qos import data_qos
+from tribo_common.qos import data_qos
 from tribo_estimation.core.blockfit import (
     BlockConfig,
     BlockResult,
