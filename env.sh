@@ -23,6 +23,9 @@ case ":${AMENT_PREFIX_PATH:-}:" in
   *) export AMENT_PREFIX_PATH="$VIRTUAL_ENV${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}" ;;
 esac
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
+# One BLAS thread: the fits call many small linear-algebra routines, where a second
+# spinning BLAS thread only takes the other core from the live graph.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 
 # The workspace overlay (PYTHONPATH, LD_LIBRARY_PATH, AMENT_PREFIX_PATH).
 # (colcon's setup.sh reads unset variables: relax `set -u` while it runs)

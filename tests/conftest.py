@@ -104,3 +104,43 @@ def wait_for(pred, timeout: float, interval: float = 0.1) -> bool:  # type: igno
             return True
         time.sleep(interval)
     return False
+
+
+def make_rig_bag(path: Path, seconds: float, *, seed: int = 11, block: int = 100) -> None:
+    """A bag of the simulated rig (config/rig.yaml, seeded noise) as the sim_rig node
+    would record it: SampleBlocks of ``block`` samples on the three rig topics."""
+    import numpy as np
+
+    from tribo_bringup import bagio
+    from tribo_estimation.core.config import load_rig_config
+    from tribo_estimation.core.simulate import simulate
+
+    fs = 10_000.0
+    cfg = load_rig_config(ROOT / 'config' / 'rig.yaml')
+    res = simulate(cfg.rig, cfg.friction, cfg.drive, seconds, fs, noise=cfg.noise, seed=seed)
+    store = bagio.typestore()
+    SB = store.types['tribo_msgs/msg/SampleBlock']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    chans = (
+        ('/rig/torsion_moment', 'torsion_moment', 'N m', res.torsion_moment),
+        ('/rig/angular_acceleration', 'angular_acceleration', 'rad/s^2', res.angular_acceleration),
+        ('/rig/speed', 'speed', 'rad/s', res.speed),
+    )
+    t0 = 1_000_000_000
+    with bagio.BagWriter(path) as w:
+        for topic, *_ in chans:
+            w.add_topic(topic, 'tribo_msgs/msg/SampleBlock')
+        for start in range(0, len(res.time), block):
+            stamp = t0 + round(start * 1e9 / fs)
+            for topic, name, unit, data in chans:
+                msg = SB(
+                    header=Header(
+                        stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id=name
+                    ),
+                    sample_rate=fs,
+                    first_index=start,
+                    unit=unit,
+                    data=np.ascontiguousarray(data[start : start + block]),
+                )
+                w.write_msg(topic, stamp, msg)

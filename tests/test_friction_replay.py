@@ -15,49 +15,12 @@ import subprocess
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-from conftest import ROOT, Proc, requires_ros, tribo_cmd, wait_for
+from conftest import ROOT, Proc, make_rig_bag, requires_ros, tribo_cmd, wait_for
 
 from tribo_bringup import bagio
-from tribo_estimation.core.config import load_rig_config
-from tribo_estimation.core.simulate import simulate
 
 pytestmark = [requires_ros, pytest.mark.ros]
-
-FS = 10_000.0
-BLOCK = 100  # samples per SampleBlock
-
-
-def _make_bag(path: Path, seconds: float) -> None:
-    cfg = load_rig_config(ROOT / 'config' / 'rig.yaml')
-    res = simulate(cfg.rig, cfg.friction, cfg.drive, seconds, FS, noise=cfg.noise, seed=11)
-    store = bagio.typestore()
-    SB = store.types['tribo_msgs/msg/SampleBlock']
-    Header = store.types['std_msgs/msg/Header']
-    Time = store.types['builtin_interfaces/msg/Time']
-    chans = (
-        ('/rig/torsion_moment', 'torsion_moment', 'N m', res.torsion_moment),
-        ('/rig/angular_acceleration', 'angular_acceleration', 'rad/s^2', res.angular_acceleration),
-        ('/rig/speed', 'speed', 'rad/s', res.speed),
-    )
-    t0 = 1_000_000_000
-    with bagio.BagWriter(path) as w:
-        for topic, *_ in chans:
-            w.add_topic(topic, 'tribo_msgs/msg/SampleBlock')
-        for start in range(0, len(res.time), BLOCK):
-            stamp = t0 + round(start * 1e9 / FS)
-            for topic, name, unit, data in chans:
-                msg = SB(
-                    header=Header(
-                        stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id=name
-                    ),
-                    sample_rate=FS,
-                    first_index=start,
-                    unit=unit,
-                    data=np.ascontiguousarray(data[start : start + BLOCK]),
-                )
-                w.write_msg(topic, stamp, msg)
 
 
 def _num(text: str) -> float:
@@ -66,7 +29,7 @@ def _num(text: str) -> float:
 
 def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Proc]) -> None:
     bag = tmp_path / 'session'
-    _make_bag(bag, 4.0)
+    make_rig_bag(bag, 4.0)
     # offline
     out = tmp_path / 'offline'
     r = subprocess.run(

@@ -20,7 +20,11 @@ not installed or failing) is shown as unavailable with the reason; the report
 itself never fails because of one section. Figures follow the paper:
 Fig. 4/5 (mu0, mu_inf per block with the torsion-moment envelope), Fig. 6
 (torsion-moment detail with stick phases), Fig. 10/11 (wear volume over test
-time, running-in and progressive wear).
+time, running-in and progressive wear). They are written as
+``friction_blocks.png``, ``motion_detail.png`` and ``wear_states.png`` and
+embedded; Fig. 4/5 and 6 are drawn by :mod:`tribo_estimation.plots`, the stick
+phases come from :func:`tribo_estimation.core.sticks.detect_sticks` (the
+friction analysis' detection) on the full-rate rig streams.
 """
 
 from __future__ import annotations
@@ -434,13 +438,13 @@ def offline_blocks(directory: Path) -> list[dict[str, Any]]:
     for i in range(len(table['t_start'])):
         e: dict[str, Any] = {}
         for name, (kind, _desc) in bc.FRICTION_FIELDS.items():
-            v = table[name][i] if name in table else None
-            if v is None or kind == 'string':
-                e[name] = v if v is None else str(v)
-            elif not math.isfinite(float(v)):
+            if name not in table:
                 e[name] = None
+            elif kind == 'string':
+                e[name] = str(table[name][i])
             else:
-                e[name] = int(v) if kind == 'integer' else float(v)
+                v = float(table[name][i])
+                e[name] = None if not math.isfinite(v) else int(v) if kind == 'integer' else v
         if e['t_start'] is not None:
             out.append(e)
     return out

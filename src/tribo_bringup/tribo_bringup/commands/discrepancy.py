@@ -97,56 +97,82 @@ def _load_csv(path: Path) -> tuple[Any, Any, Any, Any]:
     return rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed
 
 
-def _load_bag(path: Path) -> tuple[Any, Any, Any, Any]:
-    """Aligned rig channels of a bag; the longest gap-free stretch is used."""
+def _load_bag(
+    path: Path, start: float, duration: float
+) -> tuple[tuple[Any, Any, Any, Any], Exception | None]:
+    """Aligned rig channels of a bag within the window ``start`` [s] after the stream's
+    first sample, ``duration`` [s] long (0: to the end); the longest gap-free stretch in
+    the window is used. Reading stops at the window's end, so memory stays bounded by
+    the window. A bag that ends early gives the good part and its truncation error."""
     import numpy as np
 
     from tribo_bringup.bagio import iter_messages
-    from tribo_bringup.errors import BagError
+    from tribo_bringup.errors import BagError, BagTruncatedError
     from tribo_estimation.core.align import AlignedChunk, ChannelAligner, GapEvent, RestartEvent
 
     aligner = ChannelAligner()
     runs: list[list[AlignedChunk]] = [[]]
+    window: list[int] = []  # [first index, end index (or -1: open)] once the rate is known
 
-    def take(events: list[Any]) -> None:
+    def take(events: list[Any]) -> bool:
+        """Keep the window's part of the events; True once past the window's end."""
         for ev in events:
             if isinstance(ev, AlignedChunk):
-                runs[-1].append(ev)
+                if not window:
+                    i0 = ev.first_index + round(start * ev.sample_rate)
+                    window[:] = [i0, i0 + round(duration * ev.sample_rate) if duration else -1]
+                lo, hi = window
+                a = max(ev.first_index, lo)
+                b = ev.end_index if hi < 0 else min(ev.end_index, hi)
+                if b > a:
+                    k0, k1 = a - ev.first_index, b - ev.first_index
+                    runs[-1].append(
+                        AlignedChunk(
+                            a,
+                            ev.t0 + k0 / ev.sample_rate,
+                            ev.sample_rate,
+                            ev.torsion[k0:k1],
+                            ev.accel[k0:k1],
+                            ev.speed[k0:k1],
+                        )
+                    )
+                if hi >= 0 and ev.end_index >= hi:
+                    return True
             elif isinstance(ev, (GapEvent, RestartEvent)):
                 _say(f'{type(ev).__name__}: {ev}')
                 runs.append([])
+        return False
 
-    for n_msgs, m in enumerate(iter_messages(path, topics=list(TOPICS)), start=1):
-        msg = m.msg
-        stamp = getattr(getattr(msg, 'header', None), 'stamp', None)
-        t = (
-            float(stamp.sec) + 1e-9 * float(stamp.nanosec)
-            if stamp is not None
-            else m.timestamp_ns * 1e-9
-        )
-        take(
-            aligner.push(TOPICS[m.topic], int(msg.first_index), float(msg.sample_rate), t, msg.data)
-        )
-        if n_msgs % 5000 == 0:
-            _say(f'read {n_msgs} messages')
-    take(aligner.flush())
+    truncated: Exception | None = None
+    try:
+        for n_msgs, m in enumerate(iter_messages(path, topics=list(TOPICS)), start=1):
+            msg = m.msg
+            t = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
+            ch = TOPICS[m.topic]
+            if take(aligner.push(ch, int(msg.first_index), float(msg.sample_rate), t, msg.data)):
+                break
+            if n_msgs % 5000 == 0:
+                _say(f'read {n_msgs} messages')
+        else:
+            take(aligner.flush())
+    except BagTruncatedError as exc:
+        truncated = exc
+        _say(f'warning: {exc}; analysing the good part before it')
     best = max(runs, key=lambda r: sum(len(c) for c in r))
     if not best:
-        raise BagError(f'{path}: no aligned rig samples on {", ".join(TOPICS)}')
+        raise truncated or BagError(f'{path}: no aligned rig samples on {", ".join(TOPICS)}')
     if len(runs) > 1:
         _say(f'using the longest gap-free stretch ({sum(len(c) for c in best)} samples)')
     fs = best[0].sample_rate
-    first = best[0].first_index
     idx = np.concatenate([np.arange(c.first_index, c.end_index) for c in best])
     # test time = time since the stream started (the simulated rig's drive time base)
-    time = idx.astype(np.float64) / fs
-    del first
-    return (
-        time,
+    arrays = (
+        idx.astype(np.float64) / fs,
         np.concatenate([c.torsion for c in best]),
         np.concatenate([c.accel for c in best]),
         np.concatenate([c.speed for c in best]),
     )
+    return arrays, truncated
 
 
 def run(args: argparse.Namespace) -> int:
@@ -180,8 +206,13 @@ def run(args: argparse.Namespace) -> int:
     )
     is_csv = src.is_file() and src.suffix.lower() in ('.csv', '.txt')
     _say(f'reading {src} ({"rig CSV" if is_csv else "bag"})')
-    t, torque, accel, speed = _load_csv(src) if is_csv else _load_bag(src)
-    t0 = float(t[0]) + args.start
+    truncated: Exception | None = None
+    if is_csv:
+        t, torque, accel, speed = _load_csv(src)
+        t0 = float(t[0]) + args.start
+    else:
+        (t, torque, accel, speed), truncated = _load_bag(src, args.start, args.duration)
+        t0 = float(t[0])
     sel = t >= t0
     if args.duration > 0:
         sel &= t < t0 + args.duration
@@ -217,4 +248,6 @@ def run(args: argparse.Namespace) -> int:
         f'added: {added}; torque residual rms {result.baseline.rms:.4g} -> '
         f'{result.final.rms:.4g} N m; unexplained: {len(result.unexplained)}'
     )
+    if truncated is not None:
+        raise truncated  # the good part is analysed and written; exit 2 names the damage
     return 0

@@ -99,27 +99,37 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _read_counts(path: Path) -> list[Any]:
+def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
+    """Dwells of a counts CSV or bag, and the truncation error of a bag that ends early
+    (the dwells before it are evaluated and written; the error is raised afterwards)."""
     from tribo_nvct.core.counting import Dwell
     from tribo_nvct.core.countsio import read_counts_csv
     from tribo_nvct.errors import CountsError
 
     if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):
-        return read_counts_csv(path)
+        return read_counts_csv(path), None
     from tribo_bringup.bagio import iter_messages
+    from tribo_bringup.errors import BagTruncatedError
 
     out: list[Dwell] = []
-    for m in iter_messages(path, ['/nvct/counts']):
-        msg = m.msg
-        try:
-            out.append(
-                Dwell(float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time))
-            )
-        except CountsError as exc:
-            raise type(exc)(f'{path}: message #{m.index}: {exc}') from None
+    truncated: Exception | None = None
+    try:
+        for m in iter_messages(path, ['/nvct/counts']):
+            msg = m.msg
+            try:
+                out.append(
+                    Dwell(
+                        float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time)
+                    )
+                )
+            except CountsError as exc:
+                raise type(exc)(f'{path}: message #{m.index}: {exc}') from None
+    except BagTruncatedError as exc:
+        truncated = exc
+        print(f'wear: warning: {exc}; evaluating the {len(out)} dwells before it', file=sys.stderr)
     if not out:
-        raise _err(f'{path}: no /nvct/counts messages')
-    return out
+        raise truncated or _err(f'{path}: no /nvct/counts messages')
+    return out, truncated
 
 
 def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace) -> dict[str, Any]:
@@ -130,7 +140,7 @@ def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace)
     if args.convention and args.convention != cfg.sliding_convention:
         raw = dict(cfg.raw, sliding_distance=args.convention)
         cfg = config_from_dict(raw, nvct.parent, str(nvct))
-    dwells = _read_counts(counts)
+    dwells, truncated = _read_counts(counts)
     ev = WearEvaluator(cfg)
     n_dup = 0
     for i, d in enumerate(dwells):
@@ -158,6 +168,7 @@ def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace)
             'temperature_K': cfg.temperature_K,
             'dwells': len(pts),
             'repeated_dwells_ignored': n_dup,
+            'input_truncated': str(truncated) if truncated else None,
             'not_mixed_until_s': cfg.circuit.mixing_time if cfg.circuit else 0.0,
             'flag_counts': {
                 f: sum(1 for p in pts if f in p.flags)
@@ -186,6 +197,8 @@ def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace)
     )
     if not args.no_plots:
         _plot_run(out / 'wear.png', pts, evaluation, cfg)
+    if truncated is not None:
+        raise truncated  # results of the good part are written; exit 2 names the damage
     return summary
 
 
