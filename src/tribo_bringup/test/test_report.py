@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError
@@ -196,8 +197,7 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         ''.join(f'{k}: {v}\n' for k, v in RIG.items())
         + 'effects: {stiction_gain: 0.02, stiction_tau: 0.05}\n'
     )
-    nvct = base / 'nvct.yaml'
-    nvct.write_text('load_N: 100.0\nstroke_m: 0.0015\nfrequency_hz: 50.0\n')
+    nvct = Path(__file__).resolve().parents[3] / 'config' / 'nvct.yaml'
     res = build_report(
         base / 'bag',
         base / 'out',
@@ -234,15 +234,22 @@ def test_friction_table_matches_csv_and_truth(report: dict[str, Any]) -> None:
     assert kv['mu0_max'] == fmt(fr['mu0_max']) and kv['blocks_ok'] == '2'
 
 
+NVCT = Path(__file__).resolve().parents[3] / 'config' / 'nvct.yaml'
+
+
 def test_wear_summary_and_k_w(report: dict[str, Any]) -> None:
     out, truth, page = report['out'], report['truth'], report['html']
     results = json.loads((out / 'results.json').read_text())
     we = results['wear']
     last = truth['wear'][-1]
     assert we['wear_volume_m3'] == last['wear_volume']
-    # Equ. 10, paper convention: k_w = rate / (L * stroke * f); exact arithmetic on inputs
+    # Equ. 10, paper convention: k_w = rate / (L * stroke * f); exact arithmetic on the
+    # inputs of config/nvct.yaml (load_N, stroke_m, frequency_hz)
+    cfg = yaml.safe_load(NVCT.read_text())
+    assert we['k_w_sliding_distance'] == 'paper'
     assert we['k_w_progressive_m3_per_N_m'] == pytest.approx(
-        last['progressive_rate'] / (100.0 * 0.0015 * 50.0), rel=1e-12
+        last['progressive_rate'] / (cfg['load_N'] * cfg['stroke_m'] * cfg['frequency_hz']),
+        rel=1e-12,
     )
     kv = {r[0]: r[1] for r in page.tables['wear-summary']}
     assert kv['wear_volume_m3'] == fmt(we['wear_volume_m3'])

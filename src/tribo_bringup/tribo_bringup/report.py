@@ -344,6 +344,15 @@ def load_rig(path: str | Path | None) -> dict[str, Any]:
     return data
 
 
+def _load_nvct(path: str | Path | None) -> Any:
+    """The run's NvctConfig (tribo_nvct's loader), or None when not given."""
+    if path is None:
+        return None
+    from tribo_nvct.core.config import load_config
+
+    return load_config(path)
+
+
 def rig_section(rig: Mapping[str, Any], rig_path: str | None, results: dict) -> Section:
     title = 'Rig parameters used'
     if not rig:
@@ -620,7 +629,8 @@ def friction_section(
     return sections
 
 
-def wear_section(scan: BagScan, nvct: Mapping[str, Any], results: dict, out: Path) -> Section:
+def wear_section(scan: BagScan, nvct: Any, results: dict, out: Path) -> Section:
+    """Live wear states; ``nvct`` is the run's NvctConfig (k_w, window) or None."""
     title = 'nVCT wear (live wear monitor, /nvct/wear)'
     ws = scan.wear
     if not ws:
@@ -640,13 +650,12 @@ def wear_section(scan: BagScan, nvct: Mapping[str, Any], results: dict, out: Pat
         'progressive_rate_m3_per_s': last['progressive_rate'],
         'progressive_rate_se_m3_per_s': last['progressive_rate_se'],
     }
-    load, stroke, freq = (nvct.get(k) for k in ('load_N', 'stroke_m', 'frequency_hz'))
     kw = None
-    if load and stroke and freq and last['progressive_rate'] is not None:
-        # Equ. 10, paper convention d_s = stroke*f*t: k_w = (dV/dt) / (L * stroke * f)
-        kw = last['progressive_rate'] / (float(load) * float(stroke) * float(freq))
+    if nvct is not None and last['progressive_rate'] is not None:
+        # Equ. 10: k_w = (dV/dt) / (L * d_s per second), d_s by the configured convention
+        kw = last['progressive_rate'] / (nvct.load * nvct.sliding_distance(1.0))
     summary['k_w_progressive_m3_per_N_m'] = kw
-    summary['k_w_sliding_distance'] = 'paper: d_s = stroke*frequency*t'
+    summary['k_w_sliding_distance'] = nvct.sliding_convention if nvct is not None else None
     results['wear'] = summary
     units = {
         'test_time_s': 's', 'wear_volume_m3': 'm^3', 'wear_volume_se_m3': 'm^3',
@@ -655,11 +664,12 @@ def wear_section(scan: BagScan, nvct: Mapping[str, Any], results: dict, out: Pat
         'k_w_progressive_m3_per_N_m': 'm^3/(N m)',
     }  # fmt: skip
     body = _kv(summary, 'wear-summary', units)
+    w0, w1 = (w / 60.0 for w in (nvct.window_s if nvct is not None else (7200.0, 10800.0)))
     body += _figure(
-        lambda p: _plot_wear(ws, p),
+        lambda p: _plot_wear(ws, p, (w0, w1)),
         out / 'wear_states.png',
         'Fig. 10/11 style: wear volume over test time (+-2 SE band), '
-        'progressive wear line (slope 120-180 min) and running-in volume',
+        f'progressive wear line (slope {w0:g}-{w1:g} min) and running-in volume',
     )
     return Section('wear', title, body)
 
@@ -748,8 +758,11 @@ def _plt() -> Any:
     return plt
 
 
-def _plot_wear(ws: Sequence[Mapping[str, Any]], path: Path) -> None:
-    """Fig. 10/11 style wear volume over test time from the live wear states."""
+def _plot_wear(
+    ws: Sequence[Mapping[str, Any]], path: Path, window_min: tuple[float, float]
+) -> None:
+    """Fig. 10/11 style wear volume over test time from the live wear states; the
+    progressive-rate window [min] shaded."""
     plt = _plt()
 
     def col(name: str) -> FloatArray:
@@ -773,7 +786,8 @@ def _plot_wear(ws: Sequence[Mapping[str, Any]], path: Path) -> None:
             label='running-in + progressive line',
         )
         ax.axhline(vr / UM3, color='tab:green', ls=':', label=f'running-in {vr / UM3:.4g} um^3')
-        ax.axvspan(120, 180, color='0.85', alpha=0.5, label='120-180 min window')
+        w0, w1 = window_min
+        ax.axvspan(w0, w1, color='0.85', alpha=0.5, label=f'{w0:g}-{w1:g} min window')
     ax.set_xlabel('test time [min]')
     ax.set_ylabel('wear volume [um^3]')
     ax.legend(fontsize=8, loc='upper left')
@@ -1065,7 +1079,7 @@ def build_report(
     rig_s = str(rig) if rig is not None else None
     nvct_s = str(nvct) if nvct is not None else None
     rig_data = load_rig(rig)
-    nvct_data = load_rig(nvct) if nvct is not None else {}
+    nvct_cfg = _load_nvct(nvct)
     results: dict[str, Any] = {'analyses': {}}
     say(f'reading {bag_p}')
     scan = scan_bag(bag_p)
@@ -1076,7 +1090,7 @@ def build_report(
         except EstimationError as exc:
             rig_note = f'rig parameters unusable: {exc}'
     sections = [session_section(bag_p, scan, results, out_p), rig_section(rig_data, rig_s, results)]
-    wear_sec = wear_section(scan, nvct_data, results, out_p)
+    wear_sec = wear_section(scan, nvct_cfg, results, out_p)
     todo = [a for a in analyses if a in ANALYSES]
     if discrepancy:
         todo.append('discrepancy')
