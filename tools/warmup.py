@@ -1,6 +1,9 @@
-"""Compile (and cache) the numba kernels once, so the first node or test does not wait.
+"""Compile (and cache) the numba kernels once, so the first node, test or demo does
+not wait for the compiler (or starve the live graph while it compiles).
 
-Run by `make setup` after the build; safe to run any time.
+Run by `make setup` after the build; safe to run any time. Exercises, on a short
+simulated record: the rig kernel (simulate), stick detection and the block fit
+(friction estimator), and the discrepancy workflow's fit.
 """
 
 from __future__ import annotations
@@ -10,16 +13,42 @@ import time
 
 
 def main() -> int:
-    """Call each jitted entry point once on a small problem."""
+    """Call each jitted code path once on a small problem."""
     t0 = time.monotonic()
-    try:
-        from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
-        from tribo_estimation.core.simulate import simulate
-    except ImportError as exc:  # the core is not there: nothing to warm
-        print(f'warmup: skipped ({exc})', file=sys.stderr)
-        return 0
-    simulate(RigParams.tab1(), FrictionLaw(0.13, 0.10), DriveProfile(3.0, 0.1), 0.01)
-    print(f'warmup: numba kernels ready in {time.monotonic() - t0:.1f} s', file=sys.stderr)
+    from tribo_estimation.core.align import AlignedChunk
+    from tribo_estimation.core.blockfit import BlockConfig, BlockEstimator
+    from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
+    from tribo_estimation.core.discrepancy.fitting import Record
+    from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
+    from tribo_estimation.core.simulate import NoiseSpec, simulate
+
+    rig = RigParams.tab1()
+    friction = FrictionLaw(0.13, 0.10)
+    drive = DriveProfile(3.14159, 0.1)
+    fs = 10_000.0
+    res = simulate(rig, friction, drive, 2.0, fs, noise=NoiseSpec(0.05, 2.0, 0.005), seed=1)
+    t1 = time.monotonic()
+    est = BlockEstimator(rig, friction, BlockConfig(nominal_speed=3.14159, ramp_time=0.1))
+    chunk = AlignedChunk(0, 0.0, fs, res.torsion_moment, res.angular_acceleration, res.speed)
+    list(est.feed(chunk))
+    list(est.finish())
+    t2 = time.monotonic()
+    sel = res.time >= 0.5
+    record = Record(
+        res.time[sel], res.torsion_moment[sel], res.angular_acceleration[sel], res.speed[sel]
+    )
+    run_discrepancy(
+        record,
+        rig,
+        drive,
+        settings=SelectionSettings(max_effects=1, candidates=('viscous_friction',)),
+    )
+    t3 = time.monotonic()
+    print(
+        f'warmup: numba code ready in {t3 - t0:.1f} s (simulator {t1 - t0:.1f} s, '
+        f'friction fit {t2 - t1:.1f} s, discrepancy {t3 - t2:.1f} s)',
+        file=sys.stderr,
+    )
     return 0
 
 

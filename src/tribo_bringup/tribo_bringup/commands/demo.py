@@ -111,7 +111,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
     over = rig_overrides(rig_file)
     time_scale = 240.0 * 60.0 / duration  # the 240 min wear test fills the run
     params: dict[str, dict[str, Any]] = {
-        'sim_rig': over['sim_rig'],
+        'sim_rig': {**over['sim_rig'], 'duration': float(duration)},
         'friction_estimator': over['friction_estimator'],
         'sim_detector': {
             'sim_config': str(CONFIG / 'sim_detector.yaml'),
@@ -165,9 +165,17 @@ def warm_up(rig_file: Path) -> None:
 
 
 def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 600.0) -> None:
-    """Spin the graph; record ``duration`` [s] from the first rig block on, with progress."""
+    """Spin the graph until the recorder holds the rig's whole ``duration`` [s] of stream
+    (the simulated rig stops after it), with progress.
+
+    Completion is counted in recorded rig blocks, not wall-clock time: if the machine
+    is slow the run takes longer, but the session is always complete.
+    """
     import threading
 
+    from tribo_drivers.nodes.sim_rig import RIG_BLOCK_SIZE, RIG_SAMPLE_RATE
+
+    n_blocks = round(duration * RIG_SAMPLE_RATE / RIG_BLOCK_SIZE)
     stop = threading.Event()
     spinner = threading.Thread(
         target=graph.spin, kwargs={'duration': 0.0, 'stop': stop}, daemon=True
@@ -187,19 +195,27 @@ def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 
         t0 = time.monotonic()
         last = t0
         _say(f'recording {duration:g} s')
-        while (now := time.monotonic()) - t0 < duration:
+        deadline = t0 + 3.0 * duration + 60.0
+        while (blocks := writer.counts.get('/rig/torsion_moment', 0)) < n_blocks:
+            now = time.monotonic()
             if not spinner.is_alive():
                 raise BringupError('the graph stopped spinning unexpectedly')
+            if now > deadline:
+                raise BringupError(
+                    f'the simulated rig delivered {blocks} of {n_blocks} blocks in '
+                    f'{now - t0:.0f} s (machine overloaded?)'
+                )
             if now - last >= 5.0:
                 c = writer.counts
                 _say(
-                    f'{now - t0:5.0f}/{duration:g} s: '
-                    f'{c.get("/rig/torsion_moment", 0)} rig blocks, '
+                    f'{blocks * RIG_BLOCK_SIZE / RIG_SAMPLE_RATE:5.0f}/{duration:g} s: '
+                    f'{blocks} rig blocks, '
                     f'{c.get("/friction/estimate", 0)} friction estimates, '
                     f'{c.get("/nvct/wear", 0)} wear states recorded'
                 )
                 last = now
             time.sleep(0.1)
+        time.sleep(1.0)  # the estimate of the last block follows its final sample
         _say(f'live run finished after {time.monotonic() - t0:.1f} s')
     finally:
         stop.set()

@@ -49,6 +49,10 @@ CHANNELS = (
     ('/rig/speed', 'speed', 'rad/s', 'speed'),
 )
 
+#: Default sample rate [Hz] and samples per published block.
+RIG_SAMPLE_RATE = 10000.0
+RIG_BLOCK_SIZE = 100
+
 #: Rig parameters: name -> (default, description, low, low_exclusive, high).
 RIG_PARAMETERS: dict[str, tuple[float, str, float, bool, float | None]] = {
     'I1': (0.0109, 'chamber inertia I1 [kg m^2] (Tab. 1)', 0.0, True, None),
@@ -80,10 +84,19 @@ class SimRigNode(Node):
             for name, (default, desc, low, excl, high) in RIG_PARAMETERS.items()
         }
         self.fs = float(
-            declare(self, 'sample_rate', 10000.0, 'sample rate [Hz]', low=100.0, high=100000.0)
+            declare(
+                self, 'sample_rate', RIG_SAMPLE_RATE, 'sample rate [Hz]', low=100.0, high=100000.0
+            )
         )
         self.block = int(
-            declare(self, 'block_size', 100, 'samples per published block', low=10, high=10000)
+            declare(
+                self,
+                'block_size',
+                RIG_BLOCK_SIZE,
+                'samples per published block',
+                low=10,
+                high=10000,
+            )
         )
         self.duration = float(
             declare(self, 'duration', 0.0, 'simulated time to run [s] (0: until stopped)', low=0.0)
