@@ -76,15 +76,18 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
             w.write_msg('/rig/speed', 1_000_000_000 + k * 5_000_000, m)
     out = tmp_path / 'copy'
     rec = Proc(
-        tribo_cmd('record', '--duration', '8', '--out', str(out), '--topics', '/rig/speed'),
-        tmp_path / 'rec.log',
+        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed'), tmp_path / 'rec.log'
     )
     procs.append(rec)
-    time.sleep(1.0)
-    rep = Proc(tribo_cmd('replay', str(src), '--rate', '2'), tmp_path / 'replay.log')
+    # replay waits until the recorder's subscription has matched, however slow its start
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '2', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
     procs.append(rep)
-    assert rep.wait(60) == 0, rep.output()
-    assert rec.wait(60) == 0, rec.output()
+    assert rep.wait(120) == 0, rep.output()
+    time.sleep(1.0)
+    assert rec.stop() == 0, rec.output()
     got = [m.msg for m in bagio.iter_messages(out)]
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]
     assert all(float(m.data[0]) == k for k, m in enumerate(got))

@@ -82,10 +82,19 @@ def test_pipeline_and_restart(tmp_path: Path) -> None:
     try:
         mon = start('tribo_nvct.nodes.wear_monitor', monitor_params, tmp_path / 'mon.log')
         procs.append(mon)
-        time.sleep(3.0)  # discovery before the detector starts (volatile QoS)
+        # the monitor subscribes before the detector's test clock starts (volatile QoS):
+        # wait for its start line, the detector then waits for its subscriber
+        deadline = time.monotonic() + 60.0
+        while 'dwells restored' not in (tmp_path / 'mon.log').read_text(errors='replace'):
+            assert time.monotonic() < deadline, (tmp_path / 'mon.log').read_text()
+            time.sleep(0.1)
         det = start(
             'tribo_drivers.nodes.sim_detector',
-            {'sim_config': str(CONFIG_DIR / 'sim_detector.yaml'), 'time_scale': 2400.0},
+            {
+                'sim_config': str(CONFIG_DIR / 'sim_detector.yaml'),
+                'time_scale': 2400.0,
+                'wait_subscribers': 30.0,
+            },
             tmp_path / 'det.log',
         )
         procs.append(det)

@@ -46,6 +46,16 @@ class SimDetector(Node):
         )
         seed = declare(self, 'seed', -1, 'random seed (-1: from the YAML)', low=-1, high=2**31 - 1)
         topic = declare(self, 'topic', '/nvct/counts', 'DetectorCounts topic')
+        self.wait_subscribers = float(
+            declare(
+                self,
+                'wait_subscribers',
+                0.0,
+                'seconds to wait for a subscriber before the test clock starts [s]',
+                low=0.0,
+                high=600.0,
+            )
+        )
         if not sim_path:
             raise ParameterError("parameter 'sim_config' (path of sim_detector.yaml) is required")
         try:
@@ -60,7 +70,8 @@ class SimDetector(Node):
         self._Msg = DetectorCounts
         self._pub = self.create_publisher(DetectorCounts, topic, data_qos())
         self._index = 0
-        self._t0 = time.monotonic()
+        self._created = time.monotonic()
+        self._t0: float | None = None
         period = min(0.05, sc.settings.dwell / self.time_scale / 4.0)
         self._timer = self.create_timer(period, self._tick)
         self.get_logger().info(
@@ -69,6 +80,11 @@ class SimDetector(Node):
         )
 
     def _tick(self) -> None:
+        if self._t0 is None:
+            waited = time.monotonic() - self._created
+            if self._pub.get_subscription_count() == 0 and waited < self.wait_subscribers:
+                return  # the test clock starts once someone listens (or the wait is over)
+            self._t0 = time.monotonic()
         test_now = (time.monotonic() - self._t0) * self.time_scale
         while self._index < self.sim.t_end.size and self.sim.t_end[self._index] <= test_now:
             d = self.sim.dwell(self._index, self.rng)
