@@ -25,9 +25,9 @@ from typing import Any
 import yaml
 
 from tribo_bringup.errors import BringupError, ConfigError
+from tribo_bringup.paths import CONFIG
 from tribo_estimation.core.config import load_rig_config
 
-CONFIG = Path(__file__).resolve().parents[4] / 'config'
 MARKER = '.tribo-demo'
 
 

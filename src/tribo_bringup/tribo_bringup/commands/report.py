@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-CONFIG = Path(__file__).resolve().parents[4] / 'config'
+from tribo_bringup.paths import CONFIG
 
 
 def register(sub: Any) -> None:

@@ -21,6 +21,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.paths import CONFIG
+
 UM3 = 1e-18
 
 
@@ -64,7 +66,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--sim',
         metavar='SIM.yaml',
-        default='config/sim_detector.yaml',
+        default=str(CONFIG / 'sim_detector.yaml'),
         help='simulated-detector configuration for --simulate (default: %(default)s)',
     )
     p.add_argument('--seed', type=int, help='random seed for --simulate (default: from SIM.yaml)')
