@@ -64,14 +64,19 @@ build:
 	@rm -f $(BUILD_STAMP)
 	@$(MAKE) -s setup
 
+MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimation \
+	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools
+
 test: setup
-	@$(IN_ENV) ruff check src tests bench tools
+	@echo '[test] ruff, mypy, pytest'
+	@$(IN_ENV) ruff check src tests bench tools conftest.py
+	@$(IN_ENV) mypy $(MYPY_PATHS)
 	@$(IN_ENV) python -m pytest -q --timeout=600 $(PYTEST_ARGS)
 
 lint: setup
-	@$(IN_ENV) ruff check src tests bench tools
-	@$(IN_ENV) mypy src/tribo_estimation/tribo_estimation src/tribo_nvct/tribo_nvct \
-	  src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup
+	@$(IN_ENV) ruff check src tests bench tools conftest.py
+	@$(IN_ENV) ruff format --check src tests bench tools conftest.py
+	@$(IN_ENV) mypy $(MYPY_PATHS)
 
 bench: setup
 	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; python $$b; done

@@ -20,8 +20,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+# ROS_DOMAIN_ID and localhost discovery: set per test worker by the root conftest.py
 
 
 def have_ros() -> bool:

@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, Proc, make_rig_bag, requires_ros, tribo_cmd, wait_for
 
+from conftest import ROOT, Proc, make_rig_bag, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]
@@ -76,7 +76,7 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
     procs.append(rec)
     time.sleep(2.0)
     rep = Proc(
-        tribo_cmd('replay', str(bag), '--rate', '1', '--wait-subscribers', '10'),
+        tribo_cmd('replay', str(bag), '--rate', '4', '--wait-subscribers', '30'),
         tmp_path / 'replay.log',
     )
     procs.append(rep)

@@ -96,7 +96,6 @@ def test_short_demo_end_to_end(tmp_path: Path) -> None:
     )
     env = {
         **os.environ,
-        'ROS_DOMAIN_ID': str(20 + (os.getpid() + 7) % 70),
         'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
     }
     args = [sys.executable, '-c', harness, 'demo', '--duration', '3', '--out', str(out)]

@@ -21,7 +21,6 @@ import pytest
 
 pytestmark = pytest.mark.ros
 
-os.environ['ROS_DOMAIN_ID'] = str(20 + os.getpid() % 70)
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 rclpy = pytest.importorskip('rclpy', reason='needs rclpy: run under `make test`')

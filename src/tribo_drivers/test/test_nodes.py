@@ -26,7 +26,7 @@ pytestmark = pytest.mark.ros
 pytest.importorskip('tribo_msgs', reason='needs the built workspace: source env.sh')
 
 ROOT = Path(__file__).resolve().parents[3]
-DOMAIN = '67'
+DOMAIN = os.environ['ROS_DOMAIN_ID']  # per test worker (root conftest.py)
 
 
 def ros_env() -> dict[str, str]:

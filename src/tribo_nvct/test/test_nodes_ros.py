@@ -30,7 +30,7 @@ try:
 except ImportError:  # pragma: no cover - outside the built workspace
     pytest.skip('needs rclpy and tribo_msgs (source env.sh)', allow_module_level=True)
 
-DOMAIN = str(40 + os.getpid() % 50)
+DOMAIN = os.environ['ROS_DOMAIN_ID']  # per test worker (root conftest.py)
 ENV = {
     **os.environ,
     'ROS_DOMAIN_ID': DOMAIN,

@@ -115,9 +115,7 @@ class SimRigNode(Node):
                 'rate is between 50 and 1000 blocks/s (about 100-500 recommended)'
             )
         try:
-            self.rig = RigParams(
-                **{n: values[n] for n in ('I1', 'K1', 'C1', 'I2', 'K2', 'C2', 'F_N', 'R')}
-            )
+            self.rig = RigParams.from_mapping(values)
             self.friction = FrictionLaw(values['mu0'], values['mu_inf'], values['k'])
             self.drive = DriveProfile(values['nominal_speed'], values['ramp_time'])
             self.extensions = Extensions(**eff)

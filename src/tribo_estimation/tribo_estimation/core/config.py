@@ -120,16 +120,7 @@ def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Rig
             )
     try:
         eff = {str(k): _number(effects, k, f'{source}: effects') for k in effects}
-        rig = RigParams(
-            I1=v['I1'],
-            K1=v['K1'],
-            C1=v['C1'],
-            I2=v['I2'],
-            K2=v['K2'],
-            C2=v['C2'],
-            F_N=v['F_N'],
-            R=v['R'],
-        )
+        rig = RigParams.from_mapping(v)
         friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
         drive = DriveProfile(v['nominal_speed'], v.get('ramp_time', 0.0))
         ext = Extensions(**eff)

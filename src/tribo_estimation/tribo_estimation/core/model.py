@@ -13,6 +13,7 @@ C = torsional stiffness.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -64,6 +65,12 @@ class RigParams:
             _require(getattr(self, name) > 0.0, self, name, '> 0')
         for name in ('K1', 'K2', 'F_N'):
             _require(getattr(self, name) >= 0.0, self, name, '>= 0')
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, float]) -> RigParams:
+        """From a mapping holding (at least) the eight field names, e.g. RIG.yaml values
+        or node parameters (other keys are ignored)."""
+        return cls(**{f.name: float(values[f.name]) for f in fields(cls)})
 
     @classmethod
     def tab1(cls, F_N: float = 8000.0, R: float = 0.08) -> RigParams:

@@ -98,16 +98,7 @@ class FrictionEstimatorNode(Node):
             )
         fit_k = bool(declare(self, 'fit_k', False, 'also fit k [s/rad] per block', read_only=True))
         try:
-            rig = RigParams(
-                I1=v['I1'],
-                K1=v['K1'],
-                C1=v['C1'],
-                I2=v['I2'],
-                K2=v['K2'],
-                C2=v['C2'],
-                F_N=v['F_N'],
-                R=v['R'],
-            )
+            rig = RigParams.from_mapping(v)
             friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
             cfg = BlockConfig(
                 block_length=v['block_length'],
