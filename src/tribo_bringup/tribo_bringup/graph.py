@@ -1,4 +1,4 @@
-"""Graph runner: the chosen tribo nodes in one process on a multi-threaded executor.
+"""Graph runner: the chosen tribo nodes in one process on one executor.
 
 The stand-in for a launch file on machines without ``ros2 launch`` (the
 packages ship real launch files in ``launch/`` for full ROS installs).
@@ -112,9 +112,11 @@ class Graph:
         stop: threading.Event | None = None,
     ) -> None:
         """Spin all nodes until ``duration`` [s] passed (0: until Ctrl-C) or ``stop`` is set."""
-        from rclpy.executors import MultiThreadedExecutor
+        # single-threaded: rclpy's MultiThreadedExecutor costs about a core at a few
+        # hundred messages/s; the nodes do their heavy work in their own threads
+        from rclpy.executors import SingleThreadedExecutor
 
-        executor = MultiThreadedExecutor(num_threads=4)
+        executor = SingleThreadedExecutor()
         for node in [*self._instances, *self.extra_nodes]:
             executor.add_node(node)
         spinner, stop = spin_background(executor, stop)

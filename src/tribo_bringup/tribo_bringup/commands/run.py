@@ -1,4 +1,4 @@
-"""``tribo run``: start the graph's nodes in one process (multi-threaded executor)."""
+"""``tribo run``: start the graph's nodes in one process (one executor)."""
 
 from __future__ import annotations
 
