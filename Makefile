@@ -69,13 +69,13 @@ MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimatio
 
 test: setup
 	@echo '[test] ruff, mypy, pytest'
-	@$(IN_ENV) ruff check src tests bench tools conftest.py
+	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) mypy $(MYPY_PATHS)
 	@$(IN_ENV) python -m pytest -q --timeout=600 $(PYTEST_ARGS)
 
 lint: setup
-	@$(IN_ENV) ruff check src tests bench tools conftest.py
-	@$(IN_ENV) ruff format --check src tests bench tools conftest.py
+	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
+	@$(IN_ENV) ruff format --no-cache --check src tests bench tools conftest.py
 	@$(IN_ENV) mypy $(MYPY_PATHS)
 
 bench: setup

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import Proc, requires_ros, tribo_cmd, wait_for
 
+from conftest import Proc, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]
