@@ -185,6 +185,44 @@ def default_daq_signal(
     return torque, accel, speed
 
 
+class _EmulatorThread:
+    """Thread lifecycle shared by the device emulators: ``start`` runs ``_run`` in a
+    daemon thread until ``stop``."""
+
+    THREAD_NAME = 'emulator'
+
+    def __init__(self) -> None:
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def _run(self) -> None:
+        raise NotImplementedError
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name=self.THREAD_NAME, daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+
+
+class _PtyEmulator(_EmulatorThread):
+    """An emulator behind a pseudo-terminal (``port``); ``close`` also closes it."""
+
+    port: PtyPort
+
+    @property
+    def path(self) -> str:
+        """Device path the driver opens (the pty's slave side)."""
+        return str(self.port.path)
+
+    def close(self) -> None:
+        self.stop()
+        self.port.close()
+
+
 @dataclass
 class DaqTruth:
     """Ground truth of a DAQ emulation (unwrapped sample indices)."""
@@ -209,7 +247,7 @@ class DaqTruth:
         return int(sum(a.size for a in getattr(self, what)))
 
 
-class DaqEmulator:
+class DaqEmulator(_PtyEmulator):
     """Serial DAQ on a pty: 20-byte frames at ``sample_rate`` with injected faults.
 
     corrupt_fraction: fraction of frames with one byte flipped (caught by the CRC, or a
@@ -217,6 +255,8 @@ class DaqEmulator:
     requested with :meth:`inject_garbage` (random bytes, some with fake sync words).
     ``start_index`` (u32 counter start, unwrapped) lets tests cross the 2**32 wrap.
     """
+
+    THREAD_NAME = 'daq-emulator'
 
     def __init__(
         self,
@@ -233,6 +273,7 @@ class DaqEmulator:
         chunk_period: float = 0.002,
         port: PtyPort | None = None,
     ) -> None:
+        super().__init__()
         self.sample_rate = sample_rate
         self.port = port or PtyPort()
         self.next_index = start_index
@@ -244,33 +285,17 @@ class DaqEmulator:
         self.truth = DaqTruth()
         self._garbage: list[bytes] = []
         self._lock = threading.RLock()
-        self._stop = threading.Event()
         self._paused = threading.Event()
         self._attached_at: float | None = None
         self.attach_grace = 0.05  # s after the driver configured the port (its flush)
         self.uncertain_window = 0.1  # s after that in which intact frames count as uncertain
-        self._thread: threading.Thread | None = None
         self._t0 = 0.0
         self._index0 = start_index
-
-    @property
-    def path(self) -> str:
-        return str(self.port.path)
 
     def start(self) -> None:
         self._t0 = time.monotonic()
         self._index0 = self.next_index
-        self._thread = threading.Thread(target=self._run, name='daq-emulator', daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
-
-    def close(self) -> None:
-        self.stop()
-        self.port.close()
+        super().start()
 
     def inject_garbage(self, length: int, fake_syncs: int = 2) -> None:
         """Queue a burst of ``length`` random bytes (with some ``A5 5A`` fake syncs)."""
@@ -361,7 +386,7 @@ class DaqEmulator:
             self.truth.damaged.append(idx)
 
 
-class CounterEmulator:
+class CounterEmulator(_PtyEmulator):
     """Radiation counter on a pty: ``$DWELL`` -> ``$ACK``, one ``$CNT`` per dwell.
 
     dwell_ms: initial dwell [ms]; time_scale: test seconds per real second (accelerated
@@ -369,6 +394,8 @@ class CounterEmulator:
     bad_checksum_every: every n-th CNT line gets a wrong checksum (0 = never);
     ignore_dwell_commands: this many DWELL commands are not answered (handshake retries).
     """
+
+    THREAD_NAME = 'counter-emulator'
 
     def __init__(
         self,
@@ -383,6 +410,7 @@ class CounterEmulator:
         start_seq: int = 1,
         port: PtyPort | None = None,
     ) -> None:
+        super().__init__()
         self.port = port or PtyPort()
         self.dwell_ms = dwell_ms
         self.time_scale = time_scale
@@ -396,26 +424,7 @@ class CounterEmulator:
         self.sent: list[cp.CountRecord] = []
         self.bad: list[int] = []
         self.commands: list[bytes] = []
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._rx = cp.LineSplitter()
-
-    @property
-    def path(self) -> str:
-        return str(self.port.path)
-
-    def start(self) -> None:
-        self._thread = threading.Thread(target=self._run, name='counter-emulator', daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
-
-    def close(self) -> None:
-        self.stop()
-        self.port.close()
 
     def _handle(self, line: bytes) -> None:
         self.commands.append(line)
@@ -461,37 +470,21 @@ class CounterEmulator:
             self.seq += 1
 
 
-class SlcanPtyDevice:
+class SlcanPtyDevice(_PtyEmulator):
     """A serial-line CAN adapter (slcan/Lawicel) on a pty, bridging to a send queue.
 
     Handles the host commands ``O`` (open), ``C`` (close), ``Sn`` (bitrate), ``V``, ``F`` and
     empty lines (answered with CR); while open, :meth:`send` writes ``tIIILDD..`` lines.
     """
 
+    THREAD_NAME = 'slcan-device'
+
     def __init__(self, port: PtyPort | None = None) -> None:
+        super().__init__()
         self.port = port or PtyPort()
         self.is_open = False
         self.bitrate_code = ''
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._buf = bytearray()
-
-    @property
-    def path(self) -> str:
-        return str(self.port.path)
-
-    def start(self) -> None:
-        self._thread = threading.Thread(target=self._run, name='slcan-device', daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
-
-    def close(self) -> None:
-        self.stop()
-        self.port.close()
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -534,12 +527,14 @@ def default_can_signal(frame_id: int, seq: int) -> dict[str, tuple[float, ...]]:
     }
 
 
-class CanEmulator:
+class CanEmulator(_EmulatorThread):
     """Sends the three sensor frame types at their rates through ``send(frame_id, data)``.
 
     rates: frame_id -> frames per second; seq counters start at ``start_seq`` (u16 wrap).
     Ground truth: ``sent[frame_id]`` is the list of unwrapped frame counters sent.
     """
+
+    THREAD_NAME = 'can-emulator'
 
     def __init__(
         self,
@@ -549,24 +544,14 @@ class CanEmulator:
         start_seq: int = 0,
         skip: set[tuple[int, int]] | None = None,
     ) -> None:
+        super().__init__()
         self.codec = codec
         self.send = send
         self.rates = rates or {ACCEL_ID: 10_000.0 / 3.0, SPEED_ID: 1000.0, FORCE_TEMP_ID: 100.0}
         self.next_seq = dict.fromkeys(self.rates, start_seq)
         self.sent: dict[int, list[int]] = {fid: [] for fid in self.rates}
         self.skip = skip or set()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._start_seq = start_seq
-
-    def start(self) -> None:
-        self._thread = threading.Thread(target=self._run, name='can-emulator', daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
 
     def frame(self, frame_id: int, seq: int) -> bytes:
         return self.codec.encode(frame_id, seq, default_can_signal(frame_id, seq))
