@@ -74,7 +74,18 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
         tmp_path / 'rec.log',
     )
     procs.append(rec)
-    time.sleep(2.0)
+    # the recorder logs each topic once its subscription has matched the node's publisher
+    assert wait_for(
+        lambda: (
+            all(
+                f'recording {t} ' in rec.output()
+                for t in ('/friction/estimate', '/friction/moment')
+            )
+            or rec.popen.poll() is not None
+        ),
+        120,
+    ), rec.output()
+    assert rec.popen.poll() is None, rec.output()
     rep = Proc(
         tribo_cmd('replay', str(bag), '--rate', '4', '--wait-subscribers', '30'),
         tmp_path / 'replay.log',

@@ -58,7 +58,10 @@ def generate_launch_description() -> LaunchDescription:
                 package='tribo_nvct',
                 executable='wear_monitor',
                 name='wear_monitor',
-                parameters=[params('wear_monitor.yaml')],
+                parameters=[
+                    params('wear_monitor.yaml'),
+                    {'nvct_config': params('nvct.yaml')},
+                ],
             ),
         ]
     )

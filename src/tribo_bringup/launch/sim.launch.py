@@ -48,7 +48,7 @@ def generate_launch_description() -> LaunchDescription:
                 package='tribo_drivers',
                 executable='sim_detector',
                 name='sim_detector',
-                parameters=[params('sim_detector.yaml')],
+                parameters=[{'sim_config': params('sim_detector.yaml')}],
             ),
             Node(
                 package='tribo_estimation',
@@ -60,7 +60,10 @@ def generate_launch_description() -> LaunchDescription:
                 package='tribo_nvct',
                 executable='wear_monitor',
                 name='wear_monitor',
-                parameters=[params('wear_monitor.yaml')],
+                parameters=[
+                    params('wear_monitor.yaml'),
+                    {'nvct_config': params('nvct.yaml')},
+                ],
             ),
             ExecuteProcess(
                 cmd=['ros2', 'bag', 'record', '-s', 'mcap', *TOPICS],

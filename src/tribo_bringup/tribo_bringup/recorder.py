@@ -19,7 +19,7 @@ from rclpy.node import Node
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError
-from tribo_common.qos import data_qos, status_qos
+from tribo_common.qos import data_qos, qos_for_topic
 
 
 def msg_class(msgtype: str) -> Any:
@@ -31,8 +31,10 @@ def msg_class(msgtype: str) -> Any:
         raise BagError(f'message type {msgtype} is not available in this environment') from exc
 
 
-def _qos_for(topic: str) -> Any:
-    return status_qos() if topic == '/diagnostics' else data_qos()
+def _record_qos(topic: str) -> Any:
+    # Volatile for every data and result topic: compatible with any reliable
+    # publisher (a TRANSIENT_LOCAL subscription would not match a volatile one).
+    return qos_for_topic(topic) if topic == '/diagnostics' else data_qos()
 
 
 class Recorder(Node):
@@ -56,10 +58,27 @@ class Recorder(Node):
         self._lock = threading.Lock()
         self._subs: dict[str, Any] = {}
         self.received = 0
+        self._matched: set[str] = set()
         for topic, msgtype in (topics or bagio.TOPIC_TYPES).items():
             self._subscribe(topic, msgtype)
         if discover:
             self.create_timer(1.0, self._discover)
+        self.create_timer(0.2, self._announce_matches)
+
+    def _announce_matches(self) -> None:
+        """Log once per topic when its first publisher is matched (``recording <topic>``)."""
+        for topic, sub in self._subs.items():
+            if sub is None or topic in self._matched:
+                continue
+            n = sub.get_publisher_count()
+            if n > 0:
+                self._matched.add(topic)
+                self.get_logger().info(f'recording {topic} ({n} publisher(s) matched)')
+
+    @property
+    def matched_topics(self) -> frozenset[str]:
+        """Topics with at least one matched publisher so far."""
+        return frozenset(self._matched)
 
     def _subscribe(self, topic: str, msgtype: str) -> None:
         if topic in self._subs:
@@ -74,7 +93,7 @@ class Recorder(Node):
             self._subs[topic] = None
             return
         self._subs[topic] = self.create_subscription(
-            cls, topic, self._callback(topic), _qos_for(topic), raw=True
+            cls, topic, self._callback(topic), _record_qos(topic), raw=True
         )
 
     def _callback(self, topic: str) -> Callable[[bytes], None]:
@@ -116,7 +135,7 @@ class Replayer(Node):
         """Create (once) the publisher of a topic."""
         pub = self._pubs.get(topic)
         if pub is None:
-            pub = self.create_publisher(msg_class(msgtype), topic, _qos_for(topic))
+            pub = self.create_publisher(msg_class(msgtype), topic, qos_for_topic(topic))
             self._pubs[topic] = pub
         return pub
 

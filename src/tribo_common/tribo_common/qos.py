@@ -36,3 +36,39 @@ def status_qos() -> QoSProfile:
         reliability=ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.VOLATILE,
     )
+
+
+#: Depth of the result history kept by :func:`history_qos` publishers: 20000
+#: 1 s friction estimates (5.5 h) or 1 min wear states (two weeks).
+HISTORY_DEPTH = 20_000
+
+#: Low-rate result topics published with :func:`history_qos`.
+RESULT_TOPICS = frozenset({'/friction/estimate', '/nvct/wear'})
+
+
+def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:
+    """QoS for low-rate results (friction estimates, wear states): lossless and latched.
+
+    Reliable, TRANSIENT_LOCAL, KEEP_LAST ``depth``: a subscriber that joins late
+    (a dashboard opened mid-test, a listener whose discovery finished after the
+    first result) still receives the whole result history. A volatile
+    subscriber is compatible with it and receives the live results only; the
+    graph's own subscribers (recorder, bridge, estimator inputs) stay volatile
+    so that they also match volatile publishers (``ros2 bag play`` of a bag
+    without QoS metadata, third-party nodes).
+    """
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+
+
+def qos_for_topic(topic: str) -> QoSProfile:
+    """The QoS a publisher of ``topic`` offers in the graph (used by ``tribo replay``)."""
+    if topic == '/diagnostics':
+        return status_qos()
+    if topic in RESULT_TOPICS:
+        return history_qos()
+    return data_qos()

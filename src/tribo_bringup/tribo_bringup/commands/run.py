@@ -58,7 +58,7 @@ def register(sub: Any) -> None:
 
 def default_params() -> list[str]:
     """The parameter files in config/ used by default."""
-    names = ('friction_estimator.yaml',)
+    names = ('friction_estimator.yaml', 'wear_monitor.yaml')
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
 
 

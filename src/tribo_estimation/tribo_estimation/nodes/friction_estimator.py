@@ -26,7 +26,7 @@ from rclpy.node import Node
 from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
-from tribo_common.qos import data_qos
+from tribo_common.qos import data_qos, history_qos
 from tribo_estimation.core.blockfit import (
     BlockConfig,
     BlockResult,
@@ -113,7 +113,7 @@ class FrictionEstimatorNode(Node):
         self._queue: queue.Queue[PendingBlock | None] = queue.Queue()
         qos = data_qos()
         self._pub_moment = self.create_publisher(SampleBlock, '/friction/moment', qos)
-        self._pub_est = self.create_publisher(FrictionEstimate, '/friction/estimate', qos)
+        self._pub_est = self.create_publisher(FrictionEstimate, '/friction/estimate', history_qos())
         group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
         self._subs = [
             self.create_subscription(

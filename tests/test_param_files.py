@@ -1,0 +1,98 @@
+"""The ROS parameter files in config/ and the launch files are true to the nodes.
+
+Every ``<node>: ros__parameters:`` file names only parameters its node
+declares, with values of the declared type (a typo or a stale key would be
+silently ignored by ROS), and every file a launch file passes exists.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from conftest import requires_ros
+
+CONFIG = Path(__file__).resolve().parents[1] / 'config'
+LAUNCH = Path(__file__).resolve().parents[1] / 'src' / 'tribo_bringup' / 'launch'
+
+NODE_CLASSES = {
+    'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
+    'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
+    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
+    'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
+    'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),
+    'counter_driver': ('tribo_drivers.nodes.counter_driver', 'CounterDriver'),
+}
+
+
+def _param_files() -> list[tuple[Path, str, dict[str, Any]]]:
+    out = []
+    for path in sorted(CONFIG.glob('*.yaml')):
+        data = yaml.safe_load(path.read_text())
+        if not isinstance(data, dict):
+            continue
+        for node, body in data.items():
+            if isinstance(body, dict) and 'ros__parameters' in body:
+                out.append((path, node, body['ros__parameters']))
+    return out
+
+
+def test_launch_files_name_existing_config_files() -> None:
+    named = set()
+    for launch in LAUNCH.glob('*.launch.py'):
+        named |= set(re.findall(r"params\('([^']+)'\)", launch.read_text()))
+    assert named, 'no params(...) found in the launch files'
+    missing = sorted(n for n in named if not (CONFIG / n).is_file())
+    assert not missing, missing
+
+
+def test_every_node_params_file_is_checked() -> None:
+    nodes = {node for _, node, _ in _param_files()}
+    assert nodes == set(NODE_CLASSES), nodes ^ set(NODE_CLASSES)
+
+
+@requires_ros
+@pytest.mark.ros
+@pytest.mark.parametrize(
+    ('path', 'node_name', 'params'), _param_files(), ids=lambda v: getattr(v, 'name', '')
+)
+def test_params_file_keys_are_declared(path: Path, node_name: str, params: dict[str, Any]) -> None:
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    module, cls_name = NODE_CLASSES[node_name]
+    cls = getattr(importlib.import_module(module), cls_name)
+    values = dict(params)
+    if node_name == 'wear_monitor':
+        values['nvct_config'] = str(CONFIG / 'nvct.yaml')  # relative to the workspace root
+        values['state_file'] = ''
+    if 'autostart' in values:
+        values['autostart'] = False  # no device is opened
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        # The node declares its parameters; a value of the wrong type raises here.
+        node = cls(
+            parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+            context=context,
+        )
+        try:
+            undeclared = sorted(k for k in params if not node.has_parameter(k))
+            assert not undeclared, f'{path.name}: {node_name} does not declare {undeclared}'
+            for key, value in values.items():
+                got = node.get_parameter(key).value
+                assert got == pytest.approx(value) if isinstance(value, float) else got == value, (
+                    key
+                )
+        finally:
+            close = getattr(node, 'close', None)
+            if callable(close):
+                close()
+            node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
