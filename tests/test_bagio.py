@@ -76,6 +76,10 @@ def test_missing_bag_and_not_a_bag(tmp_path: Path) -> None:
     junk.write_bytes(b'not an mcap file at all')
     with pytest.raises(BagError, match='bad magic'):
         list(bagio.iter_messages(junk))
+    empty = tmp_path / 'empty.mcap'
+    empty.write_bytes(b'')
+    with pytest.raises(BagError, match='empty MCAP file'):
+        list(bagio.iter_messages(empty))
 
 
 def test_unknown_type_is_skipped_with_warning(tmp_path: Path) -> None:
@@ -90,3 +94,35 @@ def test_existing_output_refused(tmp_path: Path) -> None:
     with pytest.raises(BagError, match='already exists'):
         bagio.BagWriter(tmp_path / 'b')
     shutil.rmtree(tmp_path / 'b')
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_flushed_messages_survive_a_crash_of_the_writer(tmp_path: Path, storage: str) -> None:
+    """What a killed recorder leaves on disk (no close, no metadata.yaml) reads back
+    up to the last flush: nothing flushed is lost, nothing unflushed is invented."""
+    store = bagio.typestore()
+    SB = store.types['tribo_msgs/msg/SampleBlock']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    bag = tmp_path / 'live'
+    w = bagio.BagWriter(bag, storage=storage)
+    w.__enter__()
+    w.add_topic('/rig/speed', 'tribo_msgs/msg/SampleBlock')
+    for k in range(300):
+        m = SB(
+            header=Header(stamp=Time(sec=k, nanosec=0), frame_id='speed'),
+            sample_rate=1e4,
+            first_index=k * 100,
+            unit='rad/s',
+            data=np.full(100, float(k)),
+        )
+        w.write_msg('/rig/speed', (k + 1) * 10_000_000, m)
+        if k == 199:
+            w.flush()  # 200 blocks (~170 kB, well inside one 1 MiB MCAP chunk)
+            crashed = tmp_path / 'crashed'
+            shutil.copytree(bag, crashed)  # the files as a crash at this instant leaves them
+    assert not (crashed / 'metadata.yaml').exists()
+    got = [int(m.msg.first_index) for m in bagio.iter_messages(crashed)]
+    assert got == [k * 100 for k in range(200)]
+    w.close()
+    assert len(list(bagio.iter_messages(bag))) == 300

@@ -12,7 +12,6 @@ import csv
 import math
 import shutil
 import subprocess
-import time
 from pathlib import Path
 
 import pytest
@@ -69,7 +68,14 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
     est_bag = tmp_path / 'estimates'
     rec = Proc(
         tribo_cmd(
-            'record', '--out', str(est_bag), '--topics', '/friction/estimate', '/friction/moment'
+            'record',
+            '--out',
+            str(est_bag),
+            '--topics',
+            '/friction/estimate',
+            '/friction/moment',
+            '--idle-stop',
+            '10',
         ),
         tmp_path / 'rec.log',
     )
@@ -93,8 +99,9 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
     procs.append(rep)
     assert rep.wait(120) == 0, rep.output()
 
-    time.sleep(3.0)  # the last block is fitted after its final sample arrives
-    rec.stop()
+    # the last block is fitted after its final sample arrives; the recorder stops
+    # 10 s after the last result it received
+    assert rec.wait(120) == 0, rec.output()
     online = [m.msg for m in bagio.iter_messages(est_bag, ['/friction/estimate'])]
     moment = [m.msg for m in bagio.iter_messages(est_bag, ['/friction/moment'])]
     # the observer output is continuous: every input sample has its moment sample

@@ -99,3 +99,14 @@ def test_cores_never_import_rclpy() -> None:
                 if any(m.split('.')[0] in ('rclpy', 'tribo_msgs', 'tribo_common') for m in mods):
                     offenders.append(str(py.relative_to(ROOT)))
     assert not offenders, f'core modules import rclpy/messages: {offenders}'
+
+
+def test_config_and_launch_files_installed_into_share() -> None:
+    share = INSTALL / 'tribo_bringup' / 'share' / 'tribo_bringup'
+    for launch in sorted((ROOT / 'src' / 'tribo_bringup' / 'launch').glob('*.launch.py')):
+        assert (share / 'launch' / launch.name).is_file(), launch.name
+    # every config example, so `ros2 launch tribo_bringup sim.launch.py` finds them
+    wanted = sorted(p.name for p in (ROOT / 'config').iterdir() if p.is_file())
+    installed = sorted(p.name for p in (share / 'config').iterdir())
+    assert installed == wanted
+    assert (share / 'config' / 'rig.yaml').read_text() == (ROOT / 'config' / 'rig.yaml').read_text()

@@ -5,8 +5,10 @@ Uses DDS (own ROS_DOMAIN_ID, localhost discovery, see conftest).
 
 from __future__ import annotations
 
+import os
 import shutil
-import time
+import signal
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,7 @@ import pytest
 
 from conftest import Proc, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
+from tribo_bringup.errors import BagError
 
 pytestmark = [requires_ros, pytest.mark.ros]
 
@@ -56,9 +59,8 @@ def test_record_sim_rig_no_missing_samples(tmp_path: Path, procs: list[Proc]) ->
         assert n == checks['/rig/torsion_moment'].messages
 
 
-def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> None:
-    src = tmp_path / 'src_bag'
-    # a small synthetic bag: 200 blocks of 50 samples
+def _speed_bag(src: Path) -> None:
+    """A small synthetic bag: 200 blocks of 50 samples on /rig/speed, 1 s long."""
     store = bagio.typestore()
     SB = store.types['tribo_msgs/msg/SampleBlock']
     Header = store.types['std_msgs/msg/Header']
@@ -74,9 +76,15 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
                 data=np.full(50, float(k)),
             )
             w.write_msg('/rig/speed', 1_000_000_000 + k * 5_000_000, m)
+
+
+def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> None:
+    src = tmp_path / 'src_bag'
+    _speed_bag(src)
     out = tmp_path / 'copy'
     rec = Proc(
-        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed'), tmp_path / 'rec.log'
+        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', '--idle-stop', '10'),
+        tmp_path / 'rec.log',
     )
     procs.append(rec)
     # replay waits until the recorder's subscription has matched, however slow its start
@@ -86,8 +94,9 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
     )
     procs.append(rep)
     assert rep.wait(120) == 0, rep.output()
-    time.sleep(1.0)
-    assert rec.stop() == 0, rec.output()
+    # the recorder stops by itself 10 s after the last message it received
+    assert rec.wait(120) == 0, rec.output()
+    assert 'no message for 10 s' in rec.output()
     got = [m.msg for m in bagio.iter_messages(out)]
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]
     assert all(float(m.data[0]) == k for k, m in enumerate(got))
@@ -109,3 +118,38 @@ def test_record_rejects_existing_output(tmp_path: Path) -> None:
 
 def test_wait_for_helper() -> None:
     assert wait_for(lambda: True, 0.1)
+
+
+def test_killed_recorder_keeps_what_it_flushed(tmp_path: Path, procs: list[Proc]) -> None:
+    """SIGKILL (no clean close, no metadata.yaml): every message the recorder had
+    flushed (it flushes every second) is read back from the cut-off bag."""
+    src = tmp_path / 'src_bag'
+    _speed_bag(src)
+    out = tmp_path / 'killed'
+    rec = Proc(
+        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed'), tmp_path / 'rec.log'
+    )
+    procs.append(rec)
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '1', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
+    procs.append(rep)
+    assert rep.wait(120) == 0, rep.output()
+
+    def on_disk() -> int:
+        if not any(out.glob('*.mcap')):
+            return 0
+        with warnings.catch_warnings():
+            warnings.simplefilter('ignore')  # the live file may end in a torn record
+            try:
+                return sum(1 for _ in bagio.iter_messages(out, on_error='warn'))
+            except BagError:
+                return 0  # nothing flushed yet
+
+    assert wait_for(lambda: on_disk() == 200, 60), (on_disk(), rec.output())
+    os.killpg(rec.popen.pid, signal.SIGKILL)
+    rec.popen.wait()
+    assert not (out / 'metadata.yaml').exists()
+    got = [m.msg for m in bagio.iter_messages(out)]
+    assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]

@@ -10,6 +10,7 @@ parameter files.
 
 import os
 
+from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
@@ -18,7 +19,9 @@ from launch_ros.actions import LifecycleNode, Node
 
 def generate_launch_description() -> LaunchDescription:
     """Hardware drivers + estimators."""
-    default_config = os.environ.get('TRIBO_CONFIG_DIR', os.path.join(os.getcwd(), 'config'))
+    default_config = os.environ.get(
+        'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
+    )
     config_dir = LaunchConfiguration('config_dir')
 
     def params(name: str) -> PathJoinSubstitution:

@@ -3,12 +3,13 @@
 Full ROS 2 installs: `ros2 launch tribo_bringup sim.launch.py`.
 
 Equivalent of `tribo run --sim`. Arguments: ``config_dir`` (directory with the
-YAML parameter files, default: this package's share/config copy or the
-workspace's config/), ``record`` (true/false: record all topics with rosbag2).
+YAML parameter files, default: ``$TRIBO_CONFIG_DIR``, else the config/ copy
+installed into this package's share directory), ``record`` (true/false: record all topics with rosbag2).
 """
 
 import os
 
+from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, ExecuteProcess
 from launch.conditions import IfCondition
@@ -28,7 +29,9 @@ TOPICS = [
 
 def generate_launch_description() -> LaunchDescription:
     """Simulated rig + detector, friction estimator, wear monitor (+ optional rosbag2 record)."""
-    default_config = os.environ.get('TRIBO_CONFIG_DIR', os.path.join(os.getcwd(), 'config'))
+    default_config = os.environ.get(
+        'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
+    )
     config_dir = LaunchConfiguration('config_dir')
 
     def params(name: str) -> PathJoinSubstitution:

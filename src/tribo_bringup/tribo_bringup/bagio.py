@@ -133,6 +133,8 @@ def iter_messages(
     try:
         if bag.is_dir() and (bag / 'metadata.yaml').is_file():
             source: Iterator[tuple[str, str, int, bytes]] = _iter_rosbag2(bag, wanted, store)
+        elif _sqlite_files(bag):
+            source = _iter_raw_sqlite(bag, wanted, store)
         else:
             source = _iter_raw_mcap(bag, wanted, store)
         count = 0
@@ -264,6 +266,8 @@ def _iter_raw_mcap(
         raise BagError(f'{path}: not a bag (no metadata.yaml and no .mcap file)')
     for file in files:
         data = memoryview(file.read_bytes())
+        if len(data) == 0:
+            raise BagError(f'{file}: empty MCAP file (recording cut off before its first flush)')
         if bytes(data[:8]) != _MAGIC:
             raise BagError(f'{file}: not an MCAP file (bad magic)')
         state = _McapState()
@@ -310,6 +314,49 @@ def _scan(
             yield from _scan(inner, state, wanted, store, file)
         elif op in (_OP_DATA_END, _OP_FOOTER):
             return
+
+
+# --- sqlite3 bag without metadata.yaml (recording cut off) -------------------
+
+
+def _sqlite_files(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(path.glob('*.db3'))
+    return [path] if path.suffix == '.db3' else []
+
+
+def _iter_raw_sqlite(
+    path: Path, wanted: set[str] | None, store: Typestore
+) -> Iterator[tuple[str, str, int, bytes]]:
+    import sqlite3
+
+    for file in _sqlite_files(path):
+        try:
+            con = sqlite3.connect(f'file:{file}?mode=ro', uri=True)
+        except sqlite3.Error as exc:
+            raise BagError(f'{file}: cannot open sqlite3 bag ({exc})') from None
+        try:
+            topics = {
+                int(tid): (str(name), str(kind))
+                for tid, name, kind in con.execute('SELECT id, name, type FROM topics')
+            }
+            for tid, (topic, msgtype) in topics.items():
+                if msgtype not in store.types:
+                    warnings.warn(
+                        f'{file}: skipping topic {topic}: unknown message type {msgtype}',
+                        stacklevel=4,
+                    )
+                    topics[tid] = (topic, '')
+            rows = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp')
+            for tid, stamp, data in rows:
+                topic, msgtype = topics.get(int(tid), ('', ''))
+                if not msgtype or (wanted is not None and topic not in wanted):
+                    continue
+                yield topic, msgtype, int(stamp), bytes(data)
+        except sqlite3.DatabaseError as exc:
+            raise _CorruptError(f'sqlite3 file {file.name}: {exc}') from exc
+        finally:
+            con.close()
 
 
 # --- writing ----------------------------------------------------------------
@@ -362,6 +409,26 @@ class BagWriter:
         """Serialise a rosbags message object and write it."""
         conn = self._conns[topic]
         self.write(topic, timestamp_ns, bytes(typestore().serialize_cdr(msg, conn.msgtype)))
+
+    def flush(self) -> None:
+        """Put everything written so far into the bag file, readable after a crash.
+
+        MCAP: the pending chunk (up to 1 MiB in memory) is closed and the file
+        buffer flushed to the OS. sqlite3: the open transaction is committed.
+        A bag cut off after a flush (no ``metadata.yaml``) is read by
+        :func:`iter_messages` up to this point.
+        """
+        storage = getattr(self._writer, 'storage', None)
+        if storage is None:
+            return
+        chunk = getattr(storage, 'chunk', None)
+        if chunk is not None and hasattr(storage, 'close_chunk'):  # rosbags McapWriter
+            if chunk.bio.tell():
+                storage.close_chunk()
+            storage.bio.flush()
+        conn = getattr(storage, 'conn', None)
+        if conn is not None:  # rosbags Sqlite3Writer
+            conn.commit()
 
     def close(self) -> None:
         """Finish the bag (writes metadata.yaml)."""

@@ -21,6 +21,14 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--duration', type=float, default=0.0, help='seconds to record (0: until Ctrl-C)'
     )
+    p.add_argument(
+        '--idle-stop',
+        type=float,
+        default=0.0,
+        metavar='S',
+        help='stop once no message has arrived for S seconds after the first one '
+        '(end of a replay or of a test; 0: off)',
+    )
     p.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap', help='bag storage')
     p.add_argument('--topics', nargs='+', help='topics to record (default: all graph topics)')
     p.add_argument('--discover', action='store_true', help='also record other topics that appear')
@@ -31,6 +39,8 @@ def run(args: argparse.Namespace) -> int:
     """Record until the duration is over or Ctrl-C."""
     if args.duration < 0:
         raise ValueError(f'--duration must be >= 0, got {args.duration}')
+    if args.idle_stop < 0:
+        raise ValueError(f'--idle-stop must be >= 0, got {args.idle_stop}')
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
@@ -56,10 +66,19 @@ def run(args: argparse.Namespace) -> int:
             spinner, stop = spin_background(executor)
             t0 = time.monotonic()
             last = t0
+            seen, last_msg = 0, t0
             try:
                 while not stop.is_set():
                     now = time.monotonic()
                     if args.duration and now - t0 >= args.duration:
+                        break
+                    if node.received != seen:
+                        seen, last_msg = node.received, now
+                    elif args.idle_stop and seen and now - last_msg >= args.idle_stop:
+                        print(
+                            f'record: no message for {args.idle_stop:g} s, stopping',
+                            file=sys.stderr,
+                        )
                         break
                     if now - last >= 5.0:
                         print(
