@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -103,6 +104,24 @@ def wait_for(pred, timeout: float, interval: float = 0.1) -> bool:  # type: igno
             return True
         time.sleep(interval)
     return False
+
+
+def bag_so_far(path: Path, topics: list[str] | None = None) -> list[Any]:
+    """The messages a bag being recorded holds on disk now (the recorder flushes
+    every second); [] before the first flush. A torn last record is ignored."""
+    import warnings
+
+    from tribo_bringup import bagio
+    from tribo_bringup.errors import BagError
+
+    if not path.is_dir() or not any(path.glob('*.mcap')):
+        return []
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        try:
+            return [m.msg for m in bagio.iter_messages(path, topics, on_error='warn')]
+        except BagError:
+            return []
 
 
 def make_rig_bag(path: Path, seconds: float, *, seed: int = 11, block: int = 100) -> None:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, Proc, make_rig_bag, requires_ros, tribo_cmd, wait_for
+from conftest import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]
@@ -74,8 +74,6 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
             '--topics',
             '/friction/estimate',
             '/friction/moment',
-            '--idle-stop',
-            '10',
         ),
         tmp_path / 'rec.log',
     )
@@ -99,9 +97,16 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
     procs.append(rep)
     assert rep.wait(120) == 0, rep.output()
 
-    # the last block is fitted after its final sample arrives; the recorder stops
-    # 10 s after the last result it received
-    assert rec.wait(120) == 0, rec.output()
+    # the last block is fitted after its final sample arrives: wait until the
+    # recorder has flushed every moment sample and one estimate per block
+    def complete() -> bool:
+        msgs = bag_so_far(est_bag)
+        samples = sum(len(m.data) for m in msgs if hasattr(m, 'data'))
+        estimates = sum(1 for m in msgs if hasattr(m, 'mu0'))
+        return samples >= 40_000 and estimates >= len(offline)
+
+    assert wait_for(complete, 120, interval=0.5), (rec.output(), node.output())
+    assert rec.stop() == 0, rec.output()
     online = [m.msg for m in bagio.iter_messages(est_bag, ['/friction/estimate'])]
     moment = [m.msg for m in bagio.iter_messages(est_bag, ['/friction/moment'])]
     # the observer output is continuous: every input sample has its moment sample

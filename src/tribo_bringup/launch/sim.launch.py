@@ -4,7 +4,8 @@ Full ROS 2 installs: `ros2 launch tribo_bringup sim.launch.py`.
 
 Equivalent of `tribo run --sim`. Arguments: ``config_dir`` (directory with the
 YAML parameter files, default: ``$TRIBO_CONFIG_DIR``, else the config/ copy
-installed into this package's share directory), ``record`` (true/false: record all topics with rosbag2).
+installed into this package's share directory), ``record`` (true/false:
+record all topics with rosbag2).
 """
 
 import os
