@@ -1,8 +1,8 @@
 """Benchmark: the simulated rig at 10 kHz recorded for 60 s (issue 3 numbers).
 
 Prints the samples recorded per rig topic, missing samples (by first-sample
-indices in the bag) and the CPU load of the sim_rig driver process in % of
-one core. Run: `source env.sh && python bench/bench_graph.py [--duration 60]`.
+indices in the bag) and the CPU load of the sim_rig driver process and of the
+recorder in % of one core. Run: `source env.sh && python bench/bench_graph.py [--duration 60]`.
 """
 
 from __future__ import annotations
@@ -75,6 +75,10 @@ def main() -> int:
         )
         time.sleep(2.0)
         c0, t0 = cpu_seconds(sim.pid), time.monotonic()
+        r0 = cpu_seconds(rec.pid)
+        # the recorder's CPU is read just before its duration ends
+        time.sleep(max(args.duration - 4.0, 1.0))
+        r1, tr = cpu_seconds(rec.pid), time.monotonic()
         rec.wait()
         c1, t1 = cpu_seconds(sim.pid), time.monotonic()
     finally:
@@ -82,6 +86,10 @@ def main() -> int:
         sim.wait(timeout=20)
     load = 100.0 * (c1 - c0) / (t1 - t0)
     print(f'sim_rig CPU while recording: {load:.1f} % of one core (target < 50 %)')
+    print(
+        f'recorder (tribo record, bag flushed every 1 s) CPU: '
+        f'{100.0 * (r1 - r0) / (tr - t0):.1f} % of one core'
+    )
     for c in bagio.check_streams(bag, bagio.RIG_TOPICS):
         print(
             f'{c.topic}: {c.samples} samples ({c.samples / 1e4:.1f} s at 10 kHz), '

@@ -144,12 +144,9 @@ def test_killed_recorder_keeps_what_it_flushed(tmp_path: Path, procs: list[Proc]
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]
 
 
-@pytest.mark.parametrize('threads', [1, 2])
-def test_tribo_run_records_the_graph_without_loss(
-    tmp_path: Path, procs: list[Proc], threads: int
-) -> None:
-    """`tribo run` (the graph runner) with the single- and the multi-threaded executor:
-    simulated rig + friction estimator in one process, recorded, no sample missing."""
+def test_tribo_run_records_the_graph_without_loss(tmp_path: Path, procs: list[Proc]) -> None:
+    """`tribo run` (the graph runner): simulated rig + friction estimator + recorder
+    in one process and one executor, no sample missing."""
     bag = tmp_path / 'run'
     run = Proc(
         tribo_cmd(
@@ -159,8 +156,6 @@ def test_tribo_run_records_the_graph_without_loss(
             'friction_estimator',
             '--duration',
             '5',
-            '--threads',
-            str(threads),
             '--record',
             str(bag),
         ),

@@ -66,17 +66,12 @@ class Graph:
         nodes: node names (keys of :data:`NODES`).
         params_files: ROS 2 parameter files applied to every node (by node name).
         overrides: per-node parameter overrides (name -> value).
-        threads: executor threads; 1 (default) spins a SingleThreadedExecutor,
-            more a MultiThreadedExecutor. rclpy's multi-threaded executor was
-            measured to cost about one core at a few hundred messages/s, and the
-            nodes do their heavy work in their own threads, so one is enough.
     """
 
     nodes: Sequence[str]
     params_files: Sequence[str | Path] = ()
     overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
     extra_nodes: list[Any] = field(default_factory=list)
-    threads: int = 1
     _instances: list[Any] = field(default_factory=list, init=False)
 
     def init_ros(self, ros_args: Sequence[str] = ()) -> None:
@@ -117,15 +112,11 @@ class Graph:
         stop: threading.Event | None = None,
     ) -> None:
         """Spin all nodes until ``duration`` [s] passed (0: until Ctrl-C) or ``stop`` is set."""
-        from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+        # single-threaded: rclpy's MultiThreadedExecutor costs about a core at a few
+        # hundred messages/s; the nodes do their heavy work in their own threads
+        from rclpy.executors import SingleThreadedExecutor
 
-        if self.threads < 1:
-            raise ConfigError(f'executor threads must be >= 1, got {self.threads}')
-        executor: Any = (
-            MultiThreadedExecutor(num_threads=self.threads)
-            if self.threads > 1
-            else SingleThreadedExecutor()
-        )
+        executor = SingleThreadedExecutor()
         for node in [*self._instances, *self.extra_nodes]:
             executor.add_node(node)
         spinner, stop = spin_background(executor, stop)

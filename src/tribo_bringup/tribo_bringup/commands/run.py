@@ -48,13 +48,6 @@ def register(sub: Any) -> None:
         help='ROS 2 parameter files (default: config/friction_estimator.yaml where present)',
     )
     p.add_argument('--duration', type=float, default=0.0, help='seconds to run (0: until Ctrl-C)')
-    p.add_argument(
-        '--threads',
-        type=int,
-        default=1,
-        help='executor threads (1: single-threaded executor, the default and the cheapest in '
-        'CPU; more: a multi-threaded executor)',
-    )
     p.add_argument('--record', metavar='BAG', help='also record all topics into this bag')
     p.add_argument('--bridge', action='store_true', help='also serve the Foxglove live bridge')
     p.add_argument(
@@ -76,8 +69,6 @@ def run(args: argparse.Namespace) -> int:
 
     if args.duration < 0:
         raise ValueError(f'--duration must be >= 0, got {args.duration}')
-    if args.threads < 1:
-        raise ValueError(f'--threads must be >= 1, got {args.threads}')
     nodes = args.nodes or (
         (['sim_rig', 'sim_detector'] if args.sim else []) + ['friction_estimator', 'wear_monitor']
     )
@@ -92,7 +83,6 @@ def run(args: argparse.Namespace) -> int:
         nodes=nodes,
         params_files=args.params if args.params is not None else default_params(),
         overrides=overrides,
-        threads=args.threads,
     )
     writer = None
     try:
