@@ -81,7 +81,7 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
     _speed_bag(src)
     out = tmp_path / 'copy'
     rec = Proc(
-        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', '--idle-stop', '5'),
+        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', '--idle-stop', '3'),
         tmp_path / 'rec.log',
     )
     procs.append(rec)
@@ -93,9 +93,9 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
     procs.append(rep)
     assert rep.wait(120) == 0, rep.output()
     assert wait_for(lambda: len(bag_so_far(out)) >= 200, 60, interval=0.5), rec.output()
-    # the recorder stops by itself 5 s after the last message it received
+    # the recorder stops by itself 3 s after the last message it received
     assert rec.wait(120) == 0, rec.output()
-    assert 'no message for 5 s' in rec.output()
+    assert 'no message for 3 s' in rec.output()
     got = [m.msg for m in bagio.iter_messages(out)]
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]
     assert all(float(m.data[0]) == k for k, m in enumerate(got))

@@ -99,8 +99,11 @@ def check_blocks(blocks: list[SampleBlock], emu: CanEmulator, lost_speed: int) -
         assert np.unique(idx).size == idx.size
     temps = np.concatenate([b.data for b in by['oil_temperature']])
     assert np.all((temps > 273.15 + 39.9) & (temps < 273.15 + 41.0))  # kelvin, not degC
-    assert by['speed'][0].sample_rate == 1000.0
-    assert by['angular_acceleration'][0].sample_rate == pytest.approx(10_000.0)
+    specs = emu.codec.specs  # the rates the DBC states (shipped: 1 kHz and 10 kHz)
+    assert by['speed'][0].sample_rate == specs[SPEED_ID].sample_rate
+    assert by['angular_acceleration'][0].sample_rate == pytest.approx(
+        specs[ACCEL_ID].sample_rate, rel=1e-12
+    )
 
 
 def test_virtual_bus_with_lost_frames(codec: CanCodec) -> None:
@@ -142,3 +145,67 @@ def test_slcan_on_pty(codec: CanCodec) -> None:
         dev.close()
     assert stream.counters.lost == 0
     check_blocks(blocks, emu, 0)
+
+
+def _dbc_with(tmp_path: Path, extra: str) -> Path:
+    """config/tribo.dbc without its frame-rate attributes, plus ``extra`` lines."""
+    lines = [ln for ln in DBC.read_text().splitlines() if 'TriboFrameRate' not in ln]
+    path = tmp_path / 'rates.dbc'
+    path.write_text('\n'.join(lines) + '\n' + extra + '\n')
+    return path
+
+
+def test_frame_rates_come_from_the_dbc(tmp_path: Path) -> None:
+    shipped = CanCodec(DBC)
+    assert shipped.specs[ACCEL_ID].sample_rate == pytest.approx(10_000.0, rel=1e-12)
+    # TriboFrameRate [frames/s] wins; GenMsgCycleTime [ms] is the fallback; else nominal
+    path = _dbc_with(
+        tmp_path,
+        'BA_DEF_ BO_ "TriboFrameRate" FLOAT 0 1000000;\n'
+        'BA_DEF_ BO_ "GenMsgCycleTime" INT 0 65535;\n'
+        'BA_DEF_DEF_ "TriboFrameRate" 0;\n'
+        'BA_DEF_DEF_ "GenMsgCycleTime" 0;\n'
+        'BA_ "TriboFrameRate" BO_ 257 1666.6666666666667;\n'
+        'BA_ "GenMsgCycleTime" BO_ 258 4;',
+    )
+    codec = CanCodec(path)
+    assert codec.specs[ACCEL_ID].sample_rate == pytest.approx(5000.0, rel=1e-12)
+    assert codec.specs[SPEED_ID].frame_rate == 250.0
+    assert codec.specs[FORCE_TEMP_ID].frame_rate == 100.0  # neither stated: nominal
+    bad = _dbc_with(
+        tmp_path,
+        'BA_DEF_ BO_ "TriboFrameRate" FLOAT -10 1000000;\nBA_ "TriboFrameRate" BO_ 258 -5;',
+    )
+    with pytest.raises(ConfigError, match=r'0x102 \(ShaftSpeed\): TriboFrameRate must be > 0'):
+        CanCodec(bad)
+
+
+def test_stream_follows_the_dbc_rates(tmp_path: Path) -> None:
+    """A module at half the nominal rate (stated in the DBC): the stream's sample clock and
+    gap estimate follow it: 1 s of frames gives 250 speed samples and no false loss."""
+    path = _dbc_with(
+        tmp_path,
+        'BA_DEF_ BO_ "TriboFrameRate" FLOAT 0 1000000;\n'
+        'BA_ "TriboFrameRate" BO_ 257 500;\n'
+        'BA_ "TriboFrameRate" BO_ 258 250;\n'
+        'BA_ "TriboFrameRate" BO_ 259 50;',
+    )
+    codec = CanCodec(path)
+    channel = f'tribo_rates_{time.monotonic_ns()}'
+    tx = can.Bus(interface='virtual', channel=channel)
+    stream = CanStream(CanTransport('virtual', channel), codec)
+    stream.poll(0.01)
+    emu = CanEmulator(
+        codec,
+        lambda fid, data: tx.send(can.Message(arbitration_id=fid, data=data, is_extended_id=False)),
+    )
+    assert emu.rates == {ACCEL_ID: 500.0, SPEED_ID: 250.0, FORCE_TEMP_ID: 50.0}
+    try:
+        blocks = run_stream(stream, emu, 1.0)
+    finally:
+        tx.shutdown()
+    assert stream.counters.lost == 0
+    check_blocks(blocks, emu, 0)
+    speed = [b for b in blocks if b.channel == 'speed']
+    assert speed[0].sample_rate == 250.0
+    assert abs(sum(len(b.data) for b in speed) - 250) <= 30  # 1 s of wall time

@@ -11,6 +11,11 @@ ID     message           bytes layout (byte offsets)                            
                                4-5 i16 oil_temperature 0.01 degC (published in K)
 ====== ================= ===== ===================================================== =========
 
+The rates are the modules' nominal frame rates. The DBC states them per message with
+the float attribute ``TriboFrameRate`` [frames/s] (``config/tribo.dbc`` does), or with the
+usual ``GenMsgCycleTime`` [ms]; the table's values apply where the DBC states neither.
+The driver derives its sample clocks, block sizes and gap estimates from these rates.
+
 The accelerometer frame carries three consecutive samples (oldest first), so its sample rate
 is 3 x 3333.3 = 10 kHz, the rate of w1' in the paper's rig model (Equ. 1-2).  ``seq`` counts
 frames and wraps at 65536; :class:`tribo_drivers.core.gaps.IndexTracker` unwraps it.
@@ -18,8 +23,9 @@ frames and wraps at 65536; :class:`tribo_drivers.core.gaps.IndexTracker` unwraps
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -78,6 +84,30 @@ DEFAULT_SPECS: dict[int, CanStreamSpec] = {
 }
 
 
+FRAME_RATE_ATTRIBUTE = 'TriboFrameRate'
+
+
+def dbc_frame_rate(msg: Any, spec: CanStreamSpec, path: Path) -> float:
+    """Frame rate [1/s] of a DBC message: ``TriboFrameRate``, else 1000/``GenMsgCycleTime``,
+    else the spec's nominal rate."""
+    attrs = getattr(getattr(msg, 'dbc', None), 'attributes', None) or {}
+    where = f'DBC {path} frame 0x{spec.frame_id:03X} ({spec.message})'
+    if FRAME_RATE_ATTRIBUTE in attrs:
+        rate = attrs[FRAME_RATE_ATTRIBUTE].value
+        if isinstance(rate, bool) or not isinstance(rate, int | float):
+            raise ConfigError(f'{where}: {FRAME_RATE_ATTRIBUTE} must be a number, got {rate!r}')
+        if not (math.isfinite(rate) and rate >= 0):
+            raise ConfigError(f'{where}: {FRAME_RATE_ATTRIBUTE} must be > 0 frames/s, got {rate}')
+        if rate > 0:  # 0 is the attribute's "not stated" default
+            return float(rate)
+    cycle = getattr(msg, 'cycle_time', None)
+    if cycle:
+        if cycle < 0:
+            raise ConfigError(f'{where}: GenMsgCycleTime must be > 0 ms, got {cycle}')
+        return 1000.0 / float(cycle)
+    return spec.frame_rate
+
+
 @dataclass(frozen=True)
 class CanSample:
     """One decoded frame: frame_id, raw u16 seq, channel -> samples (SI, oldest first)."""
@@ -110,6 +140,7 @@ class CanCodec:
                 msg = self.db.get_message_by_frame_id(fid)
             except KeyError as exc:
                 raise ConfigError(f'DBC {path} has no frame 0x{fid:03X} ({spec.message})') from exc
+            self.specs[fid] = spec = replace(spec, frame_rate=dbc_frame_rate(msg, spec, path))
             names = {s.name for s in msg.signals}
             needed = {'seq'} | {sig for sigs, _, _ in spec.channels.values() for sig in sigs}
             missing = needed - names

@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_drivers.core import counter_protocol as cp
-from tribo_drivers.core.can_protocol import ACCEL_ID, FORCE_TEMP_ID, SPEED_ID, CanCodec
+from tribo_drivers.core.can_protocol import ACCEL_ID, SPEED_ID, CanCodec
 from tribo_drivers.core.daq_protocol import FRAME_SIZE, encode_frames
 from tribo_drivers.errors import TransportError
 
@@ -530,7 +530,8 @@ def default_can_signal(frame_id: int, seq: int) -> dict[str, tuple[float, ...]]:
 class CanEmulator(_EmulatorThread):
     """Sends the three sensor frame types at their rates through ``send(frame_id, data)``.
 
-    rates: frame_id -> frames per second; seq counters start at ``start_seq`` (u16 wrap).
+    rates: frame_id -> frames per second (default: the codec's, from the DBC); seq
+    counters start at ``start_seq`` (u16 wrap).
     Ground truth: ``sent[frame_id]`` is the list of unwrapped frame counters sent.
     """
 
@@ -547,7 +548,7 @@ class CanEmulator(_EmulatorThread):
         super().__init__()
         self.codec = codec
         self.send = send
-        self.rates = rates or {ACCEL_ID: 10_000.0 / 3.0, SPEED_ID: 1000.0, FORCE_TEMP_ID: 100.0}
+        self.rates = rates or {fid: spec.frame_rate for fid, spec in codec.specs.items()}
         self.next_seq = dict.fromkeys(self.rates, start_seq)
         self.sent: dict[int, list[int]] = {fid: [] for fid in self.rates}
         self.skip = skip or set()
