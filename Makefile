@@ -19,10 +19,12 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 DEPS_STAMP := $(VENV)/.deps-stamp
 BUILD_STAMP := $(ROOT)/install/.build-stamp
 PKG_FILES := $(wildcard src/*/package.xml src/*/setup.py src/*/setup.cfg src/*/CMakeLists.txt \
-	src/tribo_msgs/msg/*.msg src/*/launch/*.py)
+	src/tribo_msgs/msg/*.msg src/*/launch/*.py config/*)
 COLCON_ENV := AMENT_PREFIX_PATH=$(VENV) CMAKE_PREFIX_PATH=$(VENV) PATH=$(VENV)/bin:$$PATH
 IN_ENV := source $(ROOT)/env.sh &&
 PYTEST_ARGS ?=
+# test processes (pytest-xdist): the suite waits much on subprocesses and DDS
+PYTEST_JOBS ?= 2
 
 .PHONY: help setup build test lint bench demo clean distclean
 
@@ -71,7 +73,7 @@ test: setup
 	@echo '[test] ruff, mypy, pytest'
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) mypy $(MYPY_PATHS)
-	@$(IN_ENV) python -m pytest -q --timeout=600 $(PYTEST_ARGS)
+	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
 
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tribo_drivers.core.daq_protocol import DaqScaling
-from tribo_drivers.core.emulators import DaqEmulator, default_daq_signal
+from tribo_drivers.core.emulators import DaqEmulator, PtyPort, default_daq_signal
 from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DaqStream
@@ -64,6 +64,20 @@ class FaultReport:
         return [f'{k}: {v}' for k, v in self.__dict__.items()] + [f'ok: {self.ok}']
 
 
+class _NotifyingSerialTransport(SerialTransport):
+    """SerialTransport that tells the emulator's pty when its open (with the input
+    flush) has returned: frames sent from then on are counted as intact ground truth."""
+
+    def __init__(self, port: PtyPort, baudrate: int) -> None:
+        super().__init__(str(port.path), baudrate)
+        self._pty = port
+        port.require_open_notice = True
+
+    def open(self) -> None:
+        super().open()
+        self._pty.notify_opened()
+
+
 def run_daq_fault_scenario(
     duration: float = 5.0,
     sample_rate: float = 10_000.0,
@@ -86,7 +100,7 @@ def run_daq_fault_scenario(
         seed=seed,
     )
     stream = DaqStream(
-        SerialTransport(emu.path, 2_000_000),
+        _NotifyingSerialTransport(emu.port, 2_000_000),
         scaling,
         sample_rate,
         backoff=Backoff(0.05, 2.0, 0.5),
