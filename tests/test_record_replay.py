@@ -76,12 +76,15 @@ def _speed_bag(src: Path) -> None:
             w.write_msg('/rig/speed', 1_000_000_000 + k * 5_000_000, m)
 
 
-def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> None:
+def _record_replayed_speed_bag(
+    tmp_path: Path, procs: list[Proc], out: Path, *record_args: str
+) -> Proc:
+    """`tribo record` into ``out`` while `tribo replay` publishes the speed bag; returns
+    the still running recorder once all 200 messages are flushed to ``out``."""
     src = tmp_path / 'src_bag'
     _speed_bag(src)
-    out = tmp_path / 'copy'
     rec = Proc(
-        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', '--idle-stop', '3'),
+        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', *record_args),
         tmp_path / 'rec.log',
     )
     procs.append(rec)
@@ -92,7 +95,13 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
     )
     procs.append(rep)
     assert rep.wait(120) == 0, rep.output()
-    assert wait_for(lambda: len(bag_so_far(out)) >= 200, 60, interval=0.5), rec.output()
+    assert wait_for(lambda: len(bag_so_far(out)) == 200, 60, interval=0.5), rec.output()
+    return rec
+
+
+def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> None:
+    out = tmp_path / 'copy'
+    rec = _record_replayed_speed_bag(tmp_path, procs, out, '--idle-stop', '3')
     # the recorder stops by itself 3 s after the last message it received
     assert rec.wait(120) == 0, rec.output()
     assert 'no message for 3 s' in rec.output()
@@ -122,21 +131,8 @@ def test_wait_for_helper() -> None:
 def test_killed_recorder_keeps_what_it_flushed(tmp_path: Path, procs: list[Proc]) -> None:
     """SIGKILL (no clean close, no metadata.yaml): every message the recorder had
     flushed (it flushes every second) is read back from the cut-off bag."""
-    src = tmp_path / 'src_bag'
-    _speed_bag(src)
     out = tmp_path / 'killed'
-    rec = Proc(
-        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed'), tmp_path / 'rec.log'
-    )
-    procs.append(rec)
-    rep = Proc(
-        tribo_cmd('replay', str(src), '--rate', '1', '--wait-subscribers', '60'),
-        tmp_path / 'replay.log',
-    )
-    procs.append(rep)
-    assert rep.wait(120) == 0, rep.output()
-
-    assert wait_for(lambda: len(bag_so_far(out)) == 200, 60, interval=0.5), rec.output()
+    rec = _record_replayed_speed_bag(tmp_path, procs, out)
     os.killpg(rec.popen.pid, signal.SIGKILL)
     rec.popen.wait()
     assert not (out / 'metadata.yaml').exists()

@@ -21,7 +21,7 @@ from rclpy.node import Node
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError
-from tribo_common.qos import data_qos, qos_for_topic
+from tribo_common.qos import data_qos, qos_for_topic, status_qos
 
 
 def msg_class(msgtype: str) -> Any:
@@ -36,7 +36,7 @@ def msg_class(msgtype: str) -> Any:
 def _record_qos(topic: str) -> Any:
     # Volatile for every data and result topic: compatible with any reliable
     # publisher (a TRANSIENT_LOCAL subscription would not match a volatile one).
-    return qos_for_topic(topic) if topic == '/diagnostics' else data_qos()
+    return status_qos() if topic == '/diagnostics' else data_qos()
 
 
 class Recorder(Node):
