@@ -24,7 +24,7 @@ from tribo_drivers.core.diagnostics import DriverCounters, RateMeter
 from tribo_drivers.core.gaps import BlockBatcher, IndexTracker, SampleBlock, block_size_for
 from tribo_drivers.core.reconnect import Backoff, ReconnectState
 from tribo_drivers.core.timing import SampleClock
-from tribo_drivers.core.transports import ByteTransport, CanTransport
+from tribo_drivers.core.transports import ByteTransport, CanTransport, Link
 from tribo_drivers.errors import ConfigError, DriverError, FrameError, ProtocolError, TransportError
 
 T = TypeVar('T')
@@ -33,8 +33,12 @@ T = TypeVar('T')
 class DeviceStream(ABC, Generic[T]):
     """Open/read/reconnect state machine shared by the drivers.
 
+    Subclasses set ``self.transport``; opening, closing and describing the device
+    delegate to it unless a subclass adds to them (a handshake, a decoder reset).
     host_clock: wall clock for stamps [s] (time.time); the back-off uses time.monotonic.
     """
+
+    transport: Link
 
     def __init__(self, backoff: Backoff | None = None, host_clock: Callable[[], float] = time.time):
         self.backoff = backoff or Backoff()
@@ -46,24 +50,26 @@ class DeviceStream(ABC, Generic[T]):
         self.open_attempts = 0
         self._pending_open: list[T] = []
 
+    # --- the device, through its transport ---------------------------------------------
+    def describe(self) -> str:
+        return self.transport.describe()
+
+    def _is_open(self) -> bool:
+        return self.transport.is_open
+
+    def _open(self) -> list[T]:
+        self.transport.open()
+        return []
+
+    def _close(self) -> None:
+        self.transport.close()
+
     # --- to implement -------------------------------------------------------------------
-    @abstractmethod
-    def _is_open(self) -> bool: ...
-
-    @abstractmethod
-    def _open(self) -> list[T]: ...
-
-    @abstractmethod
-    def _close(self) -> None: ...
-
     @abstractmethod
     def _read(self, timeout: float) -> list[T]: ...
 
     @abstractmethod
     def _flush(self) -> list[T]: ...
-
-    @abstractmethod
-    def describe(self) -> str: ...
 
     # --- state machine ------------------------------------------------------------------
     def stop(self) -> None:
@@ -130,6 +136,8 @@ class DeviceStream(ABC, Generic[T]):
 class DaqStream(DeviceStream[SampleBlock]):
     """Serial DAQ: 20-byte frames -> SampleBlocks of the three channels (SI units)."""
 
+    transport: ByteTransport
+
     def __init__(
         self,
         transport: ByteTransport,
@@ -154,18 +162,8 @@ class DaqStream(DeviceStream[SampleBlock]):
             dict(UNITS), sample_rate, block_size or block_size_for(sample_rate, 200.0)
         )
 
-    def describe(self) -> str:
-        return self.transport.describe()
-
-    def _is_open(self) -> bool:
-        return self.transport.is_open
-
-    def _open(self) -> list[SampleBlock]:
-        self.transport.open()
-        return []
-
     def _close(self) -> None:
-        self.transport.close()
+        super()._close()
         self.decoder.reset()
 
     def _stamp(self, index: int) -> float:
@@ -227,6 +225,8 @@ class CountMessage:
 class CounterStream(DeviceStream[CountMessage]):
     """Radiation counter: DWELL/ACK handshake on open, then one CountMessage per CNT line."""
 
+    transport: ByteTransport
+
     def __init__(
         self,
         transport: ByteTransport,
@@ -249,21 +249,15 @@ class CounterStream(DeviceStream[CountMessage]):
         self.tracker = IndexTracker(bits=32, confirm_jump=1000, confirm=False)
         self.acked_dwell_ms: int | None = None
 
-    def describe(self) -> str:
-        return self.transport.describe()
-
-    def _is_open(self) -> bool:
-        return self.transport.is_open
-
     def _close(self) -> None:
-        self.transport.close()
+        super()._close()
         self.splitter.reset()
 
     def _flush(self) -> list[CountMessage]:
         return []
 
     def _open(self) -> list[CountMessage]:
-        self.transport.open()
+        super()._open()
         self.splitter.reset()
         backlog: list[CountMessage] = []
         for _attempt in range(self.ack_retries):
@@ -357,6 +351,8 @@ class _CanSub:
 class CanStream(DeviceStream[SampleBlock]):
     """CAN sensor modules: frames -> per-channel SampleBlocks (SI; temperature in K)."""
 
+    transport: CanTransport
+
     def __init__(
         self,
         transport: CanTransport,
@@ -372,19 +368,6 @@ class CanStream(DeviceStream[SampleBlock]):
         self.subs = {fid: _CanSub(spec, blocks_per_second) for fid, spec in codec.specs.items()}
         self.max_frames_per_poll = max_frames_per_poll
         self.unknown_ids = 0
-
-    def describe(self) -> str:
-        return self.transport.describe()
-
-    def _is_open(self) -> bool:
-        return self.transport.is_open
-
-    def _open(self) -> list[SampleBlock]:
-        self.transport.open()
-        return []
-
-    def _close(self) -> None:
-        self.transport.close()
 
     def _flush(self) -> list[SampleBlock]:
         out: list[SampleBlock] = []

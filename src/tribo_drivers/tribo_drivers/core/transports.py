@@ -15,8 +15,8 @@ from typing import Any, Protocol
 from tribo_drivers.errors import ConfigError, TransportError
 
 
-class ByteTransport(Protocol):
-    """A byte stream that can be opened, read with a timeout, written and closed."""
+class Link(Protocol):
+    """What every transport (serial, replay, CAN) offers the streams: open, close, state."""
 
     @property
     def is_open(self) -> bool: ...
@@ -25,11 +25,15 @@ class ByteTransport(Protocol):
 
     def close(self) -> None: ...
 
+    def describe(self) -> str: ...
+
+
+class ByteTransport(Link, Protocol):
+    """A byte stream that can be opened, read with a timeout, written and closed."""
+
     def read(self, timeout: float) -> bytes: ...
 
     def write(self, data: bytes) -> None: ...
-
-    def describe(self) -> str: ...
 
 
 class SerialTransport:
