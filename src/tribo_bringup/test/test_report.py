@@ -198,13 +198,15 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         + 'effects: {stiction_gain: 0.02, stiction_tau: 0.05}\n'
     )
     nvct = Path(__file__).resolve().parents[3] / 'config' / 'nvct.yaml'
+    bad_rig = base / 'bad_rig.yaml'  # the offline fit must fail on it, the report must not
+    bad_rig.write_text('I1: 0.0109\n')
     res = build_report(
         base / 'bag',
         base / 'out',
         rig=rig,
         nvct=nvct,
         analyses=('friction',),
-        extra_args={'friction': ['--no-such-option-for-the-test']},
+        analysis_rig=bad_rig,
         command=['tribo', 'report', 'bag', '--out', 'out'],
         progress=lambda s: None,
     )
@@ -292,7 +294,7 @@ def test_page_is_self_contained_with_provenance(report: dict[str, Any]) -> None:
 def test_failed_analysis_is_reported_not_raised(report: dict[str, Any]) -> None:
     results = json.loads((report['out'] / 'results.json').read_text())
     fr = results['analyses']['friction']
-    assert fr['ok'] is False and fr['reason']  # bad option or command missing: named
+    assert fr['ok'] is False and 'bad_rig.yaml' in fr['reason']  # the bad input is named
     assert 'Unavailable' in report['res'].html.read_text()
 
 
@@ -336,26 +338,33 @@ def test_opens_in_headless_chromium(report: dict[str, Any], tmp_path: Path) -> N
     assert console == [], console
 
 
-def test_offline_blocks_csv_is_read(tmp_path: Path) -> None:
-    from tribo_bringup.report import offline_blocks
+def test_block_results_become_estimates() -> None:
+    from tribo_bringup import bridge_core as bc
+    from tribo_bringup.report.analyses import block_estimate
+    from tribo_estimation.core.blockfit import BlockResult
 
-    d = tmp_path / 'analyses' / 'friction'
-    d.mkdir(parents=True)
-    (d / 'blocks.csv').write_text(
-        't_start,t_end,mu0,mu_inf,mu0_se,mu_inf_se,moment_min,moment_max,moment_mean,motion,'
-        'n_sticks,stick_fraction,rms_residual,quality\n'
-        '0,1,0.131,0.0987,0.002,0.001,-3,40,18,stick-slip,80,0.61,0.05,ok\n'
-        '1,2,nan,nan,nan,nan,-3,40,18,steady,0,0,nan,no_sliding\n'
-    )
-    blocks = offline_blocks(d)
-    assert [b['mu0'] for b in blocks] == [0.131, None]  # nan -> None (never a number)
-    assert blocks[0]['n_sticks'] == 80 and blocks[1]['quality'] == 'no_sliding'
-    assert blocks[0]['first_index'] is None  # not in blocks.csv: no Fig. 6 detail
-    assert offline_blocks(tmp_path / 'nothing') == []
+    common = dict(
+        index=0, first_index=0, t_start=0.0, t_end=1.0, k=2.0, k_se=0.0, moment_min=-3.0,
+        moment_max=40.0, moment_mean=18.0, rms_residual=0.05,
+    )  # fmt: skip
+    good = BlockResult(
+        mu0=0.131, mu_inf=0.0987, mu0_se=0.002, mu_inf_se=0.001, motion='stick-slip',
+        n_sticks=80, stick_fraction=0.61, **common,
+    )  # fmt: skip
+    bad = BlockResult(
+        mu0=float('nan'), mu_inf=float('nan'), mu0_se=float('nan'), mu_inf_se=float('nan'),
+        motion='steady', n_sticks=0, stick_fraction=0.0, quality=('no_sliding', 'short'),
+        **common,
+    )  # fmt: skip
+    ests = [block_estimate(r, bc.FRICTION_FIELDS) for r in (good, bad)]
+    assert [e['mu0'] for e in ests] == [0.131, None]  # nan -> None (never a number)
+    assert ests[0]['n_sticks'] == 80 and ests[0]['quality'] == 'ok'
+    assert ests[1]['quality'] == 'no_sliding;short'
+    assert set(ests[0]) == set(bc.FRICTION_FIELDS)
 
 
 def test_discrepancy_result_is_summarised_and_embedded(tmp_path: Path) -> None:
-    from tribo_bringup.report import analysis_section, discrepancy_finding
+    from tribo_bringup.report import AnalysisOutcome, analysis_section, discrepancy_finding
 
     result = {
         'baseline': {'rms': 1.415, 'params': {'mu0': 0.13}},
@@ -372,14 +381,35 @@ def test_discrepancy_result_is_summarised_and_embedded(tmp_path: Path) -> None:
     assert text.startswith('found dwell_time_stiction')
     assert 'stiction_tau = 0.00516 s' in text and '1.42 -> 0.0609 N m' in text
     assert discrepancy_finding({'added': []}).startswith('no missing effect found')
-    d = tmp_path / 'analyses' / 'discrepancy'
-    d.mkdir(parents=True)
-    (d / 'discrepancy.json').write_text(json.dumps(result))
-    status = {'ok': True, 'dir': 'analyses/discrepancy', 'command': 'tribo discrepancy x',
-              'seconds': 1.0, 'note': 'analysed 5 s'}  # fmt: skip
-    sec = analysis_section('discrepancy', 'Discrepancy', status, tmp_path)
+    res = AnalysisOutcome(
+        'discrepancy', ok=True, directory='analyses/discrepancy', what='run_discrepancy(x)',
+        seconds=1.0, note='analysed 5 s', summary=result, finding=text,
+    )  # fmt: skip
+    sec = analysis_section(res, 'Discrepancy')
     assert sec.available and 'id="discrepancy-finding"' in sec.body
     assert 'dwell_time_stiction' in sec.body and 'analysed 5 s' in sec.body
+    failed = analysis_section(AnalysisOutcome('wear', reason='no /nvct/counts'), 'Wear')
+    assert not failed.available and 'no /nvct/counts' in failed.body
+
+
+def test_git_provenance_or_nothing(tmp_path: Path) -> None:
+    from tribo_bringup.report import git_state
+
+    assert git_state(tmp_path) == (None, None)  # not a repository: nothing, no error
+    if shutil.which('git') is None:
+        pytest.skip('git not installed')
+    env = {**os.environ, 'GIT_AUTHOR_NAME': 't', 'GIT_AUTHOR_EMAIL': 't@t',
+           'GIT_COMMITTER_NAME': 't', 'GIT_COMMITTER_EMAIL': 't@t'}  # fmt: skip
+    subprocess.run(['git', 'init', '-q', str(tmp_path)], check=True, env=env)
+    (tmp_path / 'a.txt').write_text('1\n')
+    subprocess.run(['git', '-C', str(tmp_path), 'add', 'a.txt'], check=True, env=env)
+    subprocess.run(['git', '-C', str(tmp_path), 'commit', '-qm', 'x'], check=True, env=env)
+    head = subprocess.run(
+        ['git', '-C', str(tmp_path), 'rev-parse', 'HEAD'], capture_output=True, text=True
+    ).stdout.strip()
+    assert git_state(tmp_path) == (head, False)
+    (tmp_path / 'a.txt').write_text('2\n')
+    assert git_state(tmp_path) == (head, True)
 
 
 def test_detail_uses_core_stick_detection(report: dict[str, Any]) -> None:
@@ -423,3 +453,26 @@ def test_figures_written_and_block_table(report: dict[str, Any]) -> None:
     assert list(table) == list(CSV_COLUMNS)
     assert table['mu0'][0] == ests[0]['mu0'] and np.isnan(table['mu0'][1])  # None -> NaN
     assert list(table['motion']) == [e['motion'] for e in ests]
+
+
+def test_offline_friction_fit_runs_through_the_library(
+    report: dict[str, Any], tmp_path: Path
+) -> None:
+    """The offline block fit (the library call of ``tribo friction``) on the fixture bag:
+    one row per 1 s block in analyses/friction/blocks.csv, mu_inf of the good blocks
+    within 0.01 of the simulated 0.10, and its figure embedded."""
+    bag = report['out'].parent / 'bag'
+    res = build_report(
+        bag, tmp_path / 'out', rig=report['rig'], analyses=('friction',), progress=lambda s: None
+    )
+    status = res.results['analyses']['friction']
+    assert status['ok'] is True and status['call'].startswith('estimate_blocks(')
+    with (tmp_path / 'out' / 'analyses' / 'friction' / 'blocks.csv').open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3  # 3 s of data, 1 s blocks
+    good = [r for r in rows if r['quality'] == 'ok']
+    assert good, rows
+    for r in good:
+        assert abs(float(r['mu_inf']) - RIG['mu_inf']) < 0.01, r
+    page = res.html.read_text()
+    assert 'analyses/friction/blocks.png' in page and 'id="friction-finding"' not in page

@@ -248,14 +248,14 @@ def run(args: argparse.Namespace) -> int:
     bag = out / 'bag'
     run_graph(rig_file, bag, float(args.duration), bool(args.bridge))
 
-    extra: dict[str, list[str]] = {}
+    window = (0.0, 0.0)
     report_notes: dict[str, str] = {}
     if not args.no_discrepancy:
         span = float(args.discrepancy_seconds)
         if span > 0:
             # from the first sample: the start from rest gives sticks of different lengths,
             # which tells dwell-time effects apart from a plain higher mu0
-            extra['discrepancy'] = ['--start', '0', '--duration', f'{span:g}']
+            window = (0.0, span)
             report_notes['discrepancy'] = (
                 f'analysed the first {span:g} s of the bag to keep the demo short'
             )
@@ -268,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
         discrepancy=not args.no_discrepancy,
         analysis_rig=nominal_file,
         analyses=('friction', 'wear'),
-        extra_args=extra,
+        discrepancy_window=window,
         notes=report_notes,
         command=['tribo', *sys.argv[1:]]
         if Path(sys.argv[0]).name not in ('pytest', '-c')

@@ -19,12 +19,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-TOPICS: dict[str, str] = {
-    '/rig/torsion_moment': 'torsion_moment',
-    '/rig/angular_acceleration': 'angular_acceleration',
-    '/rig/speed': 'speed',
-}
-
 
 def register(sub: Any) -> None:
     """Add the ``discrepancy`` subcommand."""
@@ -104,75 +98,9 @@ def _load_bag(
     first sample, ``duration`` [s] long (0: to the end); the longest gap-free stretch in
     the window is used. Reading stops at the window's end, so memory stays bounded by
     the window. A bag that ends early gives the good part and its truncation error."""
-    import numpy as np
+    from tribo_bringup.sessions import read_rig_stretch
 
-    from tribo_bringup.bagio import iter_messages
-    from tribo_bringup.errors import BagError, BagTruncatedError
-    from tribo_estimation.core.align import AlignedChunk, ChannelAligner, GapEvent, RestartEvent
-
-    aligner = ChannelAligner()
-    runs: list[list[AlignedChunk]] = [[]]
-    window: list[int] = []  # [first index, end index (or -1: open)] once the rate is known
-
-    def take(events: list[Any]) -> bool:
-        """Keep the window's part of the events; True once past the window's end."""
-        for ev in events:
-            if isinstance(ev, AlignedChunk):
-                if not window:
-                    i0 = ev.first_index + round(start * ev.sample_rate)
-                    window[:] = [i0, i0 + round(duration * ev.sample_rate) if duration else -1]
-                lo, hi = window
-                a = max(ev.first_index, lo)
-                b = ev.end_index if hi < 0 else min(ev.end_index, hi)
-                if b > a:
-                    k0, k1 = a - ev.first_index, b - ev.first_index
-                    runs[-1].append(
-                        AlignedChunk(
-                            a,
-                            ev.t0 + k0 / ev.sample_rate,
-                            ev.sample_rate,
-                            ev.torsion[k0:k1],
-                            ev.accel[k0:k1],
-                            ev.speed[k0:k1],
-                        )
-                    )
-                if hi >= 0 and ev.end_index >= hi:
-                    return True
-            elif isinstance(ev, (GapEvent, RestartEvent)):
-                _say(f'{type(ev).__name__}: {ev}')
-                runs.append([])
-        return False
-
-    truncated: Exception | None = None
-    try:
-        for n_msgs, m in enumerate(iter_messages(path, topics=list(TOPICS)), start=1):
-            msg = m.msg
-            t = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
-            ch = TOPICS[m.topic]
-            if take(aligner.push(ch, int(msg.first_index), float(msg.sample_rate), t, msg.data)):
-                break
-            if n_msgs % 5000 == 0:
-                _say(f'read {n_msgs} messages')
-        else:
-            take(aligner.flush())
-    except BagTruncatedError as exc:
-        truncated = exc
-        _say(f'warning: {exc}; analysing the good part before it')
-    best = max(runs, key=lambda r: sum(len(c) for c in r))
-    if not best:
-        raise truncated or BagError(f'{path}: no aligned rig samples on {", ".join(TOPICS)}')
-    if len(runs) > 1:
-        _say(f'using the longest gap-free stretch ({sum(len(c) for c in best)} samples)')
-    fs = best[0].sample_rate
-    idx = np.concatenate([np.arange(c.first_index, c.end_index) for c in best])
-    # test time = time since the stream started (the simulated rig's drive time base)
-    arrays = (
-        idx.astype(np.float64) / fs,
-        np.concatenate([c.torsion for c in best]),
-        np.concatenate([c.accel for c in best]),
-        np.concatenate([c.speed for c in best]),
-    )
-    return arrays, truncated
+    return read_rig_stretch(path, start, duration, _say)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -22,13 +22,6 @@ import numpy as np
 
 from tribo_bringup.errors import BagError
 
-#: Topics of the rig streams and their aligner channel names.
-RIG_CHANNELS: dict[str, str] = {
-    '/rig/torsion_moment': 'torsion_moment',
-    '/rig/angular_acceleration': 'angular_acceleration',
-    '/rig/speed': 'speed',
-}
-
 #: Observer samples kept per block for the mu-vs-slip-speed figure.
 _POINTS_PER_BLOCK = 60
 #: Length of each detail window (Fig. 6) [s].
@@ -113,25 +106,11 @@ def csv_events(path: Path) -> Iterator[Any]:
 
 
 def bag_events(path: Path) -> Iterator[Any]:
-    """Aligner events from the ``/rig/*`` SampleBlock streams of a bag."""
-    from tribo_bringup.bagio import iter_messages
-    from tribo_estimation.core.align import ChannelAligner
+    """Aligner events from the ``/rig/*`` SampleBlock streams of a bag
+    (:func:`tribo_bringup.sessions.rig_bag_events`)."""
+    from tribo_bringup.sessions import rig_bag_events
 
-    aligner = ChannelAligner()
-    seen = 0
-    for m in iter_messages(path, topics=list(RIG_CHANNELS)):
-        ch = RIG_CHANNELS.get(m.topic)
-        if ch is None:
-            continue
-        msg = m.msg
-        stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
-        seen += 1
-        yield from aligner.push(
-            ch, int(msg.first_index), float(msg.sample_rate), stamp, np.asarray(msg.data)
-        )
-    if seen == 0:
-        raise BagError(f'{path}: no /rig/torsion_moment, /rig/angular_acceleration, /rig/speed')
-    yield from aligner.flush()
+    return rig_bag_events(path)
 
 
 class _Collector:

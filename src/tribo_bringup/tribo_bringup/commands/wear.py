@@ -198,7 +198,9 @@ def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace)
         json.dumps(_jsonable(summary), indent=2, allow_nan=False) + '\n', encoding='utf-8'
     )
     if not args.no_plots:
-        _plot_run(out / 'wear.png', pts, evaluation, cfg)
+        from tribo_nvct.plots import plot_wear_run
+
+        plot_wear_run(out / 'wear.png', pts, evaluation, cfg)
     if truncated is not None:
         raise truncated  # results of the good part are written; exit 2 names the damage
     return summary
@@ -264,114 +266,6 @@ def _write_csv(path: Path, pts: list[Any]) -> None:
             )
 
 
-def _plot_run(path: Path, pts: list[Any], ev: Any, cfg: Any) -> None:
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    t = np.array([p.t_mid for p in pts]) / 60.0
-    v = np.array([p.volume for p in pts]) / UM3
-    se = np.array([p.volume_se for p in pts]) / UM3
-    ok = np.array([p.usable for p in pts])
-    fig, ax = plt.subplots(figsize=(8, 5))
-    ax.errorbar(
-        t[ok],
-        v[ok],
-        yerr=se[ok],
-        fmt='.',
-        ms=3,
-        lw=0.5,
-        color='C0',
-        label='nVCT wear volume (per dwell)',
-    )
-    if np.any(~ok):
-        ax.plot(t[~ok], v[~ok], 'x', ms=4, color='0.6', label='not mixed / beyond profile')
-    t1, t2 = ev.window_s
-    if math.isfinite(ev.progressive_rate):
-        tt = np.array([0.0, t2])
-        ax.plot(
-            tt / 60.0,
-            (ev.running_in_volume + ev.progressive_rate * tt) / UM3,
-            '--',
-            color='C3',
-            label=f'progressive {ev.progressive_rate * 60 / UM3:.4g} um^3/min',
-        )
-        ax.axhline(
-            ev.running_in_volume / UM3,
-            color='C2',
-            ls=':',
-            label=f'running-in {ev.running_in_volume / UM3:.4g} um^3',
-        )
-        ax.axvspan(t1 / 60.0, t2 / 60.0, color='C3', alpha=0.07, label='regression window')
-    if ev.exp_fit.ok:
-        tt = np.linspace(0.0, max(t.max(), t2 / 60.0), 400) * 60.0
-        ax.plot(
-            tt / 60.0,
-            ev.exp_fit.value(tt) / UM3,
-            '-',
-            color='k',
-            lw=1,
-            label=f'V_r(1-exp(-t/tau)) + w t, tau={ev.exp_fit.tau / 60:.3g} min',
-        )
-    ax.set_xlabel('test time [min]')
-    ax.set_ylabel('wear volume [um^3]')
-    ax.set_title(f'nVCT online wear ({cfg.label}, {cfg.load:g} N)')
-    area = float(cfg.contact_area)
-
-    def to_nm(x: Any) -> Any:
-        return np.asarray(x, dtype=float) * (UM3 / area * 1e9)
-
-    def to_um3(h: Any) -> Any:
-        return np.asarray(h, dtype=float) * (1e-9 * area / UM3)
-
-    sec = ax.secondary_yaxis('right', functions=(to_nm, to_um3))
-    sec.set_ylabel('mean wear height [nm]')
-    ax.legend(loc='lower right', fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def _plot_campaign(path: Path, rows: list[dict[str, Any]]) -> None:
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
-    panels = (
-        ('load_N', 'load [N]', 1.0),
-        ('temperature_K', 'oil temperature [K]', 1.0),
-        ('stroke_m', 'stroke [mm]', 1e3),
-        ('frequency_hz', 'frequency [Hz]', 1.0),
-    )
-    for ax, (key, label, scale) in zip(axes.flat, panels, strict=True):
-        for kw, name, color in (
-            ('k_w_progressive', 'progressive', 'C0'),
-            ('k_w_running_in', 'running-in', 'C1'),
-        ):
-            xs = [r[key] * scale for r in rows if r.get(key) is not None and r.get(kw) is not None]
-            ys = [r[kw] for r in rows if r.get(key) is not None and r.get(kw) is not None]
-            es = [
-                r.get(kw + '_se') or 0.0
-                for r in rows
-                if r.get(key) is not None and r.get(kw) is not None
-            ]
-            ax.errorbar(xs, ys, yerr=es, fmt='o', color=color, label=name, capsize=3)
-        ax.set_xlabel(label)
-        ax.set_ylabel('k_w [um^3/(N m)]')
-        ax.grid(alpha=0.3)
-    axes.flat[0].legend(fontsize=8)
-    conv = {str(r.get('sliding_distance_convention')) for r in rows}
-    fig.suptitle(f'Wear coefficients (Fig. 12 style; sliding distance: {", ".join(sorted(conv))})')
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
 def run(args: argparse.Namespace) -> int:
     """Evaluate one or several runs (or write a simulated counts file)."""
     if args.simulate:
@@ -432,7 +326,9 @@ def run(args: argparse.Namespace) -> int:
         for r in rows:
             w.writerow(['' if r.get(k) is None else r.get(k) for k in keys])
     if not args.no_plots:
-        _plot_campaign(out / 'campaign_kw.png', rows)
+        from tribo_nvct.plots import plot_campaign_kw
+
+        plot_campaign_kw(out / 'campaign_kw.png', rows)
     print(f'wear: {len(rows)} runs, {out / "campaign.csv"}', file=sys.stderr)
     return 0
 

@@ -1,0 +1,206 @@
+"""Assemble the session report: scan the bag, run the analyses, write page and results."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import yaml
+
+from tribo_bringup.errors import BagError, ConfigError
+from tribo_bringup.outputs import atomic_output_dir
+from tribo_estimation.errors import EstimationError
+
+from . import analyses as an
+from .page import Section, clean_json, render_html
+from .provenance import provenance
+from .scan import scan_bag
+from .sections import (
+    analysis_section,
+    friction_section,
+    rig_section,
+    session_section,
+    summary_lines,
+    wear_section,
+)
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.model import RigParams
+    from tribo_nvct.core.config import NvctConfig
+
+Progress = an.Progress
+
+
+def load_rig(path: str | Path | None) -> dict[str, Any]:
+    """RIG.yaml as a mapping (empty when ``path`` is None)."""
+    if path is None:
+        return {}
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f'{p}: cannot read rig file: {exc}') from exc
+    if not isinstance(data, dict):
+        raise ConfigError(f'{p}: a rig file is a mapping of parameter names to values')
+    return data
+
+
+def load_nvct(path: str | Path | None) -> NvctConfig | None:
+    """The run's NvctConfig (tribo_nvct's loader), or None when not given."""
+    if path is None:
+        return None
+    from tribo_nvct.core.config import load_config
+
+    return load_config(path)
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """Where the report went and what it says."""
+
+    html: Path
+    results: dict[str, Any]
+    summary: list[str]
+
+
+def _rig_params(rig: str | Path | None) -> tuple[RigParams | None, str]:
+    """Rig parameters for the stick detection of the motion detail, or None and why."""
+    if rig is None:
+        return None, 'no RIG.yaml given (--rig)'
+    from tribo_estimation.core.config import load_rig_config
+
+    try:
+        return load_rig_config(rig).rig, ''
+    except EstimationError as exc:
+        return None, f'rig parameters unusable: {exc}'
+
+
+def _run_analyses(
+    todo: Sequence[str],
+    bag: Path,
+    stage: Path,
+    counts: Mapping[str, int],
+    analysis_rig: Path | None,
+    nvct: Path | None,
+    discrepancy_window: tuple[float, float],
+    notes: Mapping[str, str],
+    say: Progress,
+) -> list[an.AnalysisOutcome]:
+    out: list[an.AnalysisOutcome] = []
+    for key in todo:
+        note = notes.get(key, '')
+        if key == 'wear':
+            if nvct is None:
+                out.append(an.failed(key, 'no NVCT.yaml given (--nvct)'))
+            elif not counts.get('/nvct/counts'):
+                out.append(an.failed(key, 'no /nvct/counts in the bag'))
+            else:
+                out.append(an.run_analysis(key, an.wear_work(bag, nvct), stage, say, note))
+        elif analysis_rig is None:
+            out.append(an.failed(key, 'no RIG.yaml given (--rig)'))
+        elif key == 'friction':
+            work = an.friction_work(bag, analysis_rig)
+            out.append(an.run_analysis(key, work, stage, say, note))
+        else:
+            work = an.discrepancy_work(bag, analysis_rig, discrepancy_window, say)
+            out.append(an.run_analysis(key, work, stage, say, note))
+    return out
+
+
+def build_report(
+    bag: str | Path,
+    out: str | Path,
+    *,
+    rig: str | Path | None = None,
+    nvct: str | Path | None = None,
+    discrepancy: bool = False,
+    discrepancy_window: tuple[float, float] = (0.0, 0.0),
+    analysis_rig: str | Path | None = None,
+    analyses: Sequence[str] = ('friction', 'wear'),
+    notes: Mapping[str, str] | None = None,
+    command: Sequence[str] | None = None,
+    progress: Progress | None = None,
+) -> ReportResult:
+    """Write the session report of ``bag`` into directory ``out``.
+
+    Args:
+        bag: recorded bag (directory or .mcap).
+        out: output directory (written atomically: on an error it keeps what it held).
+        rig: RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
+        nvct: NVCT.yaml (wear analysis, k_w).
+        discrepancy: also run the discrepancy workflow on the bag.
+        discrepancy_window: (start, duration) [s] of the rig streams the discrepancy
+            workflow analyses, from the first sample (duration 0: to the end).
+        analysis_rig: RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
+            rig without the hidden effects the simulated rig ran with.
+        analyses: offline analyses to run besides the discrepancy workflow
+            (``friction``, ``wear``).
+        notes: a note per analysis shown in its section (e.g. analysed window).
+        command: the command line to record (default ``sys.argv``).
+        progress: callback for progress lines (default: stderr).
+
+    Raises:
+        BagError: the bag does not exist or holds no known message.
+        ConfigError, EstimationError, NvctError: RIG.yaml or NVCT.yaml unreadable.
+    """
+    say = progress or (lambda s: print(f'report: {s}', file=sys.stderr, flush=True))
+    bag_p = Path(bag)
+    out_p = Path(out)
+    if not bag_p.exists():
+        raise BagError(f'{bag_p}: no such bag')
+    rig_s = str(rig) if rig is not None else None
+    rig_data = load_rig(rig)
+    nvct_cfg = load_nvct(nvct)
+    say(f'reading {bag_p}')
+    scan = scan_bag(bag_p)
+    rig_params, rig_note = _rig_params(rig)
+    todo = [a for a in analyses if a in an.ANALYSES and a != 'discrepancy']
+    if discrepancy:
+        todo.append('discrepancy')
+    a_rig = analysis_rig if analysis_rig is not None else rig
+    results: dict[str, Any] = {'analyses': {}}
+    with atomic_output_dir(out_p) as stage:
+        sections: list[Section] = [
+            session_section(bag_p, scan, results, stage),
+            rig_section(rig_data, rig_s, results),
+        ]
+        wear_sec = wear_section(scan, nvct_cfg, results, stage)
+        outcomes = _run_analyses(
+            todo,
+            bag_p,
+            stage,
+            scan.counts,
+            Path(a_rig) if a_rig is not None else None,
+            Path(nvct) if nvct is not None else None,
+            discrepancy_window,
+            notes or {},
+            say,
+        )
+        for res in outcomes:
+            results['analyses'][res.key] = res.status()
+        offline = next((r for r in outcomes if r.key == 'friction' and r.ok), None)
+        if scan.estimates:
+            ests, source = scan.estimates, 'live estimator, /friction/estimate'
+        else:
+            ests = offline.blocks if offline is not None else []
+            source = 'offline fit, tribo friction'
+        say('friction section and plots')
+        sections += friction_section(ests, source, results, stage, bag_p, rig_params, rig_note)
+        sections.append(wear_sec)
+        sections += [analysis_section(r, an.ANALYSES[r.key]) for r in outcomes]
+        prov = provenance(command)
+        results['provenance'] = prov
+        summary = summary_lines(results)
+        results['summary'] = summary
+        (stage / 'results.json').write_text(
+            json.dumps(clean_json(results), indent=2, allow_nan=False) + '\n', encoding='utf-8'
+        )
+        page = render_html(f'tribo session report: {bag_p.name}', summary, sections, prov)
+        (stage / 'report.html').write_text(page, encoding='utf-8')
+    html_path = out_p / 'report.html'
+    say(f'wrote {html_path}')
+    return ReportResult(html_path, results, summary)
