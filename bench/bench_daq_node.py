@@ -1,4 +1,4 @@
-"""Benchmark: the serial DAQ driver node at 10 kHz (issue 6: under 30 % of one core).
+"""Benchmark: the serial DAQ driver node at 10 kHz (target: under 30 % of one core).
 
 A DAQ emulator streams 20-byte frames at 10 kHz into a pseudo-terminal; the
 ``daq_driver`` node (its own process, autostart) reads, decodes and publishes

@@ -1,4 +1,4 @@
-"""Benchmark: the friction_estimator node on a live 10 kHz stream (issue 4).
+"""Benchmark: the friction_estimator node on a live 10 kHz stream.
 
 An in-process publisher streams the simulated rig (config/rig.yaml, seeded noise)
 in real time as SampleBlocks of 100 samples; the ``friction_estimator`` node runs

@@ -1,4 +1,4 @@
-"""Benchmark: the simulated rig at 10 kHz recorded for 60 s (issue 3 numbers).
+"""Benchmark: the simulated rig at 10 kHz recorded for 60 s.
 
 Prints the samples recorded per rig topic, missing samples (by first-sample
 indices in the bag) and the CPU load of the sim_rig driver process and of the
