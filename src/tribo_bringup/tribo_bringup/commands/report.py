@@ -21,8 +21,10 @@ def register(sub: Any) -> None:
         'DIR/streams.csv for a recorded session. Sections: stream continuity, rig parameters, '
         'per-block friction (Fig. 4/5 style) and motion detail with stick phases (Fig. 6), nVCT '
         'wear with running-in/progressive split and k_w (Fig. 10/11), the offline analyses '
-        '(tribo friction, tribo wear) and, with --discrepancy, the discrepancy workflow. A '
-        'section whose input is missing is shown as unavailable with the reason.',
+        '(the block fit of tribo friction, the nVCT evaluation of tribo wear; outputs in '
+        'DIR/analyses/) and, with --discrepancy, the discrepancy workflow. A section whose '
+        'input is missing is shown as unavailable with the reason. DIR is written '
+        'atomically: on an error it keeps what it held.',
     )
     p.add_argument('bag', help='recorded bag (directory with metadata.yaml, or .mcap)')
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
@@ -46,7 +48,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--no-analyses',
         action='store_true',
-        help='only the live results recorded in the bag (skip tribo friction / tribo wear)',
+        help='only the live results recorded in the bag (no offline block fit or wear evaluation)',
     )
     p.set_defaults(func=run)
 
