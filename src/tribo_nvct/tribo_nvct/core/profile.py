@@ -29,10 +29,15 @@ density is non-negative (hence A_rem monotone non-increasing):
 The amplitude (and c) enter linearly and are solved in closed form for every
 trial of the shape parameters (variable projection). The model is chosen by
 AIC = chi^2 + 2 k (k fitted parameters; for ``piecewise`` the active
-coefficients). The surface density is the model's own rho_I(0): nothing pulls
-it toward the interior. Without a ``remaining_activity_se_bq`` column the noise
-model sigma_i^2 = s_0 + s_2 A_i^2 is estimated from the fourth differences of
-the data (independent of any model) and rescaled by the chosen fit's chi^2/dof.
+coefficients), with the small-sample correction (AICc):
+AICc = AIC + 2k(k+1)/(n-k-1), n layers, so the flexible piecewise model is
+chosen only where no smooth shape fits. The surface density is the model's
+own rho_I(0): nothing pulls it toward the interior. Without a
+``remaining_activity_se_bq`` column the noise model
+sigma_i^2 = s_0 + s_2 A_i^2 is estimated from the fourth differences of the
+data (independent of any model) and rescaled by the chosen fit's chi^2/dof.
+(The parametric shapes have no offset term: remaining activity measured to
+the end of the activated layer, or an exponential tail below it, is assumed.)
 
 Uncertainty
 -----------
@@ -74,6 +79,8 @@ PROFILE_MODELS = ('auto', 'erfc', 'exponential', 'ramp', 'piecewise')
 #: Default number of bootstrap replicas and seed of the profile uncertainty.
 BOOTSTRAP_REPLICAS = 200
 BOOTSTRAP_SEED = 20240611
+#: Candidates further than this behind the best AICc are not refitted in replicas [-].
+REPLICA_AIC_MARGIN = 100.0
 #: Bin widths of the piecewise model [layer steps].
 PIECEWISE_BINS = (1, 2, 4)
 
@@ -366,7 +373,11 @@ class _Fit:
 
     @property
     def aic(self) -> float:
-        return self.chi2 + 2.0 * self.k
+        """AICc = chi^2 + 2k + 2k(k+1)/(n-k-1) (inf when n <= k+1)."""
+        n, k = self.fitted.size, self.k
+        if n - k - 1 <= 0:
+            return math.inf
+        return self.chi2 + 2.0 * k + 2.0 * k * (k + 1) / (n - k - 1)
 
 
 class _Problem:
@@ -602,13 +613,26 @@ def fit_depth_profile(
     else:
         s2 = max(1.0, chi2_red) if dof >= 5 else 1.0
     noise = sigma * math.sqrt(s2)
-    _check_decreasing(data, noise)
+    # Given SEs are the measurement's own: an outlier must not widen its own test.
+    _check_decreasing(data, noise if estimated else sigma)
     F = prob.grid_F(best)
     if F[-1] <= 0.0:
         raise ProfileNotDecreasingError(f'{data.source}: remaining activity does not decrease')
     rho = prob.grid_rho(best)
     F_se, rho_se = prob.grid_se(best, s2)
     starts = {f.name: f.theta for f in fits if f.name in PARAMETRIC}
+    # Replicas refit only the candidates that could win: an AIC more than
+    # REPLICA_AIC_MARGIN behind the best never wins against the data's noise.
+    keep = {f.name for f in fits if f.aic < best.aic + REPLICA_AIC_MARGIN}
+    rprob = _Problem(
+        z,
+        sigma,
+        pin_area_m2,
+        [m for m in prob.models if m in keep],
+        [b for b in bins if f'piecewise/{b}' in keep],
+    )
+    if not rprob.models and not rprob.pieces:
+        rprob = prob
 
     def replicas() -> FloatArray:
         rng = np.random.default_rng(seed)
@@ -617,10 +641,10 @@ def fit_depth_profile(
         for _ in range(bootstrap_replicas):
             A_star = best.fitted + noise * rng.standard_normal(n)
             try:
-                fb = min(prob.fit_all(A_star, starts), key=lambda f: f.aic)
+                fb = min(rprob.fit_all(A_star, starts), key=lambda f: f.aic)
             except DepthProfileError:
                 continue
-            out[m] = np.maximum.accumulate(prob.grid_F(fb))
+            out[m] = np.maximum.accumulate(rprob.grid_F(fb))
             m += 1
         return out[:m]
 
