@@ -59,6 +59,9 @@ def run_case(i: int, seed: int, replicas: int, tmp: Path) -> dict[str, float | s
         'noise': case.noise_rel,
         'step': case.step_um,
         'model': getattr(cfg.profile, 'model', 'spline'),
+        'case': i,
+        'days': case.days,
+        'bg': case.background_cps,
     }
     for key, val, se, comb, t in (
         (
@@ -136,6 +139,14 @@ def main() -> None:
     for noise in sorted({float(r['noise']) for r in rows}):
         if noise != 0.003:
             report([r for r in rows if r['noise'] == noise], f'noise {noise * 100:g} %')
+    print('largest |error| / combined SE (total volume):')
+    for r in sorted(rows, key=lambda r: -abs(float(r['V_z'])))[:4]:
+        print(
+            f'  case {r["case"]}: {r["shape"]}, noise {float(r["noise"]) * 100:g} %, step '
+            f'{r["step"]} um, {float(r["days"]):.0f} d, bg {float(r["bg"]):.1f} cps, model '
+            f'{r["model"]}: error {float(r["V_rel"]) * 100:+.2f} % = {float(r["V_z"]):+.2f} SE '
+            f'(counting {float(r["V_zc"]):+.2f})'
+        )
     models: dict[str, int] = {}
     for r in rows:
         models[str(r['model'])] = models.get(str(r['model']), 0) + 1
