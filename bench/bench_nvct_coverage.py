@@ -1,6 +1,6 @@
 """nVCT coverage benchmark: bias and interval coverage of the wear figures (issue 16).
 
-Run: .venv/bin/python bench/bench_nvct_coverage.py [--tests 80] [--replicas 200] [--seed 1]
+Run: .venv/bin/python bench/bench_nvct_coverage.py [--tests 150] [--replicas 200] [--seed 1]
 
 Many generated tests (src/tribo_nvct/test/truthgen.py: numpy/scipy only, no
 code shared with the evaluation) vary the depth-profile shape (flat-erfc,
@@ -111,7 +111,7 @@ def report(rows: list[dict[str, float | str]], title: str) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument('--tests', type=int, default=84)
+    ap.add_argument('--tests', type=int, default=150)
     ap.add_argument('--replicas', type=int, default=200)
     ap.add_argument('--seed', type=int, default=1)
     ap.add_argument(

@@ -1,6 +1,6 @@
 """Combined SE covers the truth: a small seeded coverage check with the independent generator.
 
-The full benchmark (84 tests, 200 replicas) is bench/bench_nvct_coverage.py; here
+The full benchmark (150 tests, 200 replicas) is bench/bench_nvct_coverage.py; here
 18 tests with 40 profile replicas keep it to a few seconds.
 """
 

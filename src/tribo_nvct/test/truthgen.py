@@ -116,7 +116,7 @@ class Truth:
 
     def targets(self) -> dict[str, float]:
         """Total volume at the window end [um^3] and the window slope [um^3/min]."""
-        t_mid = (np.arange(N_DWELLS) + 0.5) * DWELL_S
+        t_mid = (np.arange(N_DWELLS, dtype=np.float64) + 0.5) * DWELL_S
         win = (t_mid >= WINDOW_S[0]) & (t_mid <= WINDOW_S[1])
         slope = np.polyfit(t_mid[win], self.volume_um3(t_mid[win]), 1)[0]
         return {

@@ -392,9 +392,12 @@ def run(args: argparse.Namespace) -> int:
     if len(inputs) == 1:
         s = _evaluate_run(inputs[0], nvcts[0], out, args)
         print(
-            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} um^3 at '
-            f'180 min, progressive {_fmt(s["progressive_rate_um3_per_min"])} um^3/min, '
-            f'running-in {_fmt(s["running_in_volume_um3"])} um^3',
+            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} '
+            f'+- {_fmt(s.get("total_volume_combined_se_um3"))} um^3 at 180 min, progressive '
+            f'{_fmt(s["progressive_rate_um3_per_min"])} '
+            f'+- {_fmt(s.get("progressive_rate_combined_se_um3_per_min"))} um^3/min, '
+            f'running-in {_fmt(s["running_in_volume_um3"])} um^3 (+- combined SE: counting '
+            'and depth profile)',
             file=sys.stderr,
         )
         return 0

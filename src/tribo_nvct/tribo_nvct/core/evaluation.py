@@ -450,13 +450,11 @@ def _profile_spread(
     F = activity / cfg.tagged_area
     reps = prof.replicas()
     rel = cfg.k_det_rel_se
+    n_rep = reps.shape[0] if reps.shape[0] >= 2 else 200
+    kfac: FloatArray = 1.0 + rel * np.random.default_rng(BOOTSTRAP_SEED + 1).standard_normal(n_rep)
     if reps.shape[0] >= 2:
-        B = reps.shape[0]
-        kfac = 1.0 + rel * np.random.default_rng(BOOTSTRAP_SEED + 1).standard_normal(B)
         H = prof.invert_replicas(kfac[:, None] * F[None, :])
     elif rel > 0.0:
-        B = 200
-        kfac = 1.0 + rel * np.random.default_rng(BOOTSTRAP_SEED + 1).standard_normal(B)
         H = np.vstack([prof.invert(k * F) for k in kfac])
     else:
         return (0.0, 0.0, 0.0, 0.0), 0

@@ -535,9 +535,9 @@ class _Problem:
                 np.zeros((self.zg.size, 2)),
             ]
         )
-        j = np.clip(np.searchsorted(edges, self.zg, side='right') - 1, 0, edges.size - 2)
+        jj = np.clip(np.searchsorted(edges, self.zg, side='right') - 1, 0, edges.size - 2)
         H = np.zeros((self.zg.size, edges.size + 1))
-        H[np.arange(self.zg.size), j] = 1.0
+        H[np.arange(self.zg.size), jj] = 1.0
         Ga, Ha = G[:, active], H[:, active]
         F_var = np.einsum('ij,jk,ik->i', Ga, cov_a, Ga)
         r_var = np.einsum('ij,jk,ik->i', Ha, cov_a, Ha)
