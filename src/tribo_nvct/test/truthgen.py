@@ -39,6 +39,8 @@ DWELL_S = 60.0
 N_DWELLS = 240
 WINDOW_S = (120 * 60.0, 180 * 60.0)
 SHAPES = ('flat_erfc', 'exponential', 'linear_ramp')
+#: Outside the evaluation's parametric families: 0.6 exp(-z/p1) + 0.4 exp(-z/p2).
+OTHER_SHAPES = ('two_exponentials',)
 
 
 @dataclass(frozen=True)
@@ -64,6 +66,8 @@ def random_case(rng: np.random.Generator, seed: int, shape: str, noise_rel: floa
         p1, p2 = rng.uniform(1.5, 2.5), rng.uniform(0.4, 1.0)  # centre, width
     elif shape == 'exponential':
         p1, p2 = rng.uniform(0.8, 2.5), 0.0  # decay length
+    elif shape == 'two_exponentials':
+        p1, p2 = rng.uniform(0.3, 0.8), rng.uniform(2.0, 3.0)  # decay lengths
     else:
         p1, p2 = rng.uniform(2.5, 4.5), 0.0  # depth where the density reaches 0
     return Case(
@@ -86,6 +90,8 @@ def _shape(case: Case, z_um: FloatArray) -> FloatArray:
         return np.asarray(0.5 * erfc((z_um - case.p1_um) / case.p2_um))
     if case.shape == 'exponential':
         return np.asarray(np.exp(-z_um / case.p1_um))
+    if case.shape == 'two_exponentials':
+        return np.asarray(0.6 * np.exp(-z_um / case.p1_um) + 0.4 * np.exp(-z_um / case.p2_um))
     return np.asarray(np.clip(1.0 - z_um / case.p1_um, 0.0, None))
 
 

@@ -22,7 +22,10 @@ density is non-negative (hence A_rem monotone non-increasing):
   A_rem(z) = A_pin rho0 (w/2) ierfc((z - z0)/w),  ierfc(x) = exp(-x^2)/sqrt(pi) - x erfc(x)
 * ``exponential``: rho_I = rho0 exp(-z/L),  A_rem(z) = A_pin rho0 L exp(-z/L)
 * ``ramp`` (linear): rho_I = rho0 (1 - z/D)_+,  A_rem(z) = A_pin rho0 (D - z)_+^2 / (2 D)
-* ``piecewise``: rho_I constant on bins of 1, 2 or 4 layer steps, rho_j >= 0,
+* each of the three also ``+c``: plus a constant remaining activity c (bulk
+  activation below the layer, or an offset of the pin measurements);
+* ``piecewise``: rho_I constant on bins of one layer step down to 0.5 um and of
+  1, 2 or 4 steps below (the surface is never averaged with the interior), rho_j >= 0,
   A_rem(z_i) = A_pin sum_j rho_j |[z_i, Z] n bin_j| + c  (c: activity below the
   last measured depth Z), fitted by non-negative least squares (NNLS).
 
@@ -81,7 +84,9 @@ BOOTSTRAP_REPLICAS = 200
 BOOTSTRAP_SEED = 20240611
 #: Candidates further than this behind the best AICc are not refitted in replicas [-].
 REPLICA_AIC_MARGIN = 100.0
-#: Bin widths of the piecewise model [layer steps].
+#: Depth above which the piecewise model's bins may span several layers [m].
+SURFACE_FINE_M = 0.5e-6
+#: Bin widths of the piecewise model below SURFACE_FINE_M [layer steps].
 PIECEWISE_BINS = (1, 2, 4)
 
 
@@ -318,6 +323,7 @@ def _ierfc(x: FloatArray) -> FloatArray:
 
 def _R(name: str, zu: FloatArray, th: FloatArray) -> FloatArray:
     """Remaining activity per unit amplitude of a parametric shape [um]."""
+    name = name.removesuffix('+c')
     if name == 'erfc':
         z0, w = th
         return 0.5 * w * _ierfc((zu - z0) / w)
@@ -331,6 +337,7 @@ def _R(name: str, zu: FloatArray, th: FloatArray) -> FloatArray:
 
 def _S(name: str, zu: FloatArray, th: FloatArray) -> FloatArray:
     """Density shape (value 1 at the top of the flat part) [-]."""
+    name = name.removesuffix('+c')
     if name == 'erfc':
         z0, w = th
         return np.asarray(0.5 * erfc((zu - z0) / w))
@@ -342,6 +349,7 @@ def _S(name: str, zu: FloatArray, th: FloatArray) -> FloatArray:
 
 
 def _bounds(name: str, Z: float, step: float) -> tuple[list[float], list[float]]:
+    name = name.removesuffix('+c')
     if name == 'erfc':
         return [-2.0 * Z, max(0.05 * step, 1e-4)], [4.0 * Z, 4.0 * Z]
     if name == 'exponential':
@@ -350,6 +358,7 @@ def _bounds(name: str, Z: float, step: float) -> tuple[list[float], list[float]]
 
 
 def _starts(name: str, Z: float) -> list[FloatArray]:
+    name = name.removesuffix('+c')
     if name == 'erfc':
         return [np.array([a * Z, b * Z]) for a in (0.1, 0.3, 0.5, 0.8) for b in (0.05, 0.15, 0.4)]
     if name == 'exponential':
@@ -357,7 +366,9 @@ def _starts(name: str, Z: float) -> list[FloatArray]:
     return [np.array([a * Z]) for a in (0.5, 1.0, 1.5, 3.0)]
 
 
-PARAMETRIC = ('erfc', 'exponential', 'ramp')
+#: Parametric candidates; ``+c``: with a constant remaining activity c (bulk
+#: activation below the layer, or a background offset of the pin measurements).
+PARAMETRIC = ('erfc', 'exponential', 'ramp', 'erfc+c', 'exponential+c', 'ramp+c')
 
 
 @dataclass(frozen=True, eq=False)
@@ -402,8 +413,11 @@ class _Problem:
         self.zg = np.linspace(0.0, self.Z, GRID_POINTS)
         self.pieces: list[tuple[str, FloatArray, FloatArray, FloatArray]] = []
         n = z.size
+        i0 = int(np.searchsorted(z, SURFACE_FINE_M))
         for k in bins:
-            edges = z[::k]
+            # One bin per layer near the surface (no averaging of the surface density
+            # with the interior), k layers per bin below SURFACE_FINE_M.
+            edges = np.concatenate([z[:i0], z[i0::k]])
             if edges[-1] < self.Z:
                 edges = np.append(edges, self.Z)
             nb = edges.size - 1
@@ -417,11 +431,17 @@ class _Problem:
             self.pieces.append((f'piecewise/{k}', edges, X, scale))
 
     # parametric --------------------------------------------------------------------------
-    def _proj(self, name: str, th: FloatArray, y: FloatArray) -> tuple[FloatArray, float]:
+    def _proj(self, name: str, th: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Residuals and linear coefficients [a] or [a, c] for shape parameters th."""
         col = _R(name, self.zu, th) / self.sigma
+        if name.endswith('+c'):
+            X = np.column_stack([col, 1.0 / self.sigma])
+            sol = np.linalg.lstsq(X, y, rcond=None)[0]
+            coef: FloatArray = np.asarray(sol, dtype=np.float64)
+            return y - X @ coef, coef
         cc = float(col @ col)
         a = float(col @ y) / cc if cc > 0.0 else 0.0
-        return y - a * col, a
+        return y - a * col, np.array([a])
 
     def fit_parametric(self, name: str, A: FloatArray, start: FloatArray | None) -> _Fit | None:
         y = A / self.sigma
@@ -443,11 +463,11 @@ class _Problem:
                 )
         except ValueError:
             return None
-        r, a = self._proj(name, res.x, y)
-        if not a > 0.0:
+        r, coef = self._proj(name, res.x, y)
+        if not coef[0] > 0.0:
             return None
-        fitted = a * _R(name, self.zu, res.x)
-        return _Fit(name, res.x, np.array([a]), fitted, float(r @ r), res.x.size + 1)
+        fitted = coef[0] * _R(name, self.zu, res.x) + (coef[1] if coef.size > 1 else 0.0)
+        return _Fit(name, res.x, coef, fitted, float(r @ r), res.x.size + coef.size)
 
     # piecewise ---------------------------------------------------------------------------
     def fit_piecewise(self, i: int, A: FloatArray) -> _Fit:
@@ -497,18 +517,21 @@ class _Problem:
         """Delta-method standard errors of F and rho on the grid."""
         if f.name in PARAMETRIC:
             p = np.concatenate([f.theta, f.coef])
+            nt = f.theta.size
 
             def model(pp: FloatArray) -> FloatArray:
-                return np.asarray(pp[-1] * _R(f.name, self.zu, pp[:-1]) / self.sigma)
+                off = pp[nt + 1] if pp.size > nt + 1 else 0.0
+                return np.asarray((pp[nt] * _R(f.name, self.zu, pp[:nt]) + off) / self.sigma)
 
             def gridF(pp: FloatArray) -> FloatArray:
-                g = _Fit(f.name, pp[:-1], pp[-1:], f.fitted, f.chi2, f.k)
+                g = _Fit(f.name, pp[:nt], pp[nt:], f.fitted, f.chi2, f.k)
                 return np.concatenate([self.grid_F(g), self.grid_rho(g)])
 
             J = np.empty((self.z.size, p.size))
             Gd = np.empty((2 * self.zg.size, p.size))
             for j in range(p.size):
-                hstep = 1e-6 * max(abs(p[j]), 1e-3 * self.Zu if j < p.size - 1 else 1e-300)
+                # Shape parameters [um]; the linear ones (a, c) are exact with any step.
+                hstep = 1e-6 * max(abs(p[j]), 1e-3 * self.Zu if j < nt else 1.0)
                 pp, pm = p.copy(), p.copy()
                 pp[j] += hstep
                 pm[j] -= hstep
@@ -597,7 +620,7 @@ def fit_depth_profile(
     elif model == 'piecewise':
         models = ()
     elif model != 'auto':
-        models, bins = (model,), ()
+        models, bins = (model, model + '+c'), ()
     estimated = data.remaining_se_bq is None
     A = data.remaining_bq
     sigma = _estimate_noise(A) if estimated else np.asarray(data.remaining_se_bq)
