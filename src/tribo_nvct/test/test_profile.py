@@ -191,3 +191,43 @@ def test_shipped_profile_reads(nvct_cfg: object) -> None:
     # The shipped CSV was simulated with 25 kBq/mm^2 over the layer (0.2 % noise).
     assert prof.total == pytest.approx(25e3 / 1e-6, rel=0.01)
     assert np.all(np.diff(prof.cumulative) >= 0.0)
+
+
+def test_shape_outside_the_families_falls_back_to_piecewise_without_surface_bias() -> None:
+    # Sum of two exponentials: no parametric candidate fits, the piecewise density
+    # (one bin per layer above 0.5 um) must not average the steep surface away.
+    def dens(z: np.ndarray) -> np.ndarray:
+        return RHO0 * (0.6 * np.exp(-z / 0.5e-6) + 0.4 * np.exp(-z / 2.5e-6))
+
+    truth = DepthProfile.from_density(dens, 30e-6, n=300001)
+    a = A_PIN * (truth.total - truth.F(Z))
+    prof = fit_depth_profile(LayerRemovalData(Z, a, 0.003 * a + 1.0), A_PIN, bootstrap_replicas=0)
+    assert prof.model.startswith('piecewise')
+    # Within a 0.1 um layer F is the chord: the density falls by 17 % over the first
+    # layer, so F(50 nm) is low by ~ 4 %, at the layer boundaries exact (< 0.5 %).
+    h = np.array([0.1e-6, 0.2e-6, 0.4e-6])
+    np.testing.assert_allclose(prof.F(h), truth.F(h), rtol=5e-3)
+    assert prof.F(0.05e-6)[0] == pytest.approx(truth.F(0.05e-6)[0], rel=0.06)
+
+
+def test_profile_model_key_checked(tmp_path: Path) -> None:
+    import yaml
+
+    from tribo_nvct.core.config import load_config
+    from tribo_nvct.errors import NvctConfigError
+
+    from .conftest import CONFIG_DIR
+
+    raw = yaml.safe_load((CONFIG_DIR / 'nvct.yaml').read_text())
+    raw['depth_profile'] = str(CONFIG_DIR / 'depth_profile.csv')
+    raw['profile_model'] = 'spline'
+    p = tmp_path / 'n.yaml'
+    p.write_text(yaml.safe_dump(raw))
+    with pytest.raises(NvctConfigError, match='profile_model must be one of'):
+        load_config(p)
+    raw['profile_model'] = 'exponential'
+    raw['profile_bootstrap_replicas'] = 0
+    p.write_text(yaml.safe_dump(raw))
+    cfg = load_config(p)
+    assert cfg.profile.model in ('exponential', 'exponential+c')
+    assert cfg.profile.replicas().shape[0] == 0
