@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tribo_nvct.core.config import config_from_dict
 from tribo_nvct.core.counting import Dwell
@@ -68,3 +69,24 @@ def test_bootstrap_once_per_configuration(tmp_path: Path) -> None:
     # Without the profile spread the combined SE is the counting SE.
     e3 = ev.evaluation(fit_model=False, profile_se=False)
     assert e3.total_volume_combined_se == e3.total_volume_se
+
+
+def test_k_det_calibration_enters_the_profile_se(tmp_path: Path) -> None:
+    # No profile bootstrap, 1 % k_DET calibration SE: h is nearly proportional to the
+    # released activity in the flat top of the profile, so V_180 carries ~1 % (200 draws:
+    # sampling sd of an sd ~ 5 %, tolerance 15 %).
+    rng = np.random.default_rng([2024, 7])
+    truth = Truth(random_case(rng, 7, 'flat_erfc', 0.003))
+    csv = tmp_path / 'p.csv'
+    truth.write_layer_removal(csv, rng)
+    raw = truth.nvct_yaml(csv)
+    raw['profile_bootstrap_replicas'] = 0
+    raw['k_det_rel_se'] = 0.01
+    cfg = config_from_dict(raw, tmp_path, 'case')
+    ev = WearEvaluator(cfg)
+    for d in truth.dwells(rng):
+        ev.add(Dwell(*d))
+    e = ev.evaluation(fit_model=False)
+    assert e.profile_replicas == 200
+    assert e.total_volume_profile_se / e.total_volume == pytest.approx(0.01, rel=0.15)
+    assert e.progressive_rate_profile_se / e.progressive_rate == pytest.approx(0.01, rel=0.15)
