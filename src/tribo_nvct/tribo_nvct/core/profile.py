@@ -26,6 +26,7 @@ density is non-negative (hence A_rem monotone non-increasing):
   activation below the layer, or an offset of the pin measurements);
 * ``piecewise``: rho_I constant on bins of one layer step down to 0.5 um and of
   1, 2 or 4 steps below (the surface is never averaged with the interior), rho_j >= 0,
+  or (``linear``) continuous piecewise-linear on the same knots with rho(knot) >= 0,
   A_rem(z_i) = A_pin sum_j rho_j |[z_i, Z] n bin_j| + c  (c: activity below the
   last measured depth Z), fitted by non-negative least squares (NNLS).
 
@@ -84,6 +85,8 @@ BOOTSTRAP_REPLICAS = 200
 BOOTSTRAP_SEED = 20240611
 #: Candidates further than this behind the best AICc are not refitted in replicas [-].
 REPLICA_AIC_MARGIN = 100.0
+#: Non-parametric densities: constant per bin, or continuous piecewise-linear.
+PIECEWISE_KINDS = ('piecewise', 'linear')
 #: Depth above which the piecewise model's bins may span several layers [m].
 SURFACE_FINE_M = 0.5e-6
 #: Bin widths of the piecewise model below SURFACE_FINE_M [layer steps].
@@ -391,6 +394,36 @@ class _Fit:
         return self.chi2 + 2.0 * k + 2.0 * k * (k + 1) / (n - k - 1)
 
 
+def _basis(kind: str, z: FloatArray, edges: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(G, H): integral_0^z of the density basis [m] and its values [-] at depths z [m].
+
+    ``piecewise``: indicator of each bin; ``linear``: hat functions on the edges
+    (continuous piecewise-linear density).
+    """
+    if kind == 'piecewise':
+        lo, hi = edges[:-1], edges[1:]
+        G = np.clip(z[:, None], lo[None, :], hi[None, :]) - lo[None, :]
+        j = np.clip(np.searchsorted(edges, z, side='right') - 1, 0, edges.size - 2)
+        H = np.zeros((z.size, edges.size - 1))
+        H[np.arange(z.size), j] = 1.0
+        return G, H
+    K = edges.size
+    G = np.zeros((z.size, K))
+    for k in range(K):
+        c = edges[k]
+        lo_k = edges[k - 1] if k > 0 else c
+        hi_k = edges[k + 1] if k < K - 1 else c
+        if c > lo_k:
+            left = np.clip(z, lo_k, c) - lo_k
+            G[:, k] += left * left / (2.0 * (c - lo_k))
+        if hi_k > c:
+            right = np.clip(z, c, hi_k) - c
+            G[:, k] += right - right * right / (2.0 * (hi_k - c))
+    eye = np.eye(K)
+    H = np.column_stack([np.interp(z, edges, eye[k]) for k in range(K)])
+    return G, H
+
+
 class _Problem:
     """Layer-removal data prepared for repeated fits (weights, piecewise design matrices)."""
 
@@ -400,7 +433,7 @@ class _Problem:
         sigma: FloatArray,
         pin_area: float,
         models: Sequence[str],
-        bins: Sequence[int],
+        pieces: Sequence[str],
     ) -> None:
         self.z = z
         self.zu = z * 1e6
@@ -414,21 +447,22 @@ class _Problem:
         self.pieces: list[tuple[str, FloatArray, FloatArray, FloatArray]] = []
         n = z.size
         i0 = int(np.searchsorted(z, SURFACE_FINE_M))
-        for k in bins:
+        for name in pieces:
+            kind, k = name.split('/')[0], int(name.split('/')[1])
             # One bin per layer near the surface (no averaging of the surface density
             # with the interior), k layers per bin below SURFACE_FINE_M.
             edges = np.concatenate([z[:i0], z[i0::k]])
             if edges[-1] < self.Z:
                 edges = np.append(edges, self.Z)
-            nb = edges.size - 1
+            G, _ = _basis(kind, np.append(z, self.Z), edges)
+            nb = G.shape[1]
             if nb < 2 or nb + 1 > n:
                 continue
-            lo, hi = edges[:-1], edges[1:]
-            M = pin_area * (hi[None, :] - np.clip(z[:, None], lo[None, :], hi[None, :]))
+            M = pin_area * (G[-1][None, :] - G[:-1])
             X = np.hstack([M, np.ones((n, 1)), -np.ones((n, 1))]) / sigma[:, None]
             scale = np.linalg.norm(X, axis=0)
             scale[scale == 0.0] = 1.0
-            self.pieces.append((f'piecewise/{k}', edges, X, scale))
+            self.pieces.append((name, edges, X, scale))
 
     # parametric --------------------------------------------------------------------------
     def _proj(self, name: str, th: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -500,18 +534,15 @@ class _Problem:
             zero = np.zeros(1)
             R0 = float(_R(f.name, zero, f.theta)[0])
             return np.asarray(f.coef[0] * (R0 - _R(f.name, zg * 1e6, f.theta)) / self.pin_area)
-        edges = f.theta
-        lo, hi = edges[:-1], edges[1:]
-        G = np.clip(zg[:, None], lo[None, :], hi[None, :]) - lo[None, :]
+        G, _ = _basis(f.name.split('/')[0], zg, f.theta)
         return np.asarray(G @ f.coef[:-2])
 
     def grid_rho(self, f: _Fit) -> FloatArray:
         """rho_I(z) on the grid [Bq/m^3]."""
         if f.name in PARAMETRIC:
             return np.asarray(f.coef[0] * 1e6 * _S(f.name, self.zg * 1e6, f.theta) / self.pin_area)
-        edges = f.theta
-        j = np.clip(np.searchsorted(edges, self.zg, side='right') - 1, 0, edges.size - 2)
-        return np.asarray(f.coef[:-2][j])
+        _, H = _basis(f.name.split('/')[0], self.zg, f.theta)
+        return np.asarray(H @ f.coef[:-2])
 
     def grid_se(self, f: _Fit, s2: float) -> tuple[FloatArray, FloatArray]:
         """Delta-method standard errors of F and rho on the grid."""
@@ -551,16 +582,9 @@ class _Problem:
         col = np.linalg.norm(Xa, axis=0)
         col[col == 0.0] = 1.0
         cov_a = s2 * np.linalg.pinv((Xa / col).T @ (Xa / col)) / np.outer(col, col)
-        lo, hi = edges[:-1], edges[1:]
-        G = np.hstack(
-            [
-                np.clip(self.zg[:, None], lo[None, :], hi[None, :]) - lo[None, :],
-                np.zeros((self.zg.size, 2)),
-            ]
-        )
-        jj = np.clip(np.searchsorted(edges, self.zg, side='right') - 1, 0, edges.size - 2)
-        H = np.zeros((self.zg.size, edges.size + 1))
-        H[np.arange(self.zg.size), jj] = 1.0
+        G0, H0 = _basis(f.name.split('/')[0], self.zg, edges)
+        G = np.hstack([G0, np.zeros((self.zg.size, 2))])
+        H = np.hstack([H0, np.zeros((self.zg.size, 2))])
         Ga, Ha = G[:, active], H[:, active]
         F_var = np.einsum('ij,jk,ik->i', Ga, cov_a, Ga)
         r_var = np.einsum('ij,jk,ik->i', Ha, cov_a, Ha)
@@ -611,6 +635,7 @@ def fit_depth_profile(
     n = z.size
     step = float(np.median(np.diff(z)))
     bins: Sequence[int] = PIECEWISE_BINS
+    kinds = PIECEWISE_KINDS
     models: Sequence[str] = PARAMETRIC
     if knot_spacing_m is not None:
         if not (math.isfinite(knot_spacing_m) and knot_spacing_m > 0.0):
@@ -624,7 +649,8 @@ def fit_depth_profile(
     estimated = data.remaining_se_bq is None
     A = data.remaining_bq
     sigma = _estimate_noise(A) if estimated else np.asarray(data.remaining_se_bq)
-    prob = _Problem(z, sigma, pin_area_m2, models, bins)
+    pieces = [f'{kind}/{b}' for kind in kinds for b in bins]
+    prob = _Problem(z, sigma, pin_area_m2, models, pieces)
     if not prob.models and not prob.pieces:
         raise DepthProfileError(f'{data.source}: bin width too coarse or too fine for {n} layers')
     fits = prob.fit_all(A)
@@ -652,7 +678,7 @@ def fit_depth_profile(
         sigma,
         pin_area_m2,
         [m for m in prob.models if m in keep],
-        [b for b in bins if f'piecewise/{b}' in keep],
+        [p for p in pieces if p in keep],
     )
     if not rprob.models and not rprob.pieces:
         rprob = prob
