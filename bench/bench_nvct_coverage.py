@@ -119,7 +119,7 @@ def main() -> None:
     ap.add_argument(
         '--other',
         type=int,
-        default=24,
+        default=12,
         help='extra tests with a profile outside the parametric families (reported apart)',
     )
     ap.add_argument(
