@@ -37,6 +37,26 @@ def test_simulate_then_evaluate(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert s['sliding_distance_convention'] == 'paper'
     for key in ('k_w_progressive', 'k_w_running_in', 'detection_limit_nm_per_hour'):
         assert s[key] > 0
+    # Every headline figure's counting SE has a combined (counting + profile) SE beside
+    # it, never smaller; the shipped profile has a bootstrap, so the profile SE is > 0.
+    headline = [
+        ('total_volume', '_um3'),
+        ('total_height', '_nm'),
+        ('total_tagged_volume', '_um3'),
+        ('progressive_rate', '_um3_per_min'),
+        ('progressive_volume', '_um3'),
+        ('running_in_volume', '_um3'),
+        ('k_w_progressive', ''),
+        ('k_w_running_in', ''),
+    ]
+    for name, unit in headline:
+        se, comb = s[f'{name}_se{unit}'], s[f'{name}_combined_se{unit}']
+        assert comb >= se > 0.0, name
+    assert s['total_volume_profile_se_um3'] > 0.0
+    assert s['total_volume_combined_se_um3'] ** 2 == pytest.approx(
+        s['total_volume_se_um3'] ** 2 + s['total_volume_profile_se_um3'] ** 2, rel=1e-9
+    )
+    assert s['depth_profile']['bootstrap_replicas'] >= 100
     rows = list(csv.reader(line for line in (out / 'wear.csv').open() if not line.startswith('#')))
     assert rows[0][:5] == ['t', 't_start', 't_end', 'wear_volume_um3', 'wear_volume_se_um3']
     assert len(rows) == 241

@@ -286,9 +286,12 @@ def run(args: argparse.Namespace) -> int:
     if len(inputs) == 1:
         s = _evaluate_run(inputs[0], nvcts[0], out, args)
         print(
-            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} um^3 at '
-            f'180 min, progressive {_fmt(s["progressive_rate_um3_per_min"])} um^3/min, '
-            f'running-in {_fmt(s["running_in_volume_um3"])} um^3',
+            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} '
+            f'+- {_fmt(s.get("total_volume_combined_se_um3"))} um^3 at 180 min, progressive '
+            f'{_fmt(s["progressive_rate_um3_per_min"])} '
+            f'+- {_fmt(s.get("progressive_rate_combined_se_um3_per_min"))} um^3/min, '
+            f'running-in {_fmt(s["running_in_volume_um3"])} um^3 (+- combined SE: counting '
+            'and depth profile)',
             file=sys.stderr,
         )
         return 0
@@ -310,14 +313,19 @@ def run(args: argparse.Namespace) -> int:
         'frequency_hz',
         'total_volume_um3',
         'total_volume_se_um3',
+        'total_volume_combined_se_um3',
         'progressive_rate_um3_per_min',
         'progressive_rate_se_um3_per_min',
+        'progressive_rate_combined_se_um3_per_min',
         'running_in_volume_um3',
         'running_in_volume_se_um3',
+        'running_in_volume_combined_se_um3',
         'k_w_progressive',
         'k_w_progressive_se',
+        'k_w_progressive_combined_se',
         'k_w_running_in',
         'k_w_running_in_se',
+        'k_w_running_in_combined_se',
         'sliding_distance_convention',
     ]
     with (out / 'campaign.csv').open('w', newline='', encoding='utf-8') as fh:

@@ -8,7 +8,9 @@ Keys (units in the key names where they are not SI):
 * ``background_cps`` [1/s] (optional ``background_se_cps``), or a pre-test measurement
   ``background_counts`` + ``background_live_time_s`` (takes precedence)
 * ``depth_profile``: layer-removal CSV, path relative to the YAML; optional
-  ``profile_knot_spacing_um``
+  ``profile_model`` (``auto`` = chosen by AIC, ``erfc``, ``exponential``, ``ramp``,
+  ``piecewise``), ``profile_knot_spacing_um`` (fixes the piecewise model's bin width),
+  ``profile_bootstrap_replicas`` (200; 0 = no profile SE) and ``profile_bootstrap_seed``
 * ``pin_area_um2``: activated face of the reference pin [um^2]
 * ``tagged_area_um2``: activated (tagged) area A_I of the specimen [um^2]
 * ``contact_area_um2`` [um^2], or ``contact`` (ring/liner geometry, see
@@ -39,7 +41,14 @@ from tribo_nvct.core.circuit import OilCircuit
 from tribo_nvct.core.contact import ContactResult, Material, RingLinerGeometry
 from tribo_nvct.core.counting import Background
 from tribo_nvct.core.nuclides import SECONDS_PER_DAY, Nuclide, custom_nuclide, get_nuclide
-from tribo_nvct.core.profile import DepthProfile, fit_depth_profile, read_layer_removal_csv
+from tribo_nvct.core.profile import (
+    BOOTSTRAP_REPLICAS,
+    BOOTSTRAP_SEED,
+    PROFILE_MODELS,
+    DepthProfile,
+    fit_depth_profile,
+    read_layer_removal_csv,
+)
 from tribo_nvct.errors import ContactError, NvctConfigError
 
 UM = 1e-6
@@ -177,7 +186,31 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
     pin_area = _num(raw, 'pin_area_um2', src) * UM2
     knot = raw.get('profile_knot_spacing_um')
     knot_m = None if knot is None else _value(knot, 'profile_knot_spacing_um', src) * UM
-    profile = fit_depth_profile(read_layer_removal_csv(prof_path), pin_area, knot_m)
+    prof_model = str(raw.get('profile_model', 'auto'))
+    if prof_model not in PROFILE_MODELS:
+        raise NvctConfigError(
+            f'{src}: profile_model must be one of {list(PROFILE_MODELS)}, got {prof_model!r}'
+        )
+    n_boot = _value(
+        raw.get('profile_bootstrap_replicas', BOOTSTRAP_REPLICAS),
+        'profile_bootstrap_replicas',
+        src,
+        strict=False,
+    )
+    boot_seed = _value(
+        raw.get('profile_bootstrap_seed', BOOTSTRAP_SEED),
+        'profile_bootstrap_seed',
+        src,
+        strict=False,
+    )
+    profile = fit_depth_profile(
+        read_layer_removal_csv(prof_path),
+        pin_area,
+        knot_m,
+        model=prof_model,
+        bootstrap_replicas=int(n_boot),
+        seed=int(boot_seed),
+    )
     tagged = _num(raw, 'tagged_area_um2', src) * UM2
     load = _num(raw, 'load_N', src)
     contact_res: ContactResult | None = None

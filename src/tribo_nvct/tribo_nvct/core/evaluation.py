@@ -20,6 +20,21 @@ running-in rate plus a constant progressive rate) by weighted non-linear least
 squares, with standard errors from the covariance; compared with the window method.
 
 The time axis of the fits is the dwell centre minus the oil circuit's lag.
+
+Profile (systematic) uncertainty: the depth profile F(h) and k_DET are common
+to every dwell of a test, so their errors do not average out. For every
+bootstrap replica F*_b of the profile (see ``tribo_nvct.core.profile``) and a
+draw k*_b = k_DET (1 + r_k eps_b) of the detector coefficient (r_k =
+``k_det_rel_se``), the window points are re-inverted,
+
+    h_i,b = F*_b^-1((k*_b/k_DET) A_i / A_I),   V_i,b = h_i,b A_contact,
+
+and refitted with the same weights (the window regression is linear in V);
+the standard deviation over b of V_180, w, V_p, V_r (and k_w) is their profile
+standard error sigma_prof. Reported beside the counting SE sigma_count and
+combined in quadrature: sigma_comb = sqrt(sigma_count^2 + sigma_prof^2).
+The mean wear height and tagged volume at the window end are h_180 = V_180/A_contact
+and V_I = h_180 A_I (Equ. 9) with the same relative errors.
 """
 
 from __future__ import annotations
@@ -34,6 +49,7 @@ from numpy.typing import NDArray
 from scipy.optimize import OptimizeWarning, curve_fit
 
 from tribo_nvct.core.config import SLIDING_CONVENTIONS, NvctConfig
+from tribo_nvct.core.profile import BOOTSTRAP_SEED
 from tribo_nvct.core.wear import WearPoint, detection_limit_height
 
 FloatArray = NDArray[np.float64]
@@ -211,24 +227,85 @@ class Evaluation:
     exp_fit: ExpFit
     lag_s: float
     flags: tuple[str, ...]
+    total_volume_profile_se: float = 0.0
+    progressive_rate_profile_se: float = 0.0
+    progressive_volume_profile_se: float = 0.0
+    running_in_volume_profile_se: float = 0.0
+    k_w_progressive_profile_se: float = 0.0
+    k_w_running_in_profile_se: float = 0.0
+    profile_replicas: int = 0
+    profile_model: str = ''
+
+    @property
+    def total_volume_combined_se(self) -> float:
+        """Counting and profile SE of V_180 in quadrature [m^3]."""
+        return math.hypot(self.total_volume_se, self.total_volume_profile_se)
+
+    @property
+    def progressive_rate_combined_se(self) -> float:
+        """Combined SE of the progressive rate [m^3/s]."""
+        return math.hypot(self.progressive_rate_se, self.progressive_rate_profile_se)
+
+    @property
+    def progressive_volume_combined_se(self) -> float:
+        """Combined SE of the progressive volume [m^3]."""
+        return math.hypot(self.progressive_volume_se, self.progressive_volume_profile_se)
+
+    @property
+    def running_in_volume_combined_se(self) -> float:
+        """Combined SE of the running-in volume [m^3]."""
+        return math.hypot(self.running_in_volume_se, self.running_in_volume_profile_se)
+
+    @property
+    def k_w_progressive_combined_se(self) -> float:
+        """Combined SE of k_w (progressive) [m^3/(N m)]."""
+        return math.hypot(self.k_w_progressive_se, self.k_w_progressive_profile_se)
+
+    @property
+    def k_w_running_in_combined_se(self) -> float:
+        """Combined SE of k_w (running-in) [m^3/(N m)]."""
+        return math.hypot(self.k_w_running_in_se, self.k_w_running_in_profile_se)
 
     def summary(self, cfg: NvctConfig, dwell_s: float | None = None) -> dict[str, object]:
         """JSON-ready summary in the CLI's units (um^3, um^3/min, um^3/(N m), nm)."""
         t2 = self.window_s[1]
         ef = self.exp_fit
+        A_c = cfg.contact_area
         out: dict[str, object] = {
             'total_volume_um3': self.total_volume / UM3,
             'total_volume_se_um3': self.total_volume_se / UM3,
+            'total_volume_profile_se_um3': self.total_volume_profile_se / UM3,
+            'total_volume_combined_se_um3': self.total_volume_combined_se / UM3,
+            'total_height_nm': self.total_volume / A_c * 1e9,
+            'total_height_se_nm': self.total_volume_se / A_c * 1e9,
+            'total_height_combined_se_nm': self.total_volume_combined_se / A_c * 1e9,
+            'total_tagged_volume_um3': self.total_volume / cfg.k_A / UM3,
+            'total_tagged_volume_se_um3': self.total_volume_se / cfg.k_A / UM3,
+            'total_tagged_volume_combined_se_um3': self.total_volume_combined_se / cfg.k_A / UM3,
             'progressive_rate_um3_per_min': self.progressive_rate * 60.0 / UM3,
             'progressive_rate_se_um3_per_min': self.progressive_rate_se * 60.0 / UM3,
+            'progressive_rate_profile_se_um3_per_min': self.progressive_rate_profile_se
+            * 60.0
+            / UM3,
+            'progressive_rate_combined_se_um3_per_min': self.progressive_rate_combined_se
+            * 60.0
+            / UM3,
             'progressive_volume_um3': self.progressive_volume / UM3,
             'progressive_volume_se_um3': self.progressive_volume_se / UM3,
+            'progressive_volume_profile_se_um3': self.progressive_volume_profile_se / UM3,
+            'progressive_volume_combined_se_um3': self.progressive_volume_combined_se / UM3,
             'running_in_volume_um3': self.running_in_volume / UM3,
             'running_in_volume_se_um3': self.running_in_volume_se / UM3,
+            'running_in_volume_profile_se_um3': self.running_in_volume_profile_se / UM3,
+            'running_in_volume_combined_se_um3': self.running_in_volume_combined_se / UM3,
             'k_w_progressive': self.k_w_progressive / UM3,
             'k_w_progressive_se': self.k_w_progressive_se / UM3,
+            'k_w_progressive_profile_se': self.k_w_progressive_profile_se / UM3,
+            'k_w_progressive_combined_se': self.k_w_progressive_combined_se / UM3,
             'k_w_running_in': self.k_w_running_in / UM3,
             'k_w_running_in_se': self.k_w_running_in_se / UM3,
+            'k_w_running_in_profile_se': self.k_w_running_in_profile_se / UM3,
+            'k_w_running_in_combined_se': self.k_w_running_in_combined_se / UM3,
             'k_w_unit': 'um^3/(N m)',
             'sliding_distance_m': self.sliding_distance,
             'sliding_distance_convention': self.sliding_convention,
@@ -253,7 +330,17 @@ class Evaluation:
                     ef.V_r * -math.expm1(-t2 / ef.tau) / UM3 if ef.ok else math.nan
                 ),
             },
-            'standard_errors': 'statistical (counting); profile and k_DET systematics separate',
+            'standard_errors': (
+                '*_se*: statistical (counting); *_profile_se*: depth profile (bootstrap over '
+                'the layer-removal noise) and k_DET; *_combined_se*: both in quadrature; '
+                'exponential_fit: counting only'
+            ),
+            'depth_profile': {
+                'model': self.profile_model,
+                'bootstrap_replicas': self.profile_replicas,
+                'aic': dict(cfg.profile.aic),
+                'chi2_red': cfg.profile.chi2_red,
+            },
             'flags': list(self.flags),
         }
         if dwell_s:
@@ -263,10 +350,14 @@ class Evaluation:
         return out
 
 
-def evaluate(points: Sequence[WearPoint], cfg: NvctConfig, fit_model: bool = True) -> Evaluation:
+def evaluate(
+    points: Sequence[WearPoint], cfg: NvctConfig, fit_model: bool = True, profile_se: bool = True
+) -> Evaluation:
     """Evaluate running-in and progressive wear from the wear points of a test.
 
     fit_model: also fit the exponential running-in model (skipped when False).
+    profile_se: propagate the depth profile's bootstrap and k_DET's uncertainty
+    (the profile's bootstrap runs once per configuration, on first use).
     """
     lag = cfg.circuit.lag if cfg.circuit is not None else 0.0
     use = [p for p in points if p.usable and math.isfinite(p.volume_se) and p.volume_se > 0]
@@ -303,6 +394,12 @@ def evaluate(points: Sequence[WearPoint], cfg: NvctConfig, fit_model: bool = Tru
     else:
         V180 = V180_se = rate = rate_se = Vp = Vp_se = Vr = Vr_se = nan
         n_win, chi2 = 0, nan
+    prof_se = (0.0, 0.0, 0.0, 0.0)
+    n_rep = 0
+    if line is not None and profile_se:
+        in_win = (t >= t1) & (t <= t2)
+        act = np.array([p.activity for p in use])[in_win]
+        prof_se, n_rep = _profile_spread(cfg, t[in_win], act, se[in_win], t2)
     guess = rate if line is not None else None
     ef = (
         fit_exponential(t, v, se, guess)
@@ -330,7 +427,50 @@ def evaluate(points: Sequence[WearPoint], cfg: NvctConfig, fit_model: bool = Tru
         exp_fit=ef,
         lag_s=lag,
         flags=tuple(flags),
+        total_volume_profile_se=prof_se[0],
+        progressive_rate_profile_se=prof_se[1],
+        progressive_volume_profile_se=prof_se[2],
+        running_in_volume_profile_se=prof_se[3],
+        k_w_progressive_profile_se=prof_se[2] / denom,
+        k_w_running_in_profile_se=prof_se[3] / denom,
+        profile_replicas=n_rep,
+        profile_model=cfg.profile.model,
     )
+
+
+def _profile_spread(
+    cfg: NvctConfig, t: FloatArray, activity: FloatArray, se: FloatArray, t2: float
+) -> tuple[tuple[float, float, float, float], int]:
+    """Profile + k_DET standard errors of (V_180, w, V_p, V_r) [m^3, m^3/s, m^3, m^3].
+
+    t [s], activity [Bq] and se [m^3] of the window points; see the module docstring.
+    Returns the SEs and the number of replicas used.
+    """
+    prof = cfg.profile
+    F = activity / cfg.tagged_area
+    reps = prof.replicas()
+    rel = cfg.k_det_rel_se
+    n_rep = reps.shape[0] if reps.shape[0] >= 2 else 200
+    kfac: FloatArray = 1.0 + rel * np.random.default_rng(BOOTSTRAP_SEED + 1).standard_normal(n_rep)
+    if reps.shape[0] >= 2:
+        H = prof.invert_replicas(kfac[:, None] * F[None, :])
+    elif rel > 0.0:
+        H = np.vstack([prof.invert(k * F) for k in kfac])
+    else:
+        return (0.0, 0.0, 0.0, 0.0), 0
+    V = H * cfg.contact_area
+    V = V[np.all(np.isfinite(V), axis=1)]
+    if V.shape[0] < 2:
+        return (math.nan, math.nan, math.nan, math.nan), int(V.shape[0])
+    w = 1.0 / se**2
+    t0 = float(np.average(t, weights=w))
+    x = t - t0
+    b = (V * (w * x)).sum(axis=1) / float((w * x * x).sum())
+    a0 = (V * w).sum(axis=1) / float(w.sum())
+    v180 = a0 + b * (t2 - t0)
+    vr = a0 - b * t0
+    sd = [float(np.std(q, ddof=1)) for q in (v180, b, b * t2, vr)]
+    return (sd[0], sd[1], sd[2], sd[3]), int(V.shape[0])
 
 
 def recent_rate(points: Sequence[WearPoint], window_s: float) -> tuple[float, float]:

@@ -100,9 +100,13 @@ class WearEvaluator:
         self._points.append(point)
         return point
 
-    def evaluation(self, fit_model: bool = True) -> Evaluation:
-        """Running-in/progressive evaluation of the points so far (model fit optional)."""
-        return evaluate(self._points, self.cfg, fit_model)
+    def evaluation(self, fit_model: bool = True, profile_se: bool = True) -> Evaluation:
+        """Running-in/progressive evaluation of the points so far (model fit optional).
+
+        profile_se: also the depth-profile/k_DET standard errors; the profile's
+        bootstrap is computed once per configuration (first call) and cached.
+        """
+        return evaluate(self._points, self.cfg, fit_model, profile_se)
 
     def current_rate(self) -> RateEstimate:
         """Wear rate over the last ``rate_window_s`` [m^3/s]."""
