@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_bringup.errors import BagError, BagTruncatedError
+from tribo_common import topics as topic_table
 
 if TYPE_CHECKING:
     from tribo_estimation.core.align import AlignEvent
@@ -32,15 +33,12 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 Progress = Callable[[str], None]
 
-#: Topics of the rig streams and their aligner channel names.
-RIG_CHANNELS: dict[str, str] = {
-    '/rig/torsion_moment': 'torsion_moment',
-    '/rig/angular_acceleration': 'angular_acceleration',
-    '/rig/speed': 'speed',
-}
+#: Topics of the rig streams (root-namespace names) and their aligner channel names,
+#: from the topic table.
+RIG_CHANNELS: dict[str, str] = {t.resolve(): t.channel for t in topic_table.RIG_STREAMS}
 
 #: Topic of the detector's dwells.
-COUNTS_TOPIC = '/nvct/counts'
+COUNTS_TOPIC = topic_table.NVCT_COUNTS.resolve()
 
 
 def _stamp_s(msg: Any) -> float:
@@ -52,8 +50,12 @@ def _quiet(_: str) -> None:
     """Progress sink that drops the lines."""
 
 
-def rig_bag_events(path: Path) -> Iterator[AlignEvent]:
-    """Aligner events from the ``/rig/*`` SampleBlock streams of a bag.
+def rig_bag_events(path: Path, namespace: str | None = None) -> Iterator[AlignEvent]:
+    """Aligner events from the ``rig/*`` SampleBlock streams of a bag.
+
+    ``namespace`` names the rig to read (e.g. ``/rigB``); ``None``: the root
+    namespace if it holds the streams, else the only rig of the bag
+    (:func:`tribo_bringup.bagio.find_namespace`).
 
     Raises:
         BagError: the bag holds none of the three rig streams (raised once the
@@ -64,7 +66,7 @@ def rig_bag_events(path: Path) -> Iterator[AlignEvent]:
 
     aligner = ChannelAligner()
     seen = 0
-    for m in iter_messages(path, topics=list(RIG_CHANNELS)):
+    for m in iter_messages(path, topics=list(RIG_CHANNELS), namespace=namespace):
         ch = RIG_CHANNELS.get(m.topic)
         if ch is None:
             continue
