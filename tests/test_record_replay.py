@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,71 @@ def test_tribo_run_records_the_graph_without_loss(tmp_path: Path, procs: list[Pr
     estimates = [m.msg for m in bagio.iter_messages(bag, ['/friction/estimate'])]
     assert estimates, run.output()
     assert all(0.05 < e.mu0 < 0.3 for e in estimates if e.quality == 'ok'), estimates
+
+
+def test_record_sqlite3_holds_the_data(tmp_path: Path, procs: list[Proc]) -> None:
+    """`tribo record --storage sqlite3` writes every message (the writer thread owns the
+    sqlite connection); the bag opens with rosbags' AnyReader."""
+    from rosbags.highlevel import AnyReader
+
+    src, out = tmp_path / 'src_bag', tmp_path / 'copy_sqlite'
+    _speed_bag(src)
+    rec = Proc(
+        tribo_cmd(
+            'record', '--out', str(out), '--topics', '/rig/speed', '--storage', 'sqlite3',
+            '--idle-stop', '3',
+        ),
+        tmp_path / 'rec.log',
+    )  # fmt: skip
+    procs.append(rec)
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '2', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
+    procs.append(rep)
+    assert rep.wait(120) == 0, rep.output()
+    assert rec.wait(120) == 0, rec.output()
+    assert list(out.glob('*.db3')), rec.output()
+    with AnyReader([out], default_typestore=bagio.typestore()) as reader:
+        got = [
+            reader.deserialize(raw, conn.msgtype)
+            for conn, _t, raw in reader.messages(connections=reader.connections)
+        ]
+    assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)], rec.output()
+
+
+_FSIZE_LIMITED = (
+    'import resource, runpy, sys; '
+    'resource.setrlimit(resource.RLIMIT_FSIZE, ({0}, {0})); '
+    "sys.argv = ['tribo', *sys.argv[1:]]; "
+    "runpy.run_module('tribo_bringup.cli', run_name='__main__')"
+)
+
+
+@pytest.mark.parametrize('storage', ['sqlite3', 'mcap'])
+def test_recording_error_ends_with_nonzero_exit(
+    tmp_path: Path, procs: list[Proc], storage: str
+) -> None:
+    """A storage failure while recording (here: the file size limit, as a full disk
+    would) ends `tribo record` with one clear line and exit 2; the messages written
+    before stay readable."""
+    src, out = tmp_path / 'src_bag', tmp_path / 'limited'
+    _speed_bag(src)
+    args = ['record', '--out', str(out), '--topics', '/rig/speed', '--storage', storage]
+    rec = Proc([sys.executable, '-c', _FSIZE_LIMITED.format(60_000), *args], tmp_path / 'rec.log')
+    procs.append(rec)
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '0.25', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
+    procs.append(rep)
+    assert rec.wait(120) == 2, rec.output()
+    assert 'tribo record: error: recording into' in rec.output(), rec.output()
+    assert 'Traceback' not in rec.output()
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        got = [m.msg for m in bagio.iter_messages(out, on_error='warn')]
+    assert got, rec.output()
+    assert [int(m.first_index) for m in got] == [k * 50 for k in range(len(got))]

@@ -143,14 +143,14 @@ class LiveBridgeNode(Node):
 
         self.forwarded = 0
         self._subs = [
-            self.create_subscription(tm.SampleBlock, t, self._on_block(t), data_qos())
+            self.create_subscription(tm.SampleBlock, t.lstrip('/'), self._on_block(t), data_qos())
             for t in bc.SAMPLE_TOPICS
         ]
         for topic, spec in bc.RECORD_TOPICS.items():
             self._subs.append(
                 self.create_subscription(
                     getattr(tm, spec.type_name),
-                    topic,
+                    topic.lstrip('/'),  # relative: the bridge serves the rig of its namespace
                     self._on_record(topic, spec.fields, spec.bands),
                     data_qos(),
                 )

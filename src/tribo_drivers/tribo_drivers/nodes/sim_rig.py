@@ -3,8 +3,9 @@
 Runs :func:`tribo_estimation.core.simulate.simulate` chunk by chunk (state
 carried between chunks, so the stream equals one long simulation) at the
 configured sample rate (10 kHz default) and publishes the three rig channels
-as SampleBlocks of ``block_size`` samples on ``/rig/torsion_moment`` [N m],
-``/rig/angular_acceleration`` [rad/s^2] and ``/rig/speed`` [rad/s].
+as SampleBlocks of ``block_size`` samples on ``rig/torsion_moment`` [N m],
+``rig/angular_acceleration`` [rad/s^2] and ``rig/speed`` [rad/s] (relative names
+from :mod:`tribo_common.topics`: a namespace moves them).
 
 Stamps: time of the first sample of the block, ``t_start + first_index/fs``
 (no scheduling jitter). If the process falls behind real time it catches up
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -43,11 +45,7 @@ from tribo_estimation.core.model import (
 from tribo_estimation.core.simulate import NoiseSpec, simulate
 
 #: (topic, channel, unit, SimResult field) of the published channels.
-CHANNELS = (
-    ('/rig/torsion_moment', 'torsion_moment', 'N m', 'torsion_moment'),
-    ('/rig/angular_acceleration', 'angular_acceleration', 'rad/s^2', 'angular_acceleration'),
-    ('/rig/speed', 'speed', 'rad/s', 'speed'),
-)
+CHANNELS = tuple((t.name, t.channel, t.unit, t.channel) for t in topics.RIG_STREAMS)
 
 #: Default sample rate [Hz] and samples per published block.
 RIG_SAMPLE_RATE = 10000.0
@@ -197,8 +195,9 @@ class SimRigNode(Node):
             try:
                 self.step()
             except Exception as exc:  # keep the failure visible, stop cleanly
-                self.get_logger().error(f'simulation stopped: {exc}')
-                return
+                if self.context.ok() and not self._stop.is_set():
+                    self.get_logger().error(f'simulation stopped: {exc}')
+                return  # else: Ctrl-C shut the context down while publishing
 
     def close(self) -> None:
         """Stop the simulation thread."""

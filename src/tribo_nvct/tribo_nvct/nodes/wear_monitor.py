@@ -1,4 +1,4 @@
-"""nVCT wear monitor node (executable ``wear_monitor``): /nvct/counts -> /nvct/wear.
+"""nVCT wear monitor node (executable ``wear_monitor``): nvct/counts -> nvct/wear.
 
 Thin rclpy shell over :class:`tribo_nvct.core.streaming.WearEvaluator`
 (paper section 3, Equ. 8-10). One tribo_msgs/WearState per dwell, SI units
@@ -32,6 +32,7 @@ from typing import Any
 
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -74,8 +75,10 @@ class WearMonitor(Node):
                 high=60.0,
             )
         )
-        counts_topic = declare(self, 'counts_topic', '/nvct/counts', 'DetectorCounts input topic')
-        wear_topic = declare(self, 'wear_topic', '/nvct/wear', 'WearState output topic')
+        counts_topic = declare(
+            self, 'counts_topic', topics.NVCT_COUNTS.name, 'DetectorCounts input topic'
+        )
+        wear_topic = declare(self, 'wear_topic', topics.NVCT_WEAR.name, 'WearState output topic')
         fresh = declare(self, 'fresh_start', False, 'back up any saved state and start anew')
         if not cfg_path:
             raise ParameterError("parameter 'nvct_config' (path of NVCT.yaml) is required")
