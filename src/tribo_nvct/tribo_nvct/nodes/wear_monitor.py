@@ -14,7 +14,8 @@ another configuration is kept as ``<state_file>.<time>.bak`` and a new state
 started.
 
 Parameters: ``nvct_config`` (NVCT.yaml path, required), ``state_file``
-(JSON path; empty = no persistence), ``rate_window_s`` (span of the current
+(JSON path, default ``$ROS_HOME/tribo_nvct/wear_state.json`` with ``ROS_HOME``
+defaulting to ``~/.ros``; empty = no persistence), ``rate_window_s`` (span of the current
 wear-rate regression [s]), ``save_interval_s`` (least wall time between two
 state writes [s]), ``counts_topic``, ``wear_topic``, ``fresh_start`` (ignore and
 back up an existing state). WearState is published with the latched result
@@ -37,6 +38,7 @@ from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_common.qos import data_qos, history_qos
+from tribo_common.rosenv import default_state_file
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
@@ -53,9 +55,13 @@ class WearMonitor(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('wear_monitor', **kwargs)
         cfg_path = declare(self, 'nvct_config', '', 'path of NVCT.yaml (nVCT configuration)')
-        default_state = str(Path('~/.ros/tribo_nvct/wear_state.json').expanduser())
+        default_state = str(default_state_file('tribo_nvct', 'wear_state.json'))
         self.state_file = declare(
-            self, 'state_file', default_state, 'evaluator state JSON (empty: not persisted)'
+            self,
+            'state_file',
+            default_state,
+            'evaluator state JSON (default $ROS_HOME/tribo_nvct/wear_state.json, ROS_HOME '
+            'defaulting to ~/.ros; empty: not persisted)',
         )
         self.rate_window = declare(
             self,
