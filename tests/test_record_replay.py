@@ -236,3 +236,24 @@ def test_recording_error_ends_with_nonzero_exit(
         got = [m.msg for m in bagio.iter_messages(out, on_error='warn')]
     assert got, rec.output()
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(len(got))]
+
+
+def test_sim_rig_waits_for_the_recorder(tmp_path: Path, procs: list[Proc]) -> None:
+    """With min_subscribers the rig holds its stream until the recorder has matched:
+    the bag starts at sample 0 (a launch with record:=true lost the first 0.6 s)."""
+    sim = _sim_rig(tmp_path, 'sim', '-p', 'min_subscribers:=1', '-p', 'wait_subscribers:=300.0')
+    procs.append(sim)
+    assert wait_for(lambda: 'simulated rig at' in sim.output(), 60), sim.output()
+    wait_for(lambda: False, 3.0)  # the kernel is loaded by now; the rig must still wait
+    assert 'streaming started' not in sim.output(), sim.output()
+    bag = tmp_path / 'from_start'
+    rec = Proc(
+        tribo_cmd('record', '--duration', '4', '--out', str(bag), '--topics', *bagio.RIG_TOPICS),
+        tmp_path / 'record.log',
+    )
+    procs.append(rec)
+    assert rec.wait(60) == 0, rec.output()
+    checks = {c.topic: c for c in bagio.check_streams(bag)}
+    assert set(checks) == set(bagio.RIG_TOPICS), rec.output() + sim.output()
+    for c in checks.values():
+        assert c.first_index == 0 and c.missing == 0 and c.samples >= 10_000, c

@@ -53,6 +53,9 @@ class RecordingError(BagError):
 
 _STOP = object()
 
+#: Wait after the subscriptions have matched, before the first message [s].
+SUBSCRIBER_SETTLE_S = 0.3
+
 
 def _in_namespace(topic: str, namespace: str) -> str:
     """A root-namespace name (``/rig/speed``) moved into ``namespace``; absolute table
@@ -228,11 +231,22 @@ class Replayer(Node):
             self._pubs[topic] = pub
         return pub
 
-    def wait_for_subscribers(self, topics: Iterable[str], timeout: float) -> bool:
-        """Wait until every listed topic's publisher has a subscriber (or timeout [s])."""
+    def wait_for_subscribers(
+        self, topics: Iterable[str], timeout: float, min_count: int = 1
+    ) -> bool:
+        """Wait until every listed topic's publisher has ``min_count`` subscribers (or
+        timeout [s]), then a settle time: the publisher sees a subscription before the
+        subscriber has matched the publisher, and a volatile subscriber drops the
+        messages of that interval (the first block of a replay into the estimator)."""
+        wanted = set(topics)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if all(p.get_subscription_count() > 0 for t, p in self._pubs.items() if t in topics):
+            if all(
+                p.get_subscription_count() >= min_count
+                for t, p in self._pubs.items()
+                if t in wanted
+            ):
+                time.sleep(SUBSCRIBER_SETTLE_S)
                 return True
             time.sleep(0.05)
         return False
@@ -240,6 +254,7 @@ class Replayer(Node):
     def play(
         self,
         wait_subscribers: float = 0.0,
+        min_subscribers: int = 1,
         progress: Callable[[int, float], None] | None = None,
         stop: threading.Event | None = None,
     ) -> int:
@@ -253,7 +268,7 @@ class Replayer(Node):
         for topic, msgtype in counts.items():
             self.publisher_for(topic, msgtype)
         if wait_subscribers > 0:
-            self.wait_for_subscribers(counts.keys(), wait_subscribers)
+            self.wait_for_subscribers(counts.keys(), wait_subscribers, min_subscribers)
         t_wall0 = time.monotonic()
         t_bag0: int | None = None
         last_report = t_wall0

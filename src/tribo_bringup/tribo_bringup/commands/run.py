@@ -122,6 +122,11 @@ def run(args: argparse.Namespace) -> int:
     # a simulated rig starts a new wear test unless asked to resume; real rigs resume
     simulated = 'sim_detector' in nodes
     overrides['wear_monitor']['fresh_start'] = simulated and not args.resume
+    if args.record and 'sim_rig' in nodes:
+        # the simulated rig waits for the recorder (and the estimator, the bridge) to
+        # match, so that the bag holds the stream from its first sample
+        subscribers = 1 + sum(n in nodes for n in ('friction_estimator', 'live_bridge'))
+        overrides.setdefault('sim_rig', {})['min_subscribers'] = subscribers
     if args.daq:
         overrides['daq_driver'] = {'port': args.daq}
     if args.can:
