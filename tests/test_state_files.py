@@ -70,3 +70,32 @@ def test_simulated_run_starts_fresh_unless_resumed(tmp_path: Path) -> None:
     assert _restored(_run(state, '--resume')) > 0  # the saved test goes on
     assert _restored(_run(state)) == 0  # a new test; the old one kept as a backup
     assert list(tmp_path.glob('wear_state.json.*.bak'))
+
+
+def test_tribo_run_starts_the_daq_driver(tmp_path: Path) -> None:
+    """`tribo run --no-sim --daq PORT` runs the lifecycle DAQ driver in the graph (a
+    machine without ros2 launch runs a real rig); here on the DAQ emulator's pty."""
+    import os
+
+    from tribo_bringup import bagio
+    from tribo_drivers.core.emulators import DaqEmulator
+
+    emu = DaqEmulator(10_000.0)
+    emu.start()
+    bag = tmp_path / 'daq'
+    try:
+        r = subprocess.run(
+            tribo_cmd(
+                'run', '--no-sim', '--daq', emu.path, '--duration', '4', '--record', str(bag),
+                '--wear-state', str(tmp_path / 'w.json'),
+            ),
+            capture_output=True, text=True, timeout=120, cwd=ROOT,
+            env={**os.environ, 'TRIBO_ROOT': str(ROOT)},
+        )  # fmt: skip
+    finally:
+        emu.close()
+    assert r.returncode == 0, r.stderr
+    assert 'daq_driver' in r.stderr
+    checks = {c.topic: c for c in bagio.check_streams(bag)}
+    for topic in bagio.RIG_TOPICS:
+        assert checks[topic].samples >= 10_000, (checks, r.stderr)  # >= 1 s of 10 kHz
