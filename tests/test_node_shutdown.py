@@ -107,3 +107,25 @@ def test_driver_refuses_a_parameter_of_the_wrong_type(module: str, param: str) -
     name = param.split(':=')[0]
     assert 'Traceback' not in r.stderr and f"'{name}'" in r.stderr, r.stderr
     assert r.stderr.strip().count('\n') == 0, r.stderr
+
+
+def test_tribo_run_ends_cleanly_on_double_sigint(tmp_path: Path, procs: list[Proc]) -> None:
+    """The one-process graph: a second Ctrl-C during the shutdown neither cuts it short
+    (exit 0, the summary printed) nor loses the wear state."""
+    from conftest import tribo_cmd
+
+    state = tmp_path / 'wear_state.json'
+    run = Proc(
+        tribo_cmd(
+            'run', '--nodes', 'sim_detector', 'wear_monitor', '--wear-state', str(state),
+            '--record', str(tmp_path / 'bag'),
+        ),
+        tmp_path / 'run.log',
+    )  # fmt: skip
+    procs.append(run)
+    assert wait_for(state.is_file, 60), run.output()
+    time.sleep(1.0)
+    assert _sigint_twice(run, 60) == 0, run.output()
+    _assert_clean(run.output())
+    assert 'run: recorded' in run.output()
+    assert json.loads(state.read_text())['dwells']

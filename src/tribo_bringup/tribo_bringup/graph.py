@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from tribo_bringup.errors import ConfigError
+from tribo_bringup.errors import BringupError, ConfigError
 from tribo_common.node_main import spin_background
 from tribo_common.topics import normalize_namespace
 
@@ -142,20 +142,43 @@ class Graph:
                     last = now
                 time.sleep(0.05)
         except KeyboardInterrupt:
-            pass
+            _ignore_sigint()  # the graph is ending: a second Ctrl-C must not cut the shutdown
         finally:
             stop.set()
             spinner.join(timeout=5.0)
             executor.shutdown(timeout_sec=2.0)
+        if spinner.error is not None:  # a callback failed: the graph stopped there
+            raise BringupError(f'the graph stopped: {spinner.error!r}') from spinner.error
 
     def close(self) -> None:
-        """Stop and destroy the nodes and shut rclpy down."""
+        """Stop and destroy the nodes and shut rclpy down.
+
+        A further Ctrl-C during the shutdown is ignored (it would cut short the
+        recorder's last write or the wear monitor's state file).
+        """
+        import signal
+
         import rclpy
 
-        for node in [*self._instances, *self.extra_nodes]:
-            close = getattr(node, 'close', None)
-            if callable(close):
-                close()
-            node.destroy_node()
-        self._instances.clear()
-        rclpy.try_shutdown()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            for node in [*self._instances, *self.extra_nodes]:
+                close = getattr(node, 'close', None)
+                if callable(close):
+                    close()
+                node.destroy_node()
+            self._instances.clear()
+            rclpy.try_shutdown()
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+
+
+def _ignore_sigint() -> None:
+    """Ignore further SIGINTs in this process (main thread only)."""
+    import signal
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
