@@ -16,7 +16,7 @@ from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from tribo_common.topics import TOPICS, normalize_namespace
+from tribo_common.topics import DIAGNOSTICS, TOPICS, normalize_namespace
 
 TRUE = ('true', '1', 'yes', 'on')
 
@@ -64,7 +64,7 @@ def _graph(context: LaunchContext) -> list:
         ),
     ]  # fmt: skip
     if record:
-        topics = [t.resolve(ns) for t in TOPICS if t.resolve(ns) != '/diagnostics']
+        topics = [t.resolve(ns) for t in TOPICS if t is not DIAGNOSTICS]
         out = ['-o', arg('bag')] if arg('bag') else []
         actions.append(ExecuteProcess(cmd=['ros2', 'bag', 'record', '-s', 'mcap', *out, *topics]))
     return actions

@@ -71,14 +71,15 @@ def offered_qos(topic: str) -> list[Qos]:
 
     What a publisher of the topic offers in the graph (:mod:`tribo_common.qos`):
     reliable KEEP_ALL volatile streams, reliable TRANSIENT_LOCAL results with a
-    history of :data:`HISTORY_DEPTH`, KEEP_LAST 10 status. Unknown topics: the stream QoS.
+    history of :data:`tribo_common.topics.HISTORY_DEPTH`, KEEP_LAST 10
+    status. Unknown topics: the stream QoS.
     """
     entry = topic_table.by_full_name(topic)
     kind = entry.qos if entry is not None else topic_table.QosKind.DATA
     if kind is topic_table.QosKind.HISTORY:
         history, depth, durability = (
             QosHistory.KEEP_LAST,
-            HISTORY_DEPTH,
+            topic_table.HISTORY_DEPTH,
             QosDurability.TRANSIENT_LOCAL,
         )
     elif kind is topic_table.QosKind.STATUS:
@@ -99,9 +100,6 @@ def offered_qos(topic: str) -> list[Qos]:
         )
     ]
 
-
-#: Depth of the latched result history (same as :data:`tribo_common.qos.HISTORY_DEPTH`).
-HISTORY_DEPTH = 20_000
 
 OnError = Literal['raise', 'warn']
 

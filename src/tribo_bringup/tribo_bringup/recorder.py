@@ -153,9 +153,6 @@ class Recorder(Node):
             self._queue.put(_STOP)
             self._thread.join()
 
-    def flush(self) -> None:
-        """Ask the writer thread to flush soon (it flushes every ``flush_period`` anyway)."""
-
     # --- subscriptions ------------------------------------------------------------------
     def _announce_matches(self) -> None:
         """Log once per topic when its first publisher is matched (``recording <topic>``)."""

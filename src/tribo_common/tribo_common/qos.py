@@ -40,9 +40,8 @@ def status_qos() -> QoSProfile:
     )
 
 
-#: Depth of the result history kept by :func:`history_qos` publishers: 20000
-#: 1 s friction estimates (5.5 h) or 1 min wear states (two weeks).
-HISTORY_DEPTH = 20_000
+#: Depth of the result history kept by :func:`history_qos` publishers (topic table).
+HISTORY_DEPTH = topics.HISTORY_DEPTH
 
 #: Low-rate result topics published with :func:`history_qos` (root namespace names).
 RESULT_TOPICS = frozenset(t.resolve() for t in topics.TOPICS if t.qos is topics.QosKind.HISTORY)

@@ -62,6 +62,10 @@ class Topic:
 
 SAMPLE_BLOCK = 'tribo_msgs/msg/SampleBlock'
 
+#: Depth of the latched result history (:attr:`QosKind.HISTORY`): 20000 1 s friction
+#: estimates (5.5 h) or 1 min wear states (two weeks).
+HISTORY_DEPTH = 20_000
+
 TORSION_MOMENT = Topic(
     'rig/torsion_moment', SAMPLE_BLOCK, QosKind.DATA, 100.0, 'N m',
     'torsion moment C1*phi1 of the chamber (Equ. 1-4), SampleBlocks at 10 kHz',

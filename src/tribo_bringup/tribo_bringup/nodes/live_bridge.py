@@ -38,6 +38,7 @@ import foxglove
 from rclpy.node import Node
 
 from tribo_bringup import bridge_core as bc
+from tribo_common import topics
 from tribo_common.msgconv import block_from_msg
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -164,8 +165,8 @@ class LiveBridgeNode(Node):
 
     def _on_block(self, topic: str) -> Callable[[Any], None]:
         channel, down = self._samples[topic]
-        is_torsion = topic == '/rig/torsion_moment'
-        is_speed = topic == '/rig/speed'
+        is_torsion = topic == topics.TORSION_MOMENT.resolve()
+        is_speed = topic == topics.SPEED.resolve()
 
         def on_block(msg: Any) -> None:
             wanted_stick = (is_torsion or is_speed) and self._stick_ch.has_sinks()
