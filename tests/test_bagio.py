@@ -126,3 +126,88 @@ def test_flushed_messages_survive_a_crash_of_the_writer(tmp_path: Path, storage:
     assert got == [k * 100 for k in range(200)]
     w.close()
     assert len(list(bagio.iter_messages(bag))) == 300
+
+
+def _cdr(msgtype: str) -> bytes:
+    """CDR bytes of a default message (rclpy serialisation, no DDS)."""
+    pytest.importorskip('tribo_msgs', reason='needs the built workspace')
+    from rclpy.serialization import serialize_message
+
+    from tribo_bringup.recorder import msg_class
+
+    return bytes(serialize_message(msg_class(msgtype)()))
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_metadata_qos_distro_and_no_empty_topics(tmp_path: Path, storage: str) -> None:
+    """What `ros2 bag info/play` read: the offered QoS per topic (latched results as
+    TRANSIENT_LOCAL), the distro, and only topics that hold messages."""
+    import sqlite3
+
+    import yaml
+    from rosbags.interfaces import QosDurability, QosHistory
+    from rosbags.rosbag2 import Reader
+
+    bag = tmp_path / 'b'
+    with bagio.BagWriter(bag, storage=storage) as w:
+        for topic in ('/rig/speed', '/friction/estimate', '/nvct/wear', '/rigB/nvct/wear'):
+            assert w.add_topic(
+                topic,
+                bagio.TOPIC_TYPES['/' + topic.split('/', 2)[-1]]
+                if topic.startswith('/rigB')
+                else bagio.TOPIC_TYPES[topic],
+            )
+        w.write('/friction/estimate', 1_000_000_000, _cdr('tribo_msgs/msg/FrictionEstimate'))
+        w.write('/rigB/nvct/wear', 1_000_000_000, _cdr('tribo_msgs/msg/WearState'))
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['ros_distro'] == 'jazzy'
+    names = [t['topic_metadata']['name'] for t in meta['topics_with_message_count']]
+    assert sorted(names) == ['/friction/estimate', '/rigB/nvct/wear']  # no 0-message entries
+    with Reader(bag) as reader:
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+    for topic in names:
+        (q,) = qos[topic]
+        assert q.durability == QosDurability.TRANSIENT_LOCAL, topic
+        assert q.history == QosHistory.KEEP_LAST and q.depth == 20_000, topic
+    if storage == 'sqlite3':
+        (db,) = bag.glob('*.db3')
+        con = sqlite3.connect(db)
+        try:
+            assert con.execute('SELECT ros_distro FROM schema').fetchone() == ('jazzy',)
+        finally:
+            con.close()
+
+
+def test_stream_topics_offer_keep_all_volatile() -> None:
+    from rosbags.interfaces import QosDurability, QosHistory, QosReliability
+
+    for topic in ('/rig/torsion_moment', '/rigA/rig/speed', '/friction/moment'):
+        (q,) = bagio.offered_qos(topic)
+        assert q.history == QosHistory.KEEP_ALL and q.durability == QosDurability.VOLATILE
+        assert q.reliability == QosReliability.RELIABLE
+
+
+def test_namespace_discovery_and_selection(tmp_path: Path) -> None:
+    """Rigs recorded in namespaces: listed, read one by one under the root names; the
+    only rig of a bag found by itself; several rigs without a choice refused."""
+    store = bagio.typestore()
+    SB = store.types['tribo_msgs/msg/SampleBlock']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    two, one = tmp_path / 'two', tmp_path / 'one'
+    for bag, spaces in ((two, ('/rigA', '/rigB')), (one, ('/rigB',))):
+        with bagio.BagWriter(bag) as w:
+            for k, ns in enumerate(spaces):
+                w.add_topic(f'{ns}/rig/speed', 'tribo_msgs/msg/SampleBlock')
+                m = SB(
+                    header=Header(stamp=Time(sec=1, nanosec=0), frame_id='speed'),
+                    sample_rate=1e4, first_index=0, unit='rad/s', data=np.full(10, float(k)),
+                )  # fmt: skip
+                w.write_msg(f'{ns}/rig/speed', 1_000_000_000, m)
+    assert bagio.rig_namespaces(two) == ['/rigA', '/rigB']
+    got = list(bagio.iter_messages(two, ['/rig/speed'], namespace='rigB'))
+    assert [(m.topic, float(m.msg.data[0])) for m in got] == [('/rig/speed', 1.0)]
+    got = list(bagio.iter_messages(one, ['/rig/speed']))
+    assert [(m.topic, float(m.msg.data[0])) for m in got] == [('/rig/speed', 0.0)]
+    with pytest.raises(BagError, match='rigA, /rigB'):
+        list(bagio.iter_messages(two, ['/rig/speed']))

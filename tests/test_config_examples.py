@@ -15,7 +15,7 @@ CONFIG = Path(__file__).resolve().parents[1] / 'config'
 
 def test_sim_rig_params_file_matches_rig_yaml() -> None:
     rig = yaml.safe_load((CONFIG / 'rig.yaml').read_text())
-    params = yaml.safe_load((CONFIG / 'sim_rig.yaml').read_text())['sim_rig']['ros__parameters']
+    params = yaml.safe_load((CONFIG / 'sim_rig.yaml').read_text())['/**/sim_rig']['ros__parameters']
     for key in (*REQUIRED_KEYS, *[k for k in OPTIONAL_KEYS if k != 'effects']):
         assert params[key] == pytest.approx(rig[key], rel=0, abs=0), key
 

@@ -110,3 +110,40 @@ def test_config_and_launch_files_installed_into_share() -> None:
     installed = sorted(p.name for p in (share / 'config').iterdir())
     assert installed == wanted
     assert (share / 'config' / 'rig.yaml').read_text() == (ROOT / 'config' / 'rig.yaml').read_text()
+
+
+def _exec_depends(pkg: str) -> set[str]:
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(ROOT / 'src' / pkg / 'package.xml').getroot()
+    return {e.text or '' for e in root.iter() if e.tag in ('exec_depend', 'depend')}
+
+
+def test_bringup_manifest_names_the_launch_and_bag_tools() -> None:
+    deps = _exec_depends('tribo_bringup')
+    for dep in ('launch', 'launch_ros', 'ament_index_python', 'ros2launch', 'ros2bag'):
+        assert dep in deps, dep
+
+
+def test_third_party_packages_are_declared() -> None:
+    """Each third-party Python package is an exec_depend (rosdep key) of the package that
+    imports it, or, without a rosdep key, named in its manifest's pip comment."""
+    wanted = {
+        'tribo_estimation': {'python3-numba'},
+        'tribo_bringup': {'python3-numba', 'rosbags', 'foxglove-sdk'},
+        'tribo_drivers': {'python3-serial', 'python3-can', 'cantools'},
+    }
+    for pkg, names in wanted.items():
+        text = (ROOT / 'src' / pkg / 'package.xml').read_text()
+        deps = _exec_depends(pkg)
+        for name in names:
+            assert name in deps or (f' {name} (' in text and 'pip' in text), (pkg, name)
+    readme = (ROOT / 'README.md').read_text()
+    for name in ('rosbags', 'foxglove-sdk', 'cantools'):
+        assert name in readme, name
+
+
+@pytest.mark.parametrize('pkg', PACKAGES[1:])
+def test_setup_installs_only_files_of_the_package(pkg: str) -> None:
+    text = (ROOT / 'src' / pkg / 'setup.py').read_text()
+    assert '../' not in text, f'{pkg}/setup.py installs files from outside the package'

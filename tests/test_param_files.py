@@ -38,7 +38,8 @@ def _param_files() -> list[tuple[Path, str, dict[str, Any]]]:
             continue
         for node, body in data.items():
             if isinstance(body, dict) and 'ros__parameters' in body:
-                out.append((path, node, body['ros__parameters']))
+                # '/**/name' applies in any namespace (a rig moved with __ns)
+                out.append((path, node.removeprefix('/**/'), body['ros__parameters']))
     return out
 
 

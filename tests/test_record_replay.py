@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,92 @@ def test_tribo_run_records_the_graph_without_loss(tmp_path: Path, procs: list[Pr
     estimates = [m.msg for m in bagio.iter_messages(bag, ['/friction/estimate'])]
     assert estimates, run.output()
     assert all(0.05 < e.mu0 < 0.3 for e in estimates if e.quality == 'ok'), estimates
+
+
+def test_record_sqlite3_holds_the_data(tmp_path: Path, procs: list[Proc]) -> None:
+    """`tribo record --storage sqlite3` writes every message (the writer thread owns the
+    sqlite connection); the bag opens with rosbags' AnyReader."""
+    from rosbags.highlevel import AnyReader
+
+    src, out = tmp_path / 'src_bag', tmp_path / 'copy_sqlite'
+    _speed_bag(src)
+    rec = Proc(
+        tribo_cmd(
+            'record', '--out', str(out), '--topics', '/rig/speed', '--storage', 'sqlite3',
+            '--idle-stop', '3',
+        ),
+        tmp_path / 'rec.log',
+    )  # fmt: skip
+    procs.append(rec)
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '2', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
+    procs.append(rep)
+    assert rep.wait(120) == 0, rep.output()
+    assert rec.wait(120) == 0, rec.output()
+    assert list(out.glob('*.db3')), rec.output()
+    with AnyReader([out], default_typestore=bagio.typestore()) as reader:
+        got = [
+            reader.deserialize(raw, conn.msgtype)
+            for conn, _t, raw in reader.messages(connections=reader.connections)
+        ]
+    assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)], rec.output()
+
+
+_FSIZE_LIMITED = (
+    'import resource, runpy, sys; '
+    'resource.setrlimit(resource.RLIMIT_FSIZE, ({0}, {0})); '
+    "sys.argv = ['tribo', *sys.argv[1:]]; "
+    "runpy.run_module('tribo_bringup.cli', run_name='__main__')"
+)
+
+
+@pytest.mark.parametrize('storage', ['sqlite3', 'mcap'])
+def test_recording_error_ends_with_nonzero_exit(
+    tmp_path: Path, procs: list[Proc], storage: str
+) -> None:
+    """A storage failure while recording (here: the file size limit, as a full disk
+    would) ends `tribo record` with one clear line and exit 2; the messages written
+    before stay readable."""
+    src, out = tmp_path / 'src_bag', tmp_path / 'limited'
+    _speed_bag(src)
+    args = ['record', '--out', str(out), '--topics', '/rig/speed', '--storage', storage]
+    rec = Proc([sys.executable, '-c', _FSIZE_LIMITED.format(60_000), *args], tmp_path / 'rec.log')
+    procs.append(rec)
+    rep = Proc(
+        tribo_cmd('replay', str(src), '--rate', '0.25', '--wait-subscribers', '60'),
+        tmp_path / 'replay.log',
+    )
+    procs.append(rep)
+    assert rec.wait(120) == 2, rec.output()
+    assert 'tribo record: error: recording into' in rec.output(), rec.output()
+    assert 'Traceback' not in rec.output()
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        got = [m.msg for m in bagio.iter_messages(out, on_error='warn')]
+    assert got, rec.output()
+    assert [int(m.first_index) for m in got] == [k * 50 for k in range(len(got))]
+
+
+def test_sim_rig_waits_for_the_recorder(tmp_path: Path, procs: list[Proc]) -> None:
+    """With min_subscribers the rig holds its stream until the recorder has matched:
+    the bag starts at sample 0 (a launch with record:=true lost the first 0.6 s)."""
+    sim = _sim_rig(tmp_path, 'sim', '-p', 'min_subscribers:=1', '-p', 'wait_subscribers:=300.0')
+    procs.append(sim)
+    assert wait_for(lambda: 'simulated rig at' in sim.output(), 60), sim.output()
+    wait_for(lambda: False, 3.0)  # the kernel is loaded by now; the rig must still wait
+    assert 'streaming started' not in sim.output(), sim.output()
+    bag = tmp_path / 'from_start'
+    rec = Proc(
+        tribo_cmd('record', '--duration', '4', '--out', str(bag), '--topics', *bagio.RIG_TOPICS),
+        tmp_path / 'record.log',
+    )
+    procs.append(rec)
+    assert rec.wait(60) == 0, rec.output()
+    checks = {c.topic: c for c in bagio.check_streams(bag)}
+    assert set(checks) == set(bagio.RIG_TOPICS), rec.output() + sim.output()
+    for c in checks.values():
+        assert c.first_index == 0 and c.missing == 0 and c.samples >= 10_000, c

@@ -14,8 +14,9 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/launch', glob('launch/*.py')),
-        # the workspace's config/ examples, so that launch files find them on any install
-        ('share/' + PACKAGE + '/config', sorted(glob('../../config/*'))),
+        # the configuration examples (config/ of this package; the workspace's config/
+        # is a symlink to it), so that the launch files find them on any install
+        ('share/' + PACKAGE + '/config', sorted(glob('config/*'))),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -1,20 +1,67 @@
 """Launch the tribo graph on the real rig.
 
-Full ROS 2 installs: `ros2 launch tribo_bringup hardware.launch.py`.
+Full ROS 2 installs: `ros2 launch tribo_bringup hardware.launch.py` (`--show-args`
+lists the arguments).
 
 Serial DAQ (torsion, acceleration, speed), CAN sensor modules (normal force,
 oil temperature), radiation counter, friction estimator and wear monitor.
 The drivers are lifecycle nodes started with ``autostart: true`` from their
-parameter files.
+parameter files. A real wear test resumes its saved state (``resume:=false``
+starts a new one).
 """
 
 import os
 
 from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch import LaunchContext, LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
+
+from tribo_common.topics import normalize_namespace
+
+TRUE = ('true', '1', 'yes', 'on')
+
+
+def _graph(context: LaunchContext) -> list:
+    def arg(name: str) -> str:
+        return LaunchConfiguration(name).perform(context)
+
+    config = arg('config_dir')
+    ns = normalize_namespace(arg('namespace'))
+
+    def params(name: str) -> str:
+        return os.path.join(config, name)
+
+    wear = {
+        'nvct_config': params('nvct.yaml'),
+        'fresh_start': arg('resume').strip().lower() not in TRUE,
+    }
+    if arg('state_file'):
+        wear['state_file'] = arg('state_file')
+    drivers = [
+        LifecycleNode(
+            package='tribo_drivers', executable=name, name=name, namespace=ns,
+            parameters=[file],
+        )
+        for name, file in (
+            ('daq_driver', params('daq_driver.yaml')),
+            ('can_driver', params('can_driver.yaml')),
+            ('counter_driver', params('counter_driver.yaml')),
+        )
+    ]  # fmt: skip
+    return [
+        *drivers,
+        Node(
+            package='tribo_estimation', executable='friction_estimator',
+            name='friction_estimator', namespace=ns,
+            parameters=[params('friction_estimator.yaml')],
+        ),
+        Node(
+            package='tribo_nvct', executable='wear_monitor', name='wear_monitor', namespace=ns,
+            parameters=[params('wear_monitor.yaml'), wear],
+        ),
+    ]  # fmt: skip
 
 
 def generate_launch_description() -> LaunchDescription:
@@ -22,49 +69,27 @@ def generate_launch_description() -> LaunchDescription:
     default_config = os.environ.get(
         'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
     )
-    config_dir = LaunchConfiguration('config_dir')
-
-    def params(name: str) -> PathJoinSubstitution:
-        return PathJoinSubstitution([config_dir, name])
-
     return LaunchDescription(
         [
-            DeclareLaunchArgument('config_dir', default_value=default_config),
-            LifecycleNode(
-                package='tribo_drivers',
-                executable='daq_driver',
-                name='daq_driver',
-                namespace='',
-                parameters=[params('daq_driver.yaml')],
+            DeclareLaunchArgument(
+                'config_dir', default_value=default_config,
+                description='directory of the YAML parameter files (default: '
+                '$TRIBO_CONFIG_DIR, else the config/ installed with tribo_bringup)',
             ),
-            LifecycleNode(
-                package='tribo_drivers',
-                executable='can_driver',
-                name='can_driver',
-                namespace='',
-                parameters=[params('can_driver.yaml')],
+            DeclareLaunchArgument(
+                'namespace', default_value='',
+                description='namespace of the rig (topics /NS/rig/...); empty: the root',
             ),
-            LifecycleNode(
-                package='tribo_drivers',
-                executable='counter_driver',
-                name='counter_driver',
-                namespace='',
-                parameters=[params('counter_driver.yaml')],
+            DeclareLaunchArgument(
+                'state_file', default_value='',
+                description='wear monitor state file (empty: '
+                '$ROS_HOME/tribo_nvct/wear_state.json, ROS_HOME defaulting to ~/.ros)',
             ),
-            Node(
-                package='tribo_estimation',
-                executable='friction_estimator',
-                name='friction_estimator',
-                parameters=[params('friction_estimator.yaml')],
+            DeclareLaunchArgument(
+                'resume', default_value='true', choices=['true', 'false'],
+                description='resume the saved wear test; false: start a new test and keep '
+                'the old state as a .bak file',
             ),
-            Node(
-                package='tribo_nvct',
-                executable='wear_monitor',
-                name='wear_monitor',
-                parameters=[
-                    params('wear_monitor.yaml'),
-                    {'nvct_config': params('nvct.yaml')},
-                ],
-            ),
+            OpaqueFunction(function=_graph),
         ]
-    )
+    )  # fmt: skip

@@ -1,77 +1,107 @@
 """Launch the tribo graph on the simulated rig.
 
-Full ROS 2 installs: `ros2 launch tribo_bringup sim.launch.py`.
+Full ROS 2 installs: `ros2 launch tribo_bringup sim.launch.py` (`--show-args` lists
+the arguments). Equivalent of `tribo run --sim`.
 
-Equivalent of `tribo run --sim`. Arguments: ``config_dir`` (directory with the
-YAML parameter files, default: ``$TRIBO_CONFIG_DIR``, else the config/ copy
-installed into this package's share directory), ``record`` (true/false:
-record all topics with rosbag2).
+Arguments: ``config_dir``, ``namespace`` (moves the whole rig: topics
+``/NS/rig/...``), ``record`` (+ ``bag``), ``state_file`` and ``resume`` (a
+simulated launch starts a fresh wear test unless ``resume:=true``).
 """
 
 import os
 
 from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess
-from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch import LaunchContext, LaunchDescription
+from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-TOPICS = [
-    '/rig/torsion_moment',
-    '/rig/angular_acceleration',
-    '/rig/speed',
-    '/nvct/counts',
-    '/friction/moment',
-    '/friction/estimate',
-    '/nvct/wear',
-]
+from tribo_common.topics import DIAGNOSTICS, TOPICS, normalize_namespace
+
+TRUE = ('true', '1', 'yes', 'on')
+
+
+def _config_default() -> str:
+    return os.environ.get(
+        'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
+    )
+
+
+def _graph(context: LaunchContext) -> list:
+    def arg(name: str) -> str:
+        return LaunchConfiguration(name).perform(context)
+
+    config = arg('config_dir')
+    ns = normalize_namespace(arg('namespace'))
+    record = arg('record').strip().lower() in TRUE
+    resume = arg('resume').strip().lower() in TRUE
+
+    def params(name: str) -> str:
+        return os.path.join(config, name)
+
+    wear = {'nvct_config': params('nvct.yaml'), 'fresh_start': not resume}
+    if arg('state_file'):
+        wear['state_file'] = arg('state_file')
+    # recording: the rig waits for the estimator and the recorder to match (no lost start)
+    rig = {'min_subscribers': 2 if record else 0}
+    actions = [
+        Node(
+            package='tribo_drivers', executable='sim_rig', name='sim_rig', namespace=ns,
+            parameters=[params('sim_rig.yaml'), rig],
+        ),
+        Node(
+            package='tribo_drivers', executable='sim_detector', name='sim_detector',
+            namespace=ns, parameters=[{'sim_config': params('sim_detector.yaml')}],
+        ),
+        Node(
+            package='tribo_estimation', executable='friction_estimator',
+            name='friction_estimator', namespace=ns,
+            parameters=[params('friction_estimator.yaml')],
+        ),
+        Node(
+            package='tribo_nvct', executable='wear_monitor', name='wear_monitor', namespace=ns,
+            parameters=[params('wear_monitor.yaml'), wear],
+        ),
+    ]  # fmt: skip
+    if record:
+        topics = [t.resolve(ns) for t in TOPICS if t is not DIAGNOSTICS]
+        out = ['-o', arg('bag')] if arg('bag') else []
+        actions.append(ExecuteProcess(cmd=['ros2', 'bag', 'record', '-s', 'mcap', *out, *topics]))
+    return actions
 
 
 def generate_launch_description() -> LaunchDescription:
     """Simulated rig + detector, friction estimator, wear monitor (+ optional rosbag2 record)."""
-    default_config = os.environ.get(
-        'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
-    )
-    config_dir = LaunchConfiguration('config_dir')
-
-    def params(name: str) -> PathJoinSubstitution:
-        return PathJoinSubstitution([config_dir, name])
-
     return LaunchDescription(
         [
-            DeclareLaunchArgument('config_dir', default_value=default_config),
-            DeclareLaunchArgument('record', default_value='false'),
-            Node(
-                package='tribo_drivers',
-                executable='sim_rig',
-                name='sim_rig',
-                parameters=[params('sim_rig.yaml')],
+            DeclareLaunchArgument(
+                'config_dir', default_value=_config_default(),
+                description='directory of the YAML parameter files (default: '
+                '$TRIBO_CONFIG_DIR, else the config/ installed with tribo_bringup)',
             ),
-            Node(
-                package='tribo_drivers',
-                executable='sim_detector',
-                name='sim_detector',
-                parameters=[{'sim_config': params('sim_detector.yaml')}],
+            DeclareLaunchArgument(
+                'namespace', default_value='',
+                description='namespace of the rig (topics /NS/rig/...); empty: the root',
             ),
-            Node(
-                package='tribo_estimation',
-                executable='friction_estimator',
-                name='friction_estimator',
-                parameters=[params('friction_estimator.yaml')],
+            DeclareLaunchArgument(
+                'record', default_value='false', choices=['true', 'false'],
+                description='record the graph topics with ros2 bag record (MCAP); the rig '
+                'waits for the recorder before streaming',
             ),
-            Node(
-                package='tribo_nvct',
-                executable='wear_monitor',
-                name='wear_monitor',
-                parameters=[
-                    params('wear_monitor.yaml'),
-                    {'nvct_config': params('nvct.yaml')},
-                ],
+            DeclareLaunchArgument(
+                'bag', default_value='',
+                description='output directory of the recording (empty: rosbag2 default name)',
             ),
-            ExecuteProcess(
-                cmd=['ros2', 'bag', 'record', '-s', 'mcap', *TOPICS],
-                condition=IfCondition(LaunchConfiguration('record')),
+            DeclareLaunchArgument(
+                'state_file', default_value='',
+                description='wear monitor state file (empty: '
+                '$ROS_HOME/tribo_nvct/wear_state.json, ROS_HOME defaulting to ~/.ros)',
             ),
+            DeclareLaunchArgument(
+                'resume', default_value='false', choices=['true', 'false'],
+                description='resume the saved wear test; false: start a fresh test and keep '
+                'the old state as a .bak file',
+            ),
+            OpaqueFunction(function=_graph),
         ]
-    )
+    )  # fmt: skip

@@ -14,6 +14,16 @@ Robustness:
   :class:`~tribo_bringup.errors.BagTruncatedError` names the file and the last
   good message (or, with ``on_error='warn'``, a warning is issued instead).
 - Connections of unknown message types are skipped with a warning.
+
+Namespaces: the graph's topic names are relative (:mod:`tribo_common.topics`), so a
+rig started in namespace ``/rigB`` is recorded as ``/rigB/rig/torsion_moment``.
+:func:`rig_namespaces` lists the rigs of a bag; :func:`iter_messages` with
+``namespace`` reads one rig under the root-namespace names (``/rig/...``), and
+without it finds the only rig of a bag by itself.
+
+Writing: a topic enters the bag with its first message (no empty topic entries),
+with the QoS its publishers offer in the graph (``offered_qos_profiles``, so that
+``ros2 bag play`` recreates the latched result topics) and ``ros_distro: jazzy``.
 """
 
 from __future__ import annotations
@@ -26,31 +36,70 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal
 
+from rosbags.interfaces import (
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from tribo_bringup.errors import BagError, BagTruncatedError
+from tribo_common import topics as topic_table
 
 #: Message types of this project, by rosbags name.
 TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState')
 
-#: The graph's topics and their types.
-TOPIC_TYPES: dict[str, str] = {
-    '/rig/torsion_moment': 'tribo_msgs/msg/SampleBlock',
-    '/rig/angular_acceleration': 'tribo_msgs/msg/SampleBlock',
-    '/rig/speed': 'tribo_msgs/msg/SampleBlock',
-    '/rig/normal_force': 'tribo_msgs/msg/SampleBlock',
-    '/rig/oil_temperature': 'tribo_msgs/msg/SampleBlock',
-    '/friction/moment': 'tribo_msgs/msg/SampleBlock',
-    '/friction/estimate': 'tribo_msgs/msg/FrictionEstimate',
-    '/nvct/counts': 'tribo_msgs/msg/DetectorCounts',
-    '/nvct/wear': 'tribo_msgs/msg/WearState',
-    '/diagnostics': 'diagnostic_msgs/msg/DiagnosticArray',
-}
+#: The graph's topics (root-namespace names) and their types, from the topic table.
+TOPIC_TYPES: dict[str, str] = {t.resolve(): t.msgtype for t in topic_table.TOPICS}
 
-#: The rig's raw sample streams.
-RIG_TOPICS = ('/rig/torsion_moment', '/rig/angular_acceleration', '/rig/speed')
+#: The rig's raw sample streams (root-namespace names).
+RIG_TOPICS = tuple(t.resolve() for t in topic_table.RIG_STREAMS)
+
+#: ``ros_distro`` written into the bags (the one the workspace targets).
+ROS_DISTRO = 'jazzy'
+
+_INFINITE = QosTime(sec=9223372036, nsec=854775807)
+
+
+def offered_qos(topic: str) -> list[Qos]:
+    """The ``offered_qos_profiles`` of a topic (fully qualified, any namespace) in a bag.
+
+    What a publisher of the topic offers in the graph (:mod:`tribo_common.qos`):
+    reliable KEEP_ALL volatile streams, reliable TRANSIENT_LOCAL results with a
+    history of :data:`tribo_common.topics.HISTORY_DEPTH`, KEEP_LAST 10
+    status. Unknown topics: the stream QoS.
+    """
+    entry = topic_table.by_full_name(topic)
+    kind = entry.qos if entry is not None else topic_table.QosKind.DATA
+    if kind is topic_table.QosKind.HISTORY:
+        history, depth, durability = (
+            QosHistory.KEEP_LAST,
+            topic_table.HISTORY_DEPTH,
+            QosDurability.TRANSIENT_LOCAL,
+        )
+    elif kind is topic_table.QosKind.STATUS:
+        history, depth, durability = QosHistory.KEEP_LAST, 10, QosDurability.VOLATILE
+    else:
+        history, depth, durability = QosHistory.KEEP_ALL, 0, QosDurability.VOLATILE
+    return [
+        Qos(
+            history=history,
+            depth=depth,
+            reliability=QosReliability.RELIABLE,
+            durability=durability,
+            deadline=_INFINITE,
+            lifespan=_INFINITE,
+            liveliness=QosLiveliness.AUTOMATIC,
+            liveliness_lease_duration=_INFINITE,
+            avoid_ros_namespace_conventions=False,
+        )
+    ]
+
 
 OnError = Literal['raise', 'warn']
 
@@ -115,6 +164,7 @@ def iter_messages(
     *,
     on_error: OnError = 'raise',
     deserialize: bool = True,
+    namespace: str | None = None,
 ) -> Iterator[BagMessage]:
     """Yield the messages of a bag in time order.
 
@@ -123,10 +173,30 @@ def iter_messages(
         topics: restrict to these topics (default: all known ones).
         on_error: ``'raise'`` a BagTruncatedError after the last good message
             of a truncated/corrupt bag, or ``'warn'`` and stop there.
+        namespace: read the rig of this namespace (e.g. ``/rigB``): ``topics``
+            are root-namespace names (``/rig/speed``) looked up in it, and the
+            messages are yielded under the root-namespace names. ``None`` with
+            ``topics`` given: when none of them is in the bag but they are in
+            exactly one namespace, that one (:func:`find_namespace`).
     """
     bag = Path(path)
     if not bag.exists():
         raise BagError(f'{bag}: no such bag')
+    if topics is not None:
+        topics = list(topics)
+        if namespace is None:
+            namespace = find_namespace(bag, topics)
+    ns = topic_table.normalize_namespace(namespace)
+    if ns:
+        if topics is None:
+            raise BagError('reading a namespace needs the list of topics to read')
+        inner = iter_messages(
+            bag, [ns + t for t in topics], on_error=on_error, deserialize=deserialize,
+            namespace='',
+        )  # fmt: skip
+        for m in inner:
+            yield BagMessage(m.topic[len(ns) :], m.msgtype, m.timestamp_ns, m.msg, m.index)
+        return
     wanted = set(topics) if topics is not None else None
     store = typestore()
     last: BagMessage | None = None
@@ -157,6 +227,63 @@ def iter_messages(
             warnings.warn(text, stacklevel=2)
             return
         raise BagTruncatedError(text) from None
+
+
+def bag_topics(path: str | Path) -> dict[str, str]:
+    """Topic name -> message type of every topic in a bag (metadata, else a raw scan)."""
+    bag = Path(path)
+    if bag.is_dir() and (bag / 'metadata.yaml').is_file():
+        try:
+            with Reader(bag) as reader:
+                return {c.topic: c.msgtype for c in reader.connections}
+        except Exception:  # damaged storage: fall back to the scan below
+            pass
+    found: dict[str, str] = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore')
+        for m in iter_messages(bag, on_error='warn', deserialize=False, namespace=''):
+            found.setdefault(m.topic, m.msgtype)
+    return found
+
+
+def rig_namespaces(path: str | Path, topics: Iterable[str] = RIG_TOPICS) -> list[str]:
+    """Namespaces holding any of ``topics`` (root-namespace names) in a bag, sorted.
+
+    ``''`` is the root namespace; ``'/rigB'`` a rig started in namespace ``rigB``.
+    """
+    wanted = {t.lstrip('/') for t in topics}
+    found = set()
+    for name in bag_topics(path):
+        for rel in wanted:
+            if name == '/' + rel:
+                found.add('')
+            elif name.endswith('/' + rel):
+                found.add(name[: -len(rel) - 1])
+    return sorted(found)
+
+
+def find_namespace(path: str | Path, topics: Iterable[str]) -> str:
+    """The namespace to read ``topics`` from: the root if any is there, else the only one.
+
+    Raises:
+        BagError: the topics are in several namespaces and none at the root.
+    """
+    names = list(topics)
+    bag = Path(path)
+    if not bag.exists():
+        raise BagError(f'{bag}: no such bag')
+    try:
+        spaces = rig_namespaces(bag, names)
+    except BagError:
+        return ''
+    if not spaces or '' in spaces:
+        return ''
+    if len(spaces) == 1:
+        return spaces[0]
+    raise BagError(
+        f'{bag}: holds {", ".join(names)} of several rigs (namespaces {", ".join(spaces)}); '
+        'choose one with --namespace'
+    )
 
 
 class _CorruptError(Exception):
@@ -367,7 +494,9 @@ class BagWriter:
 
     Use as a context manager; ``write`` takes already-serialised CDR bytes
     (as an rclpy raw subscription delivers them), so recording costs no
-    deserialisation.
+    deserialisation. A topic is registered with :meth:`add_topic` but enters
+    the bag only with its first message. Not thread-safe: open, write and
+    close from one thread (sqlite3 connections refuse any other thread).
     """
 
     def __init__(self, path: str | Path, *, storage: str = 'mcap') -> None:
@@ -376,39 +505,80 @@ class BagWriter:
             raise BagError(f'{self.path}: already exists (choose a new --out)')
         if storage not in ('mcap', 'sqlite3'):
             raise BagError(f'unknown bag storage {storage!r} (mcap or sqlite3)')
+        self.storage = storage
         plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
-        self._writer = Writer(self.path, version=9, storage_plugin=plugin)
+        self._writer: Writer | None = Writer(self.path, version=9, storage_plugin=plugin)
+        self._types: dict[str, str] = {}
         self._conns: dict[str, Any] = {}
+        self._opened = False
+        #: messages written per topic (topics without a message are not listed)
         self.counts: dict[str, int] = {}
 
-    def __enter__(self) -> BagWriter:
-        self._writer.open()
+    @property
+    def is_open(self) -> bool:
+        """True between :meth:`open` and :meth:`close`."""
+        return self._opened and self._writer is not None
+
+    def open(self) -> BagWriter:
+        """Create the bag directory and its storage file."""
+        if self._writer is None:
+            raise BagError(f'{self.path}: bag already closed')
+        if not self._opened:
+            try:
+                self._writer.open()
+            except Exception as exc:  # rosbags raises several types
+                raise BagError(f'{self.path}: cannot create bag: {exc}') from exc
+            self._opened = True
         return self
+
+    def __enter__(self) -> BagWriter:
+        return self.open()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
     def add_topic(self, topic: str, msgtype: str) -> bool:
-        """Add a topic; returns False (with a warning) for an unknown type."""
-        if topic in self._conns:
+        """Register a topic (written with its first message); False (with a warning)
+        for an unknown type."""
+        if topic in self._types:
             return True
-        store = typestore()
-        if msgtype not in store.types:
+        if msgtype not in typestore().types:
             warnings.warn(f'not recording {topic}: unknown message type {msgtype}', stacklevel=2)
             return False
-        self._conns[topic] = self._writer.add_connection(topic, msgtype, typestore=store)
-        self.counts[topic] = 0
+        self._types[topic] = msgtype
         return True
+
+    def _connection(self, topic: str) -> Any:
+        conn = self._conns.get(topic)
+        if conn is None:
+            if self._writer is None or not self._opened:
+                raise BagError(f'{self.path}: bag is not open')
+            msgtype = self._types.get(topic)
+            if msgtype is None:
+                raise BagError(f'{self.path}: topic {topic} was not added')
+            conn = self._writer.add_connection(
+                topic, msgtype, typestore=typestore(), offered_qos_profiles=offered_qos(topic)
+            )
+            self._conns[topic] = conn
+            self.counts[topic] = 0
+        return conn
 
     def write(self, topic: str, timestamp_ns: int, raw: bytes) -> None:
         """Write one serialised message received at ``timestamp_ns`` [ns]."""
-        self._writer.write(self._conns[topic], int(timestamp_ns), raw)
+        self._writer_or_raise().write(self._connection(topic), int(timestamp_ns), raw)
         self.counts[topic] += 1
 
     def write_msg(self, topic: str, timestamp_ns: int, msg: Any) -> None:
         """Serialise a rosbags message object and write it."""
-        conn = self._conns[topic]
-        self.write(topic, timestamp_ns, bytes(typestore().serialize_cdr(msg, conn.msgtype)))
+        msgtype = self._types.get(topic)
+        if msgtype is None:
+            raise BagError(f'{self.path}: topic {topic} was not added')
+        self.write(topic, timestamp_ns, bytes(typestore().serialize_cdr(msg, msgtype)))
+
+    def _writer_or_raise(self) -> Writer:
+        if self._writer is None or not self._opened:
+            raise BagError(f'{self.path}: bag is not open')
+        return self._writer
 
     def flush(self) -> None:
         """Put everything written so far into the bag file, readable after a crash.
@@ -431,9 +601,29 @@ class BagWriter:
             conn.commit()
 
     def close(self) -> None:
-        """Finish the bag (writes metadata.yaml)."""
-        if self._writer is not None:
-            self._writer.close()
+        """Finish the bag (writes metadata.yaml with ``ros_distro: jazzy``); idempotent."""
+        writer, self._writer = self._writer, None
+        if writer is None or not self._opened:
+            return
+        storage = writer.storage
+        if storage is not None:
+            cursor = getattr(storage, 'cursor', None)
+            if cursor is not None:  # sqlite3: the schema table names the distro
+                cursor.execute('UPDATE schema SET ros_distro = ?', (ROS_DISTRO,))
+            close_storage = storage.close
+
+            def close_with_distro(version: int, metadata: str) -> None:
+                close_storage(version, _with_distro(metadata))
+
+            storage.close = close_with_distro  # type: ignore[method-assign]
+        writer.close()
+        meta = self.path / 'metadata.yaml'
+        if meta.is_file():
+            meta.write_text(_with_distro(meta.read_text(encoding='utf-8')), encoding='utf-8')
+
+
+def _with_distro(metadata: str) -> str:
+    return metadata.replace('ros_distro: rosbags', f'ros_distro: {ROS_DISTRO}')
 
 
 # --- checks -----------------------------------------------------------------

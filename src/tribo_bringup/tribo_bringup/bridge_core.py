@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_bringup.errors import ConfigError
+from tribo_common import topics
 
 NS_PER_S = 1_000_000_000
 
@@ -420,15 +421,10 @@ def record_message(
     return out
 
 
-#: SampleBlock topics served down-sampled (schema :data:`SAMPLES_SCHEMA`).
-SAMPLE_TOPICS = (
-    '/rig/torsion_moment',
-    '/rig/angular_acceleration',
-    '/rig/speed',
-    '/rig/normal_force',
-    '/rig/oil_temperature',
-    '/friction/moment',
-)
+#: SampleBlock topics served down-sampled (schema :data:`SAMPLES_SCHEMA`), as Foxglove
+#: channel names: the root-namespace names of :data:`tribo_common.topics.SAMPLE_STREAMS`
+#: (a bridge in a namespace serves its rig's topics under these channel names).
+SAMPLE_TOPICS = tuple(t.resolve() for t in topics.SAMPLE_STREAMS)
 #: Derived channel of stick flags (schema :data:`STICK_SCHEMA`).
 STICK_TOPIC = '/live/stick'
 
@@ -444,11 +440,11 @@ class RecordTopic:
 
 
 RECORD_TOPICS: dict[str, RecordTopic] = {
-    '/friction/estimate': RecordTopic(
+    topics.FRICTION_ESTIMATE.resolve(): RecordTopic(
         'FrictionEstimate', FRICTION_FIELDS, FRICTION_BANDS, FRICTION_SCHEMA
     ),
-    '/nvct/wear': RecordTopic('WearState', WEAR_FIELDS, WEAR_BANDS, WEAR_SCHEMA),
-    '/nvct/counts': RecordTopic('DetectorCounts', COUNTS_FIELDS, {}, COUNTS_SCHEMA),
+    topics.NVCT_WEAR.resolve(): RecordTopic('WearState', WEAR_FIELDS, WEAR_BANDS, WEAR_SCHEMA),
+    topics.NVCT_COUNTS.resolve(): RecordTopic('DetectorCounts', COUNTS_FIELDS, {}, COUNTS_SCHEMA),
 }
 
 

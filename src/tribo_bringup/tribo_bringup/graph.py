@@ -16,8 +16,9 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from tribo_bringup.errors import ConfigError
+from tribo_bringup.errors import BringupError, ConfigError
 from tribo_common.node_main import spin_background
+from tribo_common.topics import normalize_namespace
 
 #: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
 NODES: dict[str, tuple[str, str]] = {
@@ -26,6 +27,9 @@ NODES: dict[str, tuple[str, str]] = {
     'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
     'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
     'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
+    'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
+    'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),
+    'counter_driver': ('tribo_drivers.nodes.counter_driver', 'CounterDriver'),
 }
 
 
@@ -66,11 +70,14 @@ class Graph:
         nodes: node names (keys of :data:`NODES`).
         params_files: ROS 2 parameter files applied to every node (by node name).
         overrides: per-node parameter overrides (name -> value).
+        namespace: namespace of every node (``''``: the root; ``rigB``: topics
+            ``/rigB/rig/...``), as ``--ros-args -r __ns:=/rigB`` would set it.
     """
 
     nodes: Sequence[str]
     params_files: Sequence[str | Path] = ()
     overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
+    namespace: str = ''
     extra_nodes: list[Any] = field(default_factory=list)
     _instances: list[Any] = field(default_factory=list, init=False)
 
@@ -95,7 +102,10 @@ class Graph:
         module, cls_name = NODES[name]
         cls = getattr(importlib.import_module(module), cls_name)
         values = {**self.overrides.get(name, {}), **(overrides or {})}
-        node = cls(parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+        node = cls(
+            parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+            namespace=normalize_namespace(self.namespace) or '/',
+        )
         self._instances.append(node)
         return node
 
@@ -132,20 +142,43 @@ class Graph:
                     last = now
                 time.sleep(0.05)
         except KeyboardInterrupt:
-            pass
+            _ignore_sigint()  # the graph is ending: a second Ctrl-C must not cut the shutdown
         finally:
             stop.set()
             spinner.join(timeout=5.0)
             executor.shutdown(timeout_sec=2.0)
+        if spinner.error is not None:  # a callback failed: the graph stopped there
+            raise BringupError(f'the graph stopped: {spinner.error!r}') from spinner.error
 
     def close(self) -> None:
-        """Stop and destroy the nodes and shut rclpy down."""
+        """Stop and destroy the nodes and shut rclpy down.
+
+        A further Ctrl-C during the shutdown is ignored (it would cut short the
+        recorder's last write or the wear monitor's state file).
+        """
+        import signal
+
         import rclpy
 
-        for node in [*self._instances, *self.extra_nodes]:
-            close = getattr(node, 'close', None)
-            if callable(close):
-                close()
-            node.destroy_node()
-        self._instances.clear()
-        rclpy.try_shutdown()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            for node in [*self._instances, *self.extra_nodes]:
+                close = getattr(node, 'close', None)
+                if callable(close):
+                    close()
+                node.destroy_node()
+            self._instances.clear()
+            rclpy.try_shutdown()
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+
+
+def _ignore_sigint() -> None:
+    """Ignore further SIGINTs in this process (main thread only)."""
+    import signal
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)

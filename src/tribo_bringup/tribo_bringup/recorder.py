@@ -1,9 +1,12 @@
 """Recording and replaying the graph's topics (rclpy side of ``tribo record``/``replay``).
 
 Recording subscribes in raw mode (CDR bytes, no deserialisation) with the
-lossless data QoS and writes through :class:`tribo_bringup.bagio.BagWriter`,
-flushed every second so that a crash of the recorder loses at most the last
-second.
+lossless data QoS. The subscription callbacks only queue the messages; one
+writer thread owns the :class:`tribo_bringup.bagio.BagWriter` (opens it, writes,
+flushes every second so that a crash loses at most the last second, and
+closes it: a sqlite3 connection may only be used by the thread that made it).
+A failure of the writer is kept in :attr:`Recorder.error` and ends the
+recording; what was written before stays readable.
 Replay publishes the recorded CDR bytes with their recorded timing, scaled by
 ``rate``.
 """
@@ -11,6 +14,7 @@ Replay publishes the recorded CDR bytes with their recorded timing, scaled by
 from __future__ import annotations
 
 import importlib
+import queue
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -21,6 +25,7 @@ from rclpy.node import Node
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError
+from tribo_common import topics as topic_table
 from tribo_common.qos import data_qos, qos_for_topic, status_qos
 
 
@@ -36,19 +41,45 @@ def msg_class(msgtype: str) -> Any:
 def _record_qos(topic: str) -> Any:
     # Volatile for every data and result topic: compatible with any reliable
     # publisher (a TRANSIENT_LOCAL subscription would not match a volatile one).
-    return status_qos() if topic == '/diagnostics' else data_qos()
+    entry = topic_table.by_full_name(topic)
+    if entry is not None and entry.qos is topic_table.QosKind.STATUS:
+        return status_qos()
+    return data_qos()
+
+
+class RecordingError(BagError):
+    """Writing the bag failed while recording (disk full, storage error, ...)."""
+
+
+_STOP = object()
+
+#: Wait after the subscriptions have matched, before the first message [s].
+SUBSCRIBER_SETTLE_S = 0.3
+
+
+def _in_namespace(topic: str, namespace: str) -> str:
+    """A root-namespace name (``/rig/speed``) moved into ``namespace``; absolute table
+    names (``/diagnostics``) stay."""
+    entry = topic_table.by_full_name(topic)
+    if entry is not None and entry.name.startswith('/'):
+        return topic
+    return topic_table.resolve(topic.lstrip('/'), namespace)
 
 
 class Recorder(Node):
-    """Subscribe to topics (raw CDR) and write them into a bag.
+    """Subscribe to topics (raw CDR) and write them into a bag from one writer thread.
 
     Args:
-        writer: an open BagWriter.
-        topics: topics to record with their types (default: the graph's topics).
+        writer: a BagWriter, not yet opened (the writer thread opens it; an MCAP
+            writer opened by the caller is accepted too).
+        topics: topics to record with their types, root-namespace names (default:
+            the graph's topics, :data:`tribo_bringup.bagio.TOPIC_TYPES`).
         discover: also record any other topic of a known type that appears.
         flush_period: wall time between two flushes of the bag [s]: a crash of
             the recorder loses at most the messages of the last period (0: the
             storage's own chunking only, up to 1 MiB for MCAP).
+        namespaces: record the topics of the rigs in these namespaces (``''`` or
+            ``'/'``: the root namespace; default: the root namespace only).
     """
 
     def __init__(
@@ -58,28 +89,71 @@ class Recorder(Node):
         *,
         discover: bool = False,
         flush_period: float = 1.0,
+        namespaces: Iterable[str] | None = None,
     ) -> None:
         super().__init__('tribo_recorder')
         if not flush_period >= 0.0:
             raise ValueError(f'flush period must be >= 0 s, got {flush_period!r}')
         self._writer = writer
-        self._lock = threading.Lock()
+        self._flush_period = flush_period
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._subs: dict[str, Any] = {}
         self.received = 0
+        #: the writer's failure, if any (recording stopped there)
+        self.error: BaseException | None = None
+        self.failed = threading.Event()
         self._matched: set[str] = set()
-        for topic, msgtype in (topics or bagio.TOPIC_TYPES).items():
-            self._subscribe(topic, msgtype)
+        spaces = [topic_table.normalize_namespace(n) for n in (namespaces or [''])]
+        for ns in dict.fromkeys(spaces):
+            for topic, msgtype in (topics or bagio.TOPIC_TYPES).items():
+                self._subscribe(_in_namespace(topic, ns), msgtype)
+        self._thread = threading.Thread(target=self._write_loop, name='bag-writer', daemon=True)
+        self._thread.start()
         if discover:
             self.create_timer(1.0, self._discover)
         self.create_timer(0.2, self._announce_matches)
-        if flush_period > 0.0:
-            self.create_timer(flush_period, self.flush)
 
-    def flush(self) -> None:
-        """Make everything received so far readable from the bag file (crash safety)."""
-        with self._lock:
-            self._writer.flush()
+    # --- writer thread ------------------------------------------------------------------
+    def _write_loop(self) -> None:
+        writer = self._writer
+        try:
+            if not writer.is_open:
+                writer.open()
+            next_flush = time.monotonic() + self._flush_period
+            while True:
+                timeout = max(0.0, next_flush - time.monotonic()) if self._flush_period else 0.5
+                try:
+                    item = self._queue.get(timeout=timeout)
+                except queue.Empty:
+                    item = None
+                if item is _STOP:
+                    break
+                if item is not None:
+                    topic, stamp, raw = item
+                    writer.write(topic, stamp, raw)
+                if self._flush_period and time.monotonic() >= next_flush:
+                    writer.flush()
+                    next_flush = time.monotonic() + self._flush_period
+        except BaseException as exc:
+            self._fail(exc)
+        try:
+            writer.close()
+        except BaseException as exc:
+            self._fail(exc)
 
+    def _fail(self, exc: BaseException) -> None:
+        if self.error is None:
+            self.error = exc
+            self.get_logger().error(f'recording stopped: cannot write {self._writer.path}: {exc}')
+        self.failed.set()
+
+    def close(self) -> None:
+        """Write what is queued, finish the bag (metadata) and stop the writer thread."""
+        if self._thread.is_alive():
+            self._queue.put(_STOP)
+            self._thread.join()
+
+    # --- subscriptions ------------------------------------------------------------------
     def _announce_matches(self) -> None:
         """Log once per topic when its first publisher is matched (``recording <topic>``)."""
         for topic, sub in self._subs.items():
@@ -113,10 +187,10 @@ class Recorder(Node):
 
     def _callback(self, topic: str) -> Callable[[bytes], None]:
         def on_message(raw: bytes) -> None:
-            stamp = self.get_clock().now().nanoseconds
-            with self._lock:
-                self._writer.write(topic, stamp, raw)
-                self.received += 1
+            if self.failed.is_set():
+                return
+            self._queue.put((topic, self.get_clock().now().nanoseconds, raw))
+            self.received += 1
 
         return on_message
 
@@ -154,11 +228,22 @@ class Replayer(Node):
             self._pubs[topic] = pub
         return pub
 
-    def wait_for_subscribers(self, topics: Iterable[str], timeout: float) -> bool:
-        """Wait until every listed topic's publisher has a subscriber (or timeout [s])."""
+    def wait_for_subscribers(
+        self, topics: Iterable[str], timeout: float, min_count: int = 1
+    ) -> bool:
+        """Wait until every listed topic's publisher has ``min_count`` subscribers (or
+        timeout [s]), then a settle time: the publisher sees a subscription before the
+        subscriber has matched the publisher, and a volatile subscriber drops the
+        messages of that interval (the first block of a replay into the estimator)."""
+        wanted = set(topics)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if all(p.get_subscription_count() > 0 for t, p in self._pubs.items() if t in topics):
+            if all(
+                p.get_subscription_count() >= min_count
+                for t, p in self._pubs.items()
+                if t in wanted
+            ):
+                time.sleep(SUBSCRIBER_SETTLE_S)
                 return True
             time.sleep(0.05)
         return False
@@ -166,6 +251,7 @@ class Replayer(Node):
     def play(
         self,
         wait_subscribers: float = 0.0,
+        min_subscribers: int = 1,
         progress: Callable[[int, float], None] | None = None,
         stop: threading.Event | None = None,
     ) -> int:
@@ -179,7 +265,7 @@ class Replayer(Node):
         for topic, msgtype in counts.items():
             self.publisher_for(topic, msgtype)
         if wait_subscribers > 0:
-            self.wait_for_subscribers(counts.keys(), wait_subscribers)
+            self.wait_for_subscribers(counts.keys(), wait_subscribers, min_subscribers)
         t_wall0 = time.monotonic()
         t_bag0: int | None = None
         last_report = t_wall0

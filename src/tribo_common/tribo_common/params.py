@@ -9,10 +9,11 @@ checks exclusive bounds (e.g. an inertia must be > 0) and raises
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import InvalidParameterValueException
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 
 
@@ -66,6 +67,13 @@ def declare(
         raise ParameterError(
             f'parameter {name!r} ({description}): value out of range [{low}, {high}]: {exc}'
         ) from exc
+    except InvalidParameterTypeException as exc:
+        found = re.search(r"to '(.*)' of type '(\w+)'", str(exc))
+        given = f'{found.group(1)!r} ({found.group(2).lower()})' if found else str(exc)
+        raise ParameterError(
+            f'parameter {name!r} ({description}) must be of type {type(default).__name__}, '
+            f'got {given}'
+        ) from None
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if not math.isfinite(float(value)):
             raise ParameterError(f'parameter {name!r} ({description}) must be finite, got {value}')

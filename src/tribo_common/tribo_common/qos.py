@@ -13,6 +13,8 @@ from rclpy.qos import (
     ReliabilityPolicy,
 )
 
+from tribo_common import topics
+
 
 def data_qos() -> QoSProfile:
     """QoS for data streams (SampleBlock, DetectorCounts, estimates, wear): lossless.
@@ -38,12 +40,11 @@ def status_qos() -> QoSProfile:
     )
 
 
-#: Depth of the result history kept by :func:`history_qos` publishers: 20000
-#: 1 s friction estimates (5.5 h) or 1 min wear states (two weeks).
-HISTORY_DEPTH = 20_000
+#: Depth of the result history kept by :func:`history_qos` publishers (topic table).
+HISTORY_DEPTH = topics.HISTORY_DEPTH
 
-#: Low-rate result topics published with :func:`history_qos`.
-RESULT_TOPICS = frozenset({'/friction/estimate', '/nvct/wear'})
+#: Low-rate result topics published with :func:`history_qos` (root namespace names).
+RESULT_TOPICS = frozenset(t.resolve() for t in topics.TOPICS if t.qos is topics.QosKind.HISTORY)
 
 
 def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:
@@ -65,10 +66,19 @@ def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:
     )
 
 
-def qos_for_topic(topic: str) -> QoSProfile:
-    """The QoS a publisher of ``topic`` offers in the graph (used by ``tribo replay``)."""
-    if topic == '/diagnostics':
+def profile(kind: topics.QosKind) -> QoSProfile:
+    """The QoS profile of a :class:`tribo_common.topics.QosKind`."""
+    if kind is topics.QosKind.STATUS:
         return status_qos()
-    if topic in RESULT_TOPICS:
+    if kind is topics.QosKind.HISTORY:
         return history_qos()
     return data_qos()
+
+
+def qos_for_topic(topic: str) -> QoSProfile:
+    """The QoS a publisher of ``topic`` (fully qualified, any namespace) offers in the graph.
+
+    Topics not in :data:`tribo_common.topics.TOPICS` get the lossless data QoS.
+    """
+    entry = topics.by_full_name(topic)
+    return profile(entry.qos) if entry is not None else data_qos()

@@ -55,6 +55,9 @@ def register(sub: Any) -> None:
     )
     p.add_argument('--no-plots', action='store_true', help='write blocks.csv only')
     p.add_argument('--quiet', action='store_true', help='no progress on stderr')
+    p.add_argument(
+        '--namespace', metavar='NS', help='rig namespace in the bag (default: its only rig)'
+    )
     p.set_defaults(func=run)
 
 
@@ -105,12 +108,13 @@ def csv_events(path: Path) -> Iterator[Any]:
             next_index = int(idx[b - 1]) + 1
 
 
-def bag_events(path: Path) -> Iterator[Any]:
-    """Aligner events from the ``/rig/*`` SampleBlock streams of a bag
+def bag_events(path: Path, namespace: str | None = None) -> Iterator[Any]:
+    """Aligner events from the ``rig/*`` SampleBlock streams of a bag, of the rig in
+    ``namespace`` (default: the only rig of the bag)
     (:func:`tribo_bringup.sessions.rig_bag_events`)."""
     from tribo_bringup.sessions import rig_bag_events
 
-    return rig_bag_events(path)
+    return rig_bag_events(path, namespace)
 
 
 class _Collector:
@@ -179,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
-    events = bag_events(src) if _is_bag(src) else csv_events(src)
+    events = bag_events(src, args.namespace) if _is_bag(src) else csv_events(src)
     fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
     coll = _Collector(fnr if fnr > 0 else 1.0)
     results = []

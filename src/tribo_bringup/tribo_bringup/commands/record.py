@@ -31,12 +31,19 @@ def register(sub: Any) -> None:
     )
     p.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap', help='bag storage')
     p.add_argument('--topics', nargs='+', help='topics to record (default: all graph topics)')
+    p.add_argument(
+        '--namespace',
+        action='append',
+        metavar='NS',
+        help='record the rig in namespace NS (repeat for several rigs; default: the root '
+        'namespace); the topics are recorded under their full names, /NS/rig/...',
+    )
     p.add_argument('--discover', action='store_true', help='also record other topics that appear')
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Record until the duration is over or Ctrl-C."""
+    """Record until the duration is over, Ctrl-C, or a recording error (exit 2)."""
     if args.duration < 0:
         raise ValueError(f'--duration must be >= 0, got {args.duration}')
     if args.idle_stop < 0:
@@ -45,59 +52,68 @@ def run(args: argparse.Namespace) -> int:
     from rclpy.executors import SingleThreadedExecutor
 
     from tribo_bringup import bagio
-    from tribo_bringup.recorder import Recorder
+    from tribo_bringup.recorder import Recorder, RecordingError
     from tribo_common.node_main import spin_background
 
     topics = None
     if args.topics:
-        unknown = [t for t in args.topics if t not in bagio.TOPIC_TYPES]
+        names = ['/' + t.lstrip('/') for t in args.topics]
+        unknown = [t for t in names if t not in bagio.TOPIC_TYPES]
         if unknown:
             raise ValueError(
                 f'unknown topic(s) {", ".join(unknown)}; known: {", ".join(bagio.TOPIC_TYPES)}'
             )
-        topics = {t: bagio.TOPIC_TYPES[t] for t in args.topics}
-    rclpy.init()
+        topics = {t: bagio.TOPIC_TYPES[t] for t in names}
+    # not opened here: the recorder's writer thread opens, writes and closes the bag
     writer = bagio.BagWriter(args.out, storage=args.storage)
+    rclpy.init()
+    node: Recorder | None = None
+    failure: BaseException | None = None
     try:
-        with writer:
-            node = Recorder(writer, topics, discover=args.discover)
-            executor = SingleThreadedExecutor()
-            executor.add_node(node)
-            spinner, stop = spin_background(executor)
-            t0 = time.monotonic()
-            last = t0
-            seen, last_msg = 0, t0
-            try:
-                while not stop.is_set():
-                    now = time.monotonic()
-                    if args.duration and now - t0 >= args.duration:
-                        break
-                    if node.received != seen:
-                        seen, last_msg = node.received, now
-                    elif args.idle_stop and seen and now - last_msg >= args.idle_stop:
-                        print(
-                            f'record: no message for {args.idle_stop:g} s, stopping',
-                            file=sys.stderr,
-                        )
-                        break
-                    if now - last >= 5.0:
-                        print(
-                            f'record: {now - t0:6.1f} s, {node.received} messages', file=sys.stderr
-                        )
-                        last = now
-                    time.sleep(0.05)
-            except KeyboardInterrupt:
-                pass
-            stop.set()
-            executor.shutdown(timeout_sec=2.0)
-            spinner.join(timeout=5.0)
-            node.destroy_node()
+        node = Recorder(writer, topics, discover=args.discover, namespaces=args.namespace)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        spinner, stop = spin_background(executor)
+        t0 = time.monotonic()
+        last = t0
+        seen, last_msg = 0, t0
+        try:
+            while not stop.is_set() and not node.failed.is_set():
+                now = time.monotonic()
+                if args.duration and now - t0 >= args.duration:
+                    break
+                if node.received != seen:
+                    seen, last_msg = node.received, now
+                elif args.idle_stop and seen and now - last_msg >= args.idle_stop:
+                    print(
+                        f'record: no message for {args.idle_stop:g} s, stopping',
+                        file=sys.stderr,
+                    )
+                    break
+                if now - last >= 5.0:
+                    print(f'record: {now - t0:6.1f} s, {node.received} messages', file=sys.stderr)
+                    last = now
+                time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+        stop.set()
+        executor.shutdown(timeout_sec=2.0)
+        spinner.join(timeout=5.0)
+        failure = spinner.error
     finally:
+        if node is not None:
+            node.close()  # writes what is queued and finishes the bag
+            failure = node.error or failure
+            node.destroy_node()
         rclpy.try_shutdown()
-    print(f'record: wrote {args.out}', file=sys.stderr)
     for topic, n in sorted(writer.counts.items()):
-        if n:
-            print(f'  {topic}: {n} messages', file=sys.stderr)
+        print(f'  {topic}: {n} messages', file=sys.stderr)
+    if failure is not None:
+        raise RecordingError(
+            f'recording into {args.out} failed after {sum(writer.counts.values())} messages '
+            f'({type(failure).__name__}: {failure}); what was written before is readable'
+        )
+    print(f'record: wrote {args.out}', file=sys.stderr)
     for c in bagio.check_streams(args.out):
         state = 'ok' if c.missing == 0 else f'{c.missing} samples MISSING in {c.gaps} gap(s)'
         print(

@@ -25,6 +25,14 @@ def register(sub: Any) -> None:
         metavar='S',
         help='wait up to S seconds for subscribers before publishing',
     )
+    p.add_argument(
+        '--min-subscribers',
+        type=int,
+        default=1,
+        metavar='N',
+        help='subscribers each topic must have before publishing (e.g. 2: an estimator and '
+        'a recorder)',
+    )
     p.set_defaults(func=run)
 
 
@@ -45,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             n = node.play(
                 wait_subscribers=args.wait_subscribers,
+                min_subscribers=args.min_subscribers,
                 progress=lambda k, t: print(f'replay: {t:7.1f} s, {k} messages', file=sys.stderr),
             )
         except KeyboardInterrupt:

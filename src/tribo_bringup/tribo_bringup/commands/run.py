@@ -39,8 +39,32 @@ def register(sub: Any) -> None:
         '--wear-state',
         default='',
         metavar='FILE',
-        help='wear monitor state file (resumed if it exists; default: the node default)',
+        help='wear monitor state file (default: $ROS_HOME/tribo_nvct/wear_state.json, '
+        'ROS_HOME defaulting to ~/.ros)',
     )
+    p.add_argument(
+        '--resume',
+        action='store_true',
+        help='resume the wear test saved in the state file (default with --no-sim; a '
+        'simulated run starts a fresh test and keeps the old state as a .bak file)',
+    )
+    p.add_argument(
+        '--namespace',
+        default='',
+        metavar='NS',
+        help='run the nodes in namespace NS (topics /NS/rig/..., as __ns:=/NS): several '
+        'rigs on one graph',
+    )
+    p.add_argument('--daq', metavar='PORT', help='also run the serial DAQ driver on PORT')
+    p.add_argument(
+        '--can', metavar='CHANNEL', help='also run the CAN sensor-module driver on CHANNEL'
+    )
+    p.add_argument(
+        '--can-interface',
+        metavar='NAME',
+        help='python-can interface of --can (default: can_driver.yaml, socketcan)',
+    )
+    p.add_argument('--counter', metavar='PORT', help='also run the radiation counter driver')
     p.add_argument(
         '--params',
         nargs='*',
@@ -56,33 +80,67 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def default_params() -> list[str]:
-    """The parameter files in config/ used by default."""
-    names = ('friction_estimator.yaml', 'wear_monitor.yaml')
+def default_params(nodes: list[str] | None = None) -> list[str]:
+    """The parameter files in config/ used by default (those of the drivers run too)."""
+    names = ['friction_estimator.yaml', 'wear_monitor.yaml']
+    names += [f'{n}.yaml' for n in DRIVERS if nodes is not None and n in nodes]
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
+
+
+#: Hardware driver nodes and the option that starts each.
+DRIVERS = {'daq_driver': 'daq', 'can_driver': 'can', 'counter_driver': 'counter'}
+
+
+def select_nodes(args: argparse.Namespace) -> list[str]:
+    """The nodes of a ``tribo run``: explicit ``--nodes``, else the simulators (unless
+    ``--no-sim``), the drivers asked for, the estimator, the wear monitor, the bridge."""
+    if args.nodes:
+        nodes = list(args.nodes)
+    else:
+        nodes = ['sim_rig', 'sim_detector'] if args.sim else []
+        nodes += [n for n, opt in DRIVERS.items() if getattr(args, opt, None)]
+        nodes += ['friction_estimator', 'wear_monitor']
+    if args.bridge and 'live_bridge' not in nodes:
+        nodes.append('live_bridge')
+    return nodes
 
 
 def run(args: argparse.Namespace) -> int:
     """Run until the duration is over or Ctrl-C."""
     from tribo_bringup import bagio
     from tribo_bringup.graph import Graph, rig_overrides
+    from tribo_common.topics import normalize_namespace
 
     if args.duration < 0:
         raise ValueError(f'--duration must be >= 0, got {args.duration}')
-    nodes = args.nodes or (
-        (['sim_rig', 'sim_detector'] if args.sim else []) + ['friction_estimator', 'wear_monitor']
-    )
-    if args.bridge and 'live_bridge' not in nodes:
-        nodes.append('live_bridge')
+    nodes = select_nodes(args)
     overrides = rig_overrides(args.rig)
     overrides['sim_detector'] = {'sim_config': str(Path(args.detector).resolve())}
     overrides['wear_monitor'] = {'nvct_config': str(Path(args.nvct).resolve())}
     if args.wear_state:
         overrides['wear_monitor']['state_file'] = str(Path(args.wear_state).resolve())
+    # a simulated rig starts a new wear test unless asked to resume; real rigs resume
+    simulated = 'sim_detector' in nodes
+    overrides['wear_monitor']['fresh_start'] = simulated and not args.resume
+    if args.record and 'sim_rig' in nodes:
+        # the simulated rig waits for the recorder (and the estimator, the bridge) to
+        # match, so that the bag holds the stream from its first sample
+        subscribers = 1 + sum(n in nodes for n in ('friction_estimator', 'live_bridge'))
+        overrides.setdefault('sim_rig', {})['min_subscribers'] = subscribers
+    if args.daq:
+        overrides['daq_driver'] = {'port': args.daq}
+    if args.can:
+        overrides['can_driver'] = {'channel': args.can}
+        if args.can_interface:
+            overrides['can_driver']['interface'] = args.can_interface
+    if args.counter:
+        overrides['counter_driver'] = {'port': args.counter}
+    ns = normalize_namespace(args.namespace)
     graph = Graph(
         nodes=nodes,
-        params_files=args.params if args.params is not None else default_params(),
+        params_files=args.params if args.params is not None else default_params(nodes),
         overrides=overrides,
+        namespace=ns,
     )
     writer = None
     try:
@@ -91,17 +149,24 @@ def run(args: argparse.Namespace) -> int:
             from tribo_bringup.recorder import Recorder
 
             writer = bagio.BagWriter(args.record)
-            writer.__enter__()
-            graph.extra_nodes.append(Recorder(writer))
-        print(f'run: nodes {", ".join(nodes)} (Ctrl-C to stop)', file=sys.stderr)
+            graph.extra_nodes.append(Recorder(writer, namespaces=[ns]))
+        where = f' in namespace {ns}' if ns else ''
+        print(f'run: nodes {", ".join(nodes)}{where} (Ctrl-C to stop)', file=sys.stderr)
         graph.spin(args.duration, progress=lambda t: print(f'run: {t:6.1f} s', file=sys.stderr))
     finally:
         graph.close()
         if writer is not None:
             writer.close()
     if args.record:
+        recorder_error = next(
+            (n.error for n in graph.extra_nodes if getattr(n, 'error', None) is not None), None
+        )
+        if recorder_error is not None:
+            from tribo_bringup.recorder import RecordingError
+
+            raise RecordingError(f'recording into {args.record} failed: {recorder_error}')
         print(f'run: recorded {args.record}', file=sys.stderr)
-        for c in bagio.check_streams(args.record, bagio.RIG_TOPICS):
+        for c in bagio.check_streams(args.record, [ns + t for t in bagio.RIG_TOPICS]):
             state = 'ok' if c.missing == 0 else f'{c.missing} samples MISSING'
             print(f'  {c.topic}: {c.samples} samples: {state}', file=sys.stderr)
     return 0

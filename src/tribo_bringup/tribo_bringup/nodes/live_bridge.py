@@ -38,6 +38,7 @@ import foxglove
 from rclpy.node import Node
 
 from tribo_bringup import bridge_core as bc
+from tribo_common import topics
 from tribo_common.msgconv import block_from_msg
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -143,14 +144,14 @@ class LiveBridgeNode(Node):
 
         self.forwarded = 0
         self._subs = [
-            self.create_subscription(tm.SampleBlock, t, self._on_block(t), data_qos())
+            self.create_subscription(tm.SampleBlock, t.lstrip('/'), self._on_block(t), data_qos())
             for t in bc.SAMPLE_TOPICS
         ]
         for topic, spec in bc.RECORD_TOPICS.items():
             self._subs.append(
                 self.create_subscription(
                     getattr(tm, spec.type_name),
-                    topic,
+                    topic.lstrip('/'),  # relative: the bridge serves the rig of its namespace
                     self._on_record(topic, spec.fields, spec.bands),
                     data_qos(),
                 )
@@ -164,8 +165,8 @@ class LiveBridgeNode(Node):
 
     def _on_block(self, topic: str) -> Callable[[Any], None]:
         channel, down = self._samples[topic]
-        is_torsion = topic == '/rig/torsion_moment'
-        is_speed = topic == '/rig/speed'
+        is_torsion = topic == topics.TORSION_MOMENT.resolve()
+        is_speed = topic == topics.SPEED.resolve()
 
         def on_block(msg: Any) -> None:
             wanted_stick = (is_torsion or is_speed) and self._stick_ch.has_sinks()

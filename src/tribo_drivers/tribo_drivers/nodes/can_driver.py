@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from tribo_common import topics
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_drivers.core.can_protocol import CanCodec
@@ -23,10 +24,13 @@ from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.driver_base import SampleBlockDriver
 
 CHANNEL_TOPICS = {
-    'angular_acceleration': '/rig/angular_acceleration',
-    'speed': '/rig/speed',
-    'normal_force': '/rig/normal_force',
-    'oil_temperature': '/rig/oil_temperature',
+    t.channel: t.name
+    for t in (
+        topics.ANGULAR_ACCELERATION,
+        topics.SPEED,
+        topics.NORMAL_FORCE,
+        topics.OIL_TEMPERATURE,
+    )
 }
 
 

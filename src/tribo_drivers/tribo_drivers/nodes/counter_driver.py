@@ -2,7 +2,7 @@
 
 Lifecycle node (see :mod:`tribo_drivers.nodes.driver_base`).  On open it sets the dwell with
 ``$DWELL,<ms>`` and waits for ``$ACK,DWELL,<ms>``; then every ``$CNT`` line (XOR checksum
-checked) becomes a tribo_msgs/DetectorCounts on ``/nvct/counts`` (times in s, counts), the
+checked) becomes a tribo_msgs/DetectorCounts on ``nvct/counts`` (times in s, counts), the
 input of the nVCT wear evaluation (paper section 3).
 """
 
@@ -11,10 +11,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import declare
-from tribo_common.qos import data_qos
+from tribo_common.qos import profile
 from tribo_drivers.core.streams import CounterStream, CountMessage, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.nodes.driver_base import DriverNode
@@ -38,7 +39,7 @@ class CounterDriver(DriverNode):
         self.ack_retries = declare(
             self, 'ack_retries', 3, 'DWELL commands sent before giving up [-]', low=1, high=100
         )
-        self.topic = declare(self, 'topic', '/nvct/counts', 'DetectorCounts topic')
+        self.topic = declare(self, 'topic', topics.NVCT_COUNTS.name, 'DetectorCounts topic')
         self._pub: Any = None
 
     def build_stream(self) -> DeviceStream[Any]:
@@ -53,7 +54,9 @@ class CounterDriver(DriverNode):
     def create_publishers(self) -> None:
         from tribo_msgs.msg import DetectorCounts
 
-        self._pub = self.create_lifecycle_publisher(DetectorCounts, self.topic, data_qos())
+        self._pub = self.create_lifecycle_publisher(
+            DetectorCounts, self.topic, profile(topics.NVCT_COUNTS.qos)
+        )
 
     def destroy_publishers(self) -> None:
         if self._pub is not None:

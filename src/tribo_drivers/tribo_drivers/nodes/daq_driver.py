@@ -2,9 +2,10 @@
 
 Lifecycle node (see :mod:`tribo_drivers.nodes.driver_base`).  Reads the 20-byte frames of
 :mod:`tribo_drivers.core.daq_protocol` from ``port`` at ``baudrate`` and publishes
-SampleBlocks on ``/rig/torsion_moment`` [N m] (C1*phi1), ``/rig/angular_acceleration``
-[rad/s^2] (w1') and ``/rig/speed`` [rad/s] (w2), the measured quantities of the paper's
-Equ. 1-4.  Scaling per channel: value = (raw - offset) * gain.
+SampleBlocks on ``rig/torsion_moment`` [N m] (C1*phi1), ``rig/angular_acceleration``
+[rad/s^2] (w1') and ``rig/speed`` [rad/s] (w2) (relative names,
+:mod:`tribo_common.topics`), the measured quantities of the paper's Equ. 1-4.
+Scaling per channel: value = (raw - offset) * gain.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from tribo_common import topics
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_drivers.core.daq_protocol import DaqScaling
@@ -20,11 +22,7 @@ from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.driver_base import SampleBlockDriver
 
-TOPICS = {
-    'torsion_moment': '/rig/torsion_moment',
-    'angular_acceleration': '/rig/angular_acceleration',
-    'speed': '/rig/speed',
-}
+TOPICS = {t.channel: t.name for t in topics.RIG_STREAMS}
 SCALING = (
     ('torque', 'torsion moment', 'N m', 1e-6),
     ('accel', 'angular acceleration', 'rad/s^2', 1e-3),

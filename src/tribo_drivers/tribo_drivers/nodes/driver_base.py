@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
 from tribo_common.params import ParameterError, declare
 from tribo_common.qos import data_qos, status_qos
@@ -60,7 +61,9 @@ class DriverNode(LifecycleNode):
         self._thread: threading.Thread | None = None
         self._running = threading.Event()
         self._prev: DriverCounters | None = None
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', status_qos())
+        self._diag_pub = self.create_publisher(
+            DiagnosticArray, topics.DIAGNOSTICS.name, status_qos()
+        )
         self._diag_timer = self.create_timer(self.diagnostic_period, self._publish_diagnostics)
         if self.autostart:
             self._autostart_timer = self.create_timer(0.0, self._autostart)
@@ -119,7 +122,9 @@ class DriverNode(LifecycleNode):
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
         self._stop_reader()
         if self.stream is not None:
-            self.publish_items(self.stream.close())
+            rest = self.stream.close()
+            if rest and self.context.ok():
+                self.publish_items(rest)
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
@@ -148,17 +153,28 @@ class DriverNode(LifecycleNode):
             self._thread.join(5.0)
             self._thread = None
 
+    def _publish_or_stop(self, items: list[Any]) -> bool:
+        """Publish; False once the context is shut down (Ctrl-C while streaming): the
+        reader then ends quietly instead of failing on an invalid publisher."""
+        try:
+            self.publish_items(items)
+        except Exception:
+            if self.context.ok() and self._running.is_set():
+                raise
+            return False
+        return True
+
     def _reader(self) -> None:
         stream = self.stream
         assert stream is not None
         items = stream.take_pending()
-        if items:
-            self.publish_items(items)
+        if items and not self._publish_or_stop(items):
+            return
         was_connected = stream.counters.connected
         while self._running.is_set():
             items = stream.poll(self.poll_timeout)
-            if items:
-                self.publish_items(items)
+            if items and not self._publish_or_stop(items):
+                return
             if stream.counters.connected != was_connected:
                 was_connected = stream.counters.connected
                 if was_connected:

@@ -1,4 +1,4 @@
-"""Simulated nVCT detector (executable ``sim_detector``): publishes /nvct/counts.
+"""Simulated nVCT detector (executable ``sim_detector``): publishes nvct/counts.
 
 Thin rclpy shell over :class:`tribo_nvct.core.simulate.ForwardSimulator`
 (true wear curve -> released activity -> oil circuit -> Poisson counts with
@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -45,7 +46,7 @@ class SimDetector(Node):
             high=1e6,
         )
         seed = declare(self, 'seed', -1, 'random seed (-1: from the YAML)', low=-1, high=2**31 - 1)
-        topic = declare(self, 'topic', '/nvct/counts', 'DetectorCounts topic')
+        topic = declare(self, 'topic', topics.NVCT_COUNTS.name, 'DetectorCounts topic')
         self.wait_subscribers = float(
             declare(
                 self,

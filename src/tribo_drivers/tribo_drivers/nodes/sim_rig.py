@@ -3,8 +3,9 @@
 Runs :func:`tribo_estimation.core.simulate.simulate` chunk by chunk (state
 carried between chunks, so the stream equals one long simulation) at the
 configured sample rate (10 kHz default) and publishes the three rig channels
-as SampleBlocks of ``block_size`` samples on ``/rig/torsion_moment`` [N m],
-``/rig/angular_acceleration`` [rad/s^2] and ``/rig/speed`` [rad/s].
+as SampleBlocks of ``block_size`` samples on ``rig/torsion_moment`` [N m],
+``rig/angular_acceleration`` [rad/s^2] and ``rig/speed`` [rad/s] (relative names
+from :mod:`tribo_common.topics`: a namespace moves them).
 
 Stamps: time of the first sample of the block, ``t_start + first_index/fs``
 (no scheduling jitter). If the process falls behind real time it catches up
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -43,15 +45,15 @@ from tribo_estimation.core.model import (
 from tribo_estimation.core.simulate import NoiseSpec, simulate
 
 #: (topic, channel, unit, SimResult field) of the published channels.
-CHANNELS = (
-    ('/rig/torsion_moment', 'torsion_moment', 'N m', 'torsion_moment'),
-    ('/rig/angular_acceleration', 'angular_acceleration', 'rad/s^2', 'angular_acceleration'),
-    ('/rig/speed', 'speed', 'rad/s', 'speed'),
-)
+CHANNELS = tuple((t.name, t.channel, t.unit, t.channel) for t in topics.RIG_STREAMS)
 
 #: Default sample rate [Hz] and samples per published block.
 RIG_SAMPLE_RATE = 10000.0
 RIG_BLOCK_SIZE = 100
+
+#: Wait after the subscriptions have matched, before the first sample [s] (discovery is
+#: two-sided: the subscriber may match the publisher a little after the publisher did).
+SUBSCRIBER_SETTLE_S = 0.3
 
 #: Rig parameters: name -> (default, description, low, low_exclusive, high).
 RIG_PARAMETERS: dict[str, tuple[float, str, float, bool, float | None]] = {
@@ -102,6 +104,27 @@ class SimRigNode(Node):
             declare(self, 'duration', 0.0, 'simulated time to run [s] (0: until stopped)', low=0.0)
         )
         seed = int(declare(self, 'seed', 0, 'seed of the measurement noise', low=0))
+        self.min_subscribers = int(
+            declare(
+                self,
+                'min_subscribers',
+                0,
+                'subscriptions each rig topic must have before the stream starts (e.g. 2: '
+                'estimator and recorder, so that a recording holds the first sample)',
+                low=0,
+                high=100,
+            )
+        )
+        self.wait_subscribers = float(
+            declare(
+                self,
+                'wait_subscribers',
+                30.0,
+                'longest wait for min_subscribers before streaming anyway [s]',
+                low=0.0,
+                high=3600.0,
+            )
+        )
         eff: dict[str, float] = {}
         for field in dataclasses.fields(Extensions):
             default = float(field.default)  # type: ignore[arg-type]
@@ -174,9 +197,33 @@ class SimRigNode(Node):
             )
         self.index += self.block
 
+    def _wait_for_subscribers(self) -> None:
+        """Hold the stream until every rig topic has ``min_subscribers`` subscriptions
+        (at most ``wait_subscribers`` s), then a short settle time: a publisher sees a
+        subscription before the subscriber has matched the publisher, and a volatile
+        subscriber drops what arrives in between."""
+        if self.min_subscribers <= 0:
+            return
+        deadline = time.monotonic() + self.wait_subscribers
+        while not self._stop.is_set():
+            counts = [p.get_subscription_count() for p in self.pubs]
+            if min(counts) >= self.min_subscribers:
+                self._stop.wait(SUBSCRIBER_SETTLE_S)
+                return
+            if time.monotonic() >= deadline:
+                self.get_logger().warning(
+                    f'streaming with {counts} subscriptions (wanted {self.min_subscribers} '
+                    f'after {self.wait_subscribers:g} s)'
+                )
+                return
+            self._stop.wait(0.05)
+
     def _loop(self) -> None:
         # compile (or load from cache) the numba kernel before the clock starts
         simulate(self.rig, self.friction, self.drive, 1.0 / self.fs, self.fs)
+        self._wait_for_subscribers()
+        if self._stop.is_set():
+            return
         self.t_start_ns = self.get_clock().now().nanoseconds
         self.get_logger().info('streaming started')
         t0 = time.monotonic()
@@ -197,8 +244,9 @@ class SimRigNode(Node):
             try:
                 self.step()
             except Exception as exc:  # keep the failure visible, stop cleanly
-                self.get_logger().error(f'simulation stopped: {exc}')
-                return
+                if self.context.ok() and not self._stop.is_set():
+                    self.get_logger().error(f'simulation stopped: {exc}')
+                return  # else: Ctrl-C shut the context down while publishing
 
     def close(self) -> None:
         """Stop the simulation thread."""

@@ -1,10 +1,11 @@
 """ROS 2 node ``friction_estimator``: online block-wise friction estimation (paper 2.5).
 
-Subscribes ``/rig/torsion_moment``, ``/rig/angular_acceleration``, ``/rig/speed``
+Subscribes ``rig/torsion_moment``, ``rig/angular_acceleration``, ``rig/speed``
 (tribo_msgs/SampleBlock), aligns them by sample index (gaps are reported and
 never bridged), publishes the observer's friction moment
-``M = I1*w1' + K1*w1 + C1*phi1`` on ``/friction/moment`` as the data arrive and
-one ``/friction/estimate`` (tribo_msgs/FrictionEstimate) per block.
+``M = I1*w1' + K1*w1 + C1*phi1`` on ``friction/moment`` as the data arrive and
+one ``friction/estimate`` (tribo_msgs/FrictionEstimate) per block (relative names
+from :mod:`tribo_common.topics`).
 
 Thin shell: the work is :class:`tribo_estimation.core.blockfit.StreamingPipeline`.
 The subscriptions only align and run the observer; the fits run on a worker
@@ -23,6 +24,7 @@ from typing import Any
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
@@ -38,11 +40,7 @@ from tribo_estimation.errors import EstimationError
 from tribo_msgs.msg import FrictionEstimate, SampleBlock
 
 #: Input topics and their channel names.
-TOPICS: dict[str, str] = {
-    '/rig/torsion_moment': 'torsion_moment',
-    '/rig/angular_acceleration': 'angular_acceleration',
-    '/rig/speed': 'speed',
-}
+TOPICS: dict[str, str] = {t.name: t.channel for t in topics.RIG_STREAMS}
 
 #: (name, default, description with unit, low, high, low exclusive) of the float parameters.
 FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
@@ -112,8 +110,10 @@ class FrictionEstimatorNode(Node):
         self._lock = threading.Lock()
         self._queue: queue.Queue[PendingBlock | None] = queue.Queue()
         qos = data_qos()
-        self._pub_moment = self.create_publisher(SampleBlock, '/friction/moment', qos)
-        self._pub_est = self.create_publisher(FrictionEstimate, '/friction/estimate', history_qos())
+        self._pub_moment = self.create_publisher(SampleBlock, topics.FRICTION_MOMENT.name, qos)
+        self._pub_est = self.create_publisher(
+            FrictionEstimate, topics.FRICTION_ESTIMATE.name, history_qos()
+        )
         group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
         self._subs = [
             self.create_subscription(

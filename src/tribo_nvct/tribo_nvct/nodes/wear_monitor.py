@@ -1,4 +1,4 @@
-"""nVCT wear monitor node (executable ``wear_monitor``): /nvct/counts -> /nvct/wear.
+"""nVCT wear monitor node (executable ``wear_monitor``): nvct/counts -> nvct/wear.
 
 Thin rclpy shell over :class:`tribo_nvct.core.streaming.WearEvaluator`
 (paper section 3, Equ. 8-10). One tribo_msgs/WearState per dwell, SI units
@@ -14,7 +14,8 @@ another configuration is kept as ``<state_file>.<time>.bak`` and a new state
 started.
 
 Parameters: ``nvct_config`` (NVCT.yaml path, required), ``state_file``
-(JSON path; empty = no persistence), ``rate_window_s`` (span of the current
+(JSON path, default ``$ROS_HOME/tribo_nvct/wear_state.json`` with ``ROS_HOME``
+defaulting to ``~/.ros``; empty = no persistence), ``rate_window_s`` (span of the current
 wear-rate regression [s]), ``save_interval_s`` (least wall time between two
 state writes [s]), ``counts_topic``, ``wear_topic``, ``fresh_start`` (ignore and
 back up an existing state). WearState is published with the latched result
@@ -32,10 +33,12 @@ from typing import Any
 
 from rclpy.node import Node
 
+from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare
 from tribo_common.qos import data_qos, history_qos
+from tribo_common.rosenv import default_state_file
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
@@ -52,9 +55,13 @@ class WearMonitor(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('wear_monitor', **kwargs)
         cfg_path = declare(self, 'nvct_config', '', 'path of NVCT.yaml (nVCT configuration)')
-        default_state = str(Path('~/.ros/tribo_nvct/wear_state.json').expanduser())
+        default_state = str(default_state_file('tribo_nvct', 'wear_state.json'))
         self.state_file = declare(
-            self, 'state_file', default_state, 'evaluator state JSON (empty: not persisted)'
+            self,
+            'state_file',
+            default_state,
+            'evaluator state JSON (default $ROS_HOME/tribo_nvct/wear_state.json, ROS_HOME '
+            'defaulting to ~/.ros; empty: not persisted)',
         )
         self.rate_window = declare(
             self,
@@ -74,8 +81,10 @@ class WearMonitor(Node):
                 high=60.0,
             )
         )
-        counts_topic = declare(self, 'counts_topic', '/nvct/counts', 'DetectorCounts input topic')
-        wear_topic = declare(self, 'wear_topic', '/nvct/wear', 'WearState output topic')
+        counts_topic = declare(
+            self, 'counts_topic', topics.NVCT_COUNTS.name, 'DetectorCounts input topic'
+        )
+        wear_topic = declare(self, 'wear_topic', topics.NVCT_WEAR.name, 'WearState output topic')
         fresh = declare(self, 'fresh_start', False, 'back up any saved state and start anew')
         if not cfg_path:
             raise ParameterError("parameter 'nvct_config' (path of NVCT.yaml) is required")
