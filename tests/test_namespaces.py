@@ -43,7 +43,9 @@ def test_two_rigs_in_two_namespaces(tmp_path: Path, procs: list[Proc]) -> None:
     topics = set(bagio.bag_topics(bag))
     assert topics == {f'/{ns}{t}' for ns in rigs for t in bagio.RIG_TOPICS}, topics
     for c in bagio.check_streams(bag):
-        assert c.samples >= 20_000 and c.missing == 0, c  # >= 2 s of 10 kHz, no gap
+        # the simulated rigs run in real time: on a loaded 2-core machine they may deliver
+        # less than the 4 s recorded, but never with a gap
+        assert c.samples >= 5_000 and c.missing == 0, c  # >= 0.5 s of 10 kHz, no gap
     for ns in rigs:
         out = tmp_path / f'fric_{ns}'
         r = subprocess.run(

@@ -73,6 +73,12 @@ def run_node(
             name = node.get_name() if node is not None else _node_name(args)
             print(f'{name}: error: {exc}', file=sys.stderr)
             code = 2
+    except Exception:
+        # SIGINT shuts the context down from rclpy's handler; a spin that was just
+        # building its wait set then fails with RCLError ("context is not valid")
+        # instead of ExternalShutdownException: that is the same clean stop.
+        if latch.count == 0 and rclpy.ok():
+            raise
     finally:
         if node is not None:
             close = getattr(node, 'close', None)
