@@ -44,7 +44,7 @@ def test_ament_index_marker(pkg: str) -> None:
 
 EXPECTED = {
     'tribo_drivers': {'sim_rig', 'sim_detector', 'daq_driver', 'counter_driver', 'can_driver'},
-    'tribo_estimation': {'friction_estimator'},
+    'tribo_estimation': {'friction_estimator', 'model_monitor'},
     'tribo_nvct': {'wear_monitor'},
     'tribo_bringup': {'tribo', 'live_bridge'},
 }

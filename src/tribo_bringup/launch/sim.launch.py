@@ -25,11 +25,12 @@ TOPICS = [
     '/friction/moment',
     '/friction/estimate',
     '/nvct/wear',
+    '/model/discrepancy',
 ]
 
 
 def generate_launch_description() -> LaunchDescription:
-    """Simulated rig + detector, friction estimator, wear monitor (+ optional rosbag2 record)."""
+    """Simulated rig + detector, friction estimator, model and wear monitors (+ rosbag2 record)."""
     default_config = os.environ.get(
         'TRIBO_CONFIG_DIR', os.path.join(get_package_share_directory('tribo_bringup'), 'config')
     )
@@ -59,6 +60,12 @@ def generate_launch_description() -> LaunchDescription:
                 executable='friction_estimator',
                 name='friction_estimator',
                 parameters=[params('friction_estimator.yaml')],
+            ),
+            Node(
+                package='tribo_estimation',
+                executable='model_monitor',
+                name='model_monitor',
+                parameters=[params('model_monitor.yaml')],
             ),
             Node(
                 package='tribo_nvct',

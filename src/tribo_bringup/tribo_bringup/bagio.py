@@ -33,7 +33,7 @@ from rosbags.typesys.store import Typestore
 from tribo_bringup.errors import BagError, BagTruncatedError
 
 #: Message types of this project, by rosbags name.
-TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState')
+TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState', 'ModelDiscrepancy')
 
 #: The graph's topics and their types.
 TOPIC_TYPES: dict[str, str] = {
@@ -46,6 +46,7 @@ TOPIC_TYPES: dict[str, str] = {
     '/friction/estimate': 'tribo_msgs/msg/FrictionEstimate',
     '/nvct/counts': 'tribo_msgs/msg/DetectorCounts',
     '/nvct/wear': 'tribo_msgs/msg/WearState',
+    '/model/discrepancy': 'tribo_msgs/msg/ModelDiscrepancy',
     '/diagnostics': 'diagnostic_msgs/msg/DiagnosticArray',
 }
 

@@ -43,7 +43,7 @@ def status_qos() -> QoSProfile:
 HISTORY_DEPTH = 20_000
 
 #: Low-rate result topics published with :func:`history_qos`.
-RESULT_TOPICS = frozenset({'/friction/estimate', '/nvct/wear'})
+RESULT_TOPICS = frozenset({'/friction/estimate', '/nvct/wear', '/model/discrepancy'})
 
 
 def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:

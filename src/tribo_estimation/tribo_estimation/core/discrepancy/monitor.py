@@ -75,7 +75,9 @@ class MonitorConfig:
     residual rms exceeds this many noise floors [-]; ``min_gain`` a candidate
     is named only if it lowers the torsion residual rms by this fraction [-];
     ``max_correlation`` identifiability limit of :func:`identifiability` [-];
-    ``block_time`` segment block length [s].
+    ``block_time`` segment block length [s]; ``thin`` the candidate stage
+    (ranking, refits, correlation) uses every ``thin``-th segment of the
+    window (the baseline and the reported rms use all of them).
     """
 
     window: float = 6.0
@@ -97,6 +99,7 @@ class MonitorConfig:
     min_gain: float = 0.1
     max_correlation: float = 0.95
     block_time: float = 0.25
+    thin: int = 2
 
     def __post_init__(self) -> None:
         for name in ('window', 'hop', 'time_budget', 'block_time'):
@@ -107,6 +110,8 @@ class MonitorConfig:
             raise InvalidParameterError(
                 f'monitor hop ({self.hop} s) must not exceed the window ({self.window} s)'
             )
+        if self.thin < 1:
+            raise InvalidParameterError(f'monitor thin must be >= 1, got {self.thin}')
         if self.max_candidates < 0:
             raise InvalidParameterError(
                 f'monitor max_candidates must be >= 0, got {self.max_candidates}'
@@ -189,7 +194,10 @@ class WindowData:
 
 
 def gauss_newton_correlation(
-    problem: Problem, specs: Sequence[ParamSpec], values: Mapping[str, float]
+    problem: Problem,
+    specs: Sequence[ParamSpec],
+    values: Mapping[str, float],
+    seg_mask: npt.NDArray[np.bool_] | None = None,
 ) -> FloatArray:
     """Parameter correlation matrix of an output-error fit (Gauss-Newton).
 
@@ -197,7 +205,7 @@ def gauss_newton_correlation(
     by forward differences in the optimiser's coordinates (value/scale, or log
     for time constants); covariance ~ (J^T J)^-1, scaled to correlations (-).
     A singular J^T J gives correlations of +-1 for the parameters involved
-    (NaN entries are returned as 1).
+    (NaN entries are returned as 1). ``seg_mask`` selects segments.
     """
     base = dict(values)
 
@@ -207,7 +215,7 @@ def gauss_newton_correlation(
     def value(p: ParamSpec, x: float) -> float:
         return math.exp(x) if p.log else x * p.scale
 
-    r0 = problem.residual_vector(problem.simulate(base))
+    r0 = problem.residual_vector(problem.simulate(base, seg_mask))
     cols = []
     for p in specs:
         x = coord(p, float(base[p.name]))
@@ -216,7 +224,7 @@ def gauss_newton_correlation(
         hi = coord(p, p.upper)
         xs = x + h if x + h <= hi else x - h
         vals[p.name] = value(p, xs)
-        cols.append((problem.residual_vector(problem.simulate(vals)) - r0) / (xs - x))
+        cols.append((problem.residual_vector(problem.simulate(vals, seg_mask)) - r0) / (xs - x))
     J = np.vstack(cols)
     A = J @ J.T
     try:
@@ -355,7 +363,10 @@ def _probe(c: Candidate) -> dict[str, float]:
 
 
 def linearised_gains(
-    problem: Problem, base: Mapping[str, float], pool: Sequence[Candidate]
+    problem: Problem,
+    base: Mapping[str, float],
+    pool: Sequence[Candidate],
+    seg_mask: npt.NDArray[np.bool_] | None = None,
 ) -> dict[str, float]:
     """Predicted relative cost decrease of adding each candidate (-), from one simulation each.
 
@@ -364,16 +375,16 @@ def linearised_gains(
     secant direction (the residual change towards :func:`_probe`); the gain
     is the extra share of ``|r|^2`` that direction explains (a score test on
     the linearised model: cheap, used only to rank which candidates get a
-    real refit).
+    real refit). ``seg_mask`` selects segments.
     """
-    r0 = problem.residual_vector(problem.simulate(base))
+    r0 = problem.residual_vector(problem.simulate(base, seg_mask))
     total = float(r0 @ r0)
     cols = []
     for p in (MU0, MU_INF):
         vals = dict(base)
         h = 1e-3 * max(abs(float(base[p.name])), 1e-3)
         vals[p.name] = float(base[p.name]) + h
-        cols.append((problem.residual_vector(problem.simulate(vals)) - r0) / h)
+        cols.append((problem.residual_vector(problem.simulate(vals, seg_mask)) - r0) / h)
     Jb = np.column_stack(cols)
     # r0 = measured - simulated; the model moves the simulation, so fit -dr
     coef, *_ = np.linalg.lstsq(Jb, r0, rcond=None)
@@ -383,7 +394,7 @@ def linearised_gains(
     for c in pool:
         vals = dict(base)
         vals.update(_probe(c))
-        d = problem.residual_vector(problem.simulate(vals)) - r0
+        d = problem.residual_vector(problem.simulate(vals, seg_mask)) - r0
         J = np.column_stack([Jb, d])
         coef, *_ = np.linalg.lstsq(J, r0, rcond=None)
         e = r0 - J @ coef
@@ -574,11 +585,12 @@ class WindowMonitor:
         where, share = concentration(r, stick, np.asarray(sim.slip_speed), rec.fs)
         best: tuple[Candidate, dict[str, float], float] | None = None
         tried: list[str] = []
+        cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
         ranking: tuple[tuple[str, float], ...] = ()
         if ratio >= cfg.ratio_threshold and cfg.candidates and cfg.max_candidates > 0:
             # rank by the linearised gain (one simulation each), refit the best few
             pool = [cand_lib.get(n) for n in cfg.candidates]
-            gains = linearised_gains(pb, base, pool)
+            gains = linearised_gains(pb, base, pool, cmask)
             ranked = sorted(pool, key=lambda c: -gains[c.name])
             ranking = tuple((c.name, gains[c.name]) for c in ranked)
             for c in ranked[: cfg.max_candidates]:
@@ -587,7 +599,7 @@ class WindowMonitor:
                 st = dict(base)
                 st.update(c.default_start())
                 try:
-                    vals = pb.fit(_specs(c), st, max_nfev=cfg.candidate_nfev).values
+                    vals = pb.fit(_specs(c), st, seg_mask=cmask, max_nfev=cfg.candidate_nfev).values
                 except EstimationError:
                     continue
                 tried.append(c.name)
@@ -601,7 +613,7 @@ class WindowMonitor:
             name = c.name
             params = {n: float(vals[n]) for n in c.param_names}
             units = c.units()
-            corr = gauss_newton_correlation(pb, _specs(c), vals)
+            corr = gauss_newton_correlation(pb, _specs(c), vals, cmask)
             ident = identifiability(
                 c.name,
                 c.param_names,
