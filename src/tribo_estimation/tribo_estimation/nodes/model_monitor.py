@@ -83,6 +83,14 @@ MONITOR_FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
         False,
     ),
     (
+        'max_rel_se',
+        _DEFAULTS.max_rel_se,
+        'identifiable only if every candidate parameter has a relative standard error below [-]',
+        0.0,
+        1e6,
+        True,
+    ),
+    (
         'max_correlation',
         _DEFAULTS.max_correlation,
         'identifiable only if no candidate parameter correlates more with mu0/mu_inf [-]',
@@ -143,6 +151,7 @@ class ModelMonitorNode(Node):
                 time_budget=v['time_budget'],
                 ratio_threshold=v['ratio_threshold'],
                 min_gain=v['min_gain'],
+                max_rel_se=v['max_rel_se'],
                 max_correlation=v['max_correlation'],
             )
         except EstimationError as exc:

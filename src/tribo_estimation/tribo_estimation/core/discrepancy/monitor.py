@@ -19,7 +19,8 @@ the pieces of the offline workflow (:mod:`.select`):
    one-effect refit (``mu0``, ``mu_inf`` and the candidate's parameters) of
    the ``max_candidates`` candidates whose localiser explains most; the one
    with the lowest torsion residual is reported, with its identifiability
-   (:func:`identifiability`).
+   (:func:`identifiability`: Gauss-Newton standard error and correlation with
+   mu0/mu_inf, for dwell-time stiction the spread of the stick durations).
 
 No rclpy here: the ``model_monitor`` node is a thin shell around this class.
 """
@@ -74,7 +75,9 @@ class MonitorConfig:
     simulations per fit; ``ratio_threshold`` candidates are only tried when the
     residual rms exceeds this many noise floors [-]; ``min_gain`` a candidate
     is named only if it lowers the torsion residual rms by this fraction [-];
-    ``max_correlation`` identifiability limit of :func:`identifiability` [-];
+    ``max_rel_se``, ``max_correlation`` identifiability limits of
+    :func:`identifiability` (relative standard error, correlation with
+    mu0/mu_inf) [-];
     ``block_time`` segment block length [s]; ``thin`` the candidate stage
     (ranking, refits, correlation) uses every ``thin``-th segment of the
     window (the baseline and the reported rms use all of them).
@@ -97,7 +100,8 @@ class MonitorConfig:
     candidate_nfev: int = 20
     ratio_threshold: float = 1.3
     min_gain: float = 0.1
-    max_correlation: float = 0.95
+    max_rel_se: float = 0.2
+    max_correlation: float = 0.999
     block_time: float = 0.25
     thin: int = 2
 
@@ -123,6 +127,8 @@ class MonitorConfig:
                 )
         if not 0.0 <= self.min_gain < 1.0:
             raise InvalidParameterError(f'monitor min_gain must be in [0, 1), got {self.min_gain}')
+        if not self.max_rel_se > 0.0:
+            raise InvalidParameterError(f'monitor max_rel_se must be > 0, got {self.max_rel_se}')
         if not 0.0 < self.max_correlation <= 1.0:
             raise InvalidParameterError(
                 f'monitor max_correlation must be in (0, 1], got {self.max_correlation}'
@@ -193,19 +199,40 @@ class WindowData:
 # --------------------------------------------------------------------------- identifiability
 
 
-def gauss_newton_correlation(
+@dataclass(frozen=True)
+class GaussNewton:
+    """Linearised uncertainty of an output-error fit at its solution.
+
+    ``names`` the fitted parameters; ``values`` and their standard errors
+    ``se`` in the parameters' SI units; ``corr`` their correlation matrix (-),
+    rows/columns in the order of ``names``; ``dead`` the parameters the
+    simulated channels do not depend on at all (zero Jacobian column).
+    """
+
+    names: tuple[str, ...]
+    values: tuple[float, ...]
+    se: tuple[float, ...]
+    corr: FloatArray
+    dead: tuple[str, ...]
+
+
+def gauss_newton(
     problem: Problem,
     specs: Sequence[ParamSpec],
     values: Mapping[str, float],
     seg_mask: npt.NDArray[np.bool_] | None = None,
-) -> FloatArray:
-    """Parameter correlation matrix of an output-error fit (Gauss-Newton).
+    *,
+    corr_time: float = 1e-3,
+) -> GaussNewton:
+    """Gauss-Newton covariance of an output-error fit (:meth:`Problem.fit`).
 
-    The Jacobian of the weighted residual vector (:meth:`Problem.residual_vector`)
+    The Jacobian J of the weighted residual vector (:meth:`Problem.residual_vector`)
     by forward differences in the optimiser's coordinates (value/scale, or log
-    for time constants); covariance ~ (J^T J)^-1, scaled to correlations (-).
-    A singular J^T J gives correlations of +-1 for the parameters involved
-    (NaN entries are returned as 1). ``seg_mask`` selects segments.
+    for time constants); covariance ``s^2*(J^T J)^-1*c`` with s^2 the residual
+    variance per sample and ``c = corr_time*fs`` (>= 1): residuals of a model
+    mismatch are correlated over about ``corr_time`` [s], so only one sample in
+    c counts (as the selection's BIC does). A singular J^T J gives
+    correlations of +-1 (NaN entries become 1). ``seg_mask`` selects segments.
     """
     base = dict(values)
 
@@ -226,55 +253,70 @@ def gauss_newton_correlation(
         vals[p.name] = value(p, xs)
         cols.append((problem.residual_vector(problem.simulate(vals, seg_mask)) - r0) / (xs - x))
     J = np.vstack(cols)
-    A = J @ J.T
-    try:
-        cov = np.linalg.pinv(A)
-    except np.linalg.LinAlgError:
-        return np.ones((len(specs), len(specs)))
+    m, k = r0.size, len(specs)
+    s2 = float(r0 @ r0) / max(m - k, 1)
+    inflation = max(1.0, corr_time * problem.record.fs)
+    cov = np.linalg.pinv(J @ J.T) * s2 * inflation
     d = np.sqrt(np.abs(np.diag(cov)))
     with np.errstate(invalid='ignore', divide='ignore'):
         corr = cov / np.outer(d, d)
     corr = np.where(np.isfinite(corr), corr, 1.0)
-    # a parameter the data do not move at all (zero Jacobian column) is confounded
-    dead = ~np.any(J != 0.0, axis=1)
-    corr[dead, :] = 1.0
-    corr[:, dead] = 1.0
-    return np.asarray(corr, dtype=np.float64)
+    dead_mask = ~np.any(J != 0.0, axis=1)
+    corr[dead_mask, :] = 1.0
+    corr[:, dead_mask] = 1.0
+    se = []
+    for p, dx in zip(specs, d, strict=True):
+        v = float(base[p.name])
+        se.append(abs(v) * float(dx) if p.log else float(dx) * p.scale)
+    return GaussNewton(
+        names=tuple(p.name for p in specs),
+        values=tuple(float(base[p.name]) for p in specs),
+        se=tuple(se),
+        corr=np.asarray(corr, dtype=np.float64),
+        dead=tuple(p.name for p, dd in zip(specs, dead_mask, strict=True) if dd),
+    )
+
+
+_DECIDE = '(a second drive speed or a speed step would decide it)'
 
 
 def identifiability(
     candidate: str,
     param_names: Sequence[str],
-    correlation: FloatArray,
+    gn: GaussNewton,
     stick_durations_s: FloatArray,
     *,
-    max_correlation: float = 0.95,
+    max_rel_se: float = 0.2,
+    max_correlation: float = 0.999,
     min_spread: float = 0.1,
 ) -> Identifiability:
-    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf)?
+    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)?
 
-    Two honest checks on what the fit gives:
+    Honest checks on what the fit gives (``gn``: :func:`gauss_newton` of the
+    fit of mu0, mu_inf and the candidate's ``param_names``):
 
-    * the Gauss-Newton correlation (``correlation``, rows/columns in the order
-      ``mu0, mu_inf, *param_names``, :func:`gauss_newton_correlation`) between
-      any candidate parameter and mu0 or mu_inf: above ``max_correlation`` (-)
-      the record cannot tell the effect from a change of the friction law
-      (Equ. 8);
     * for ``dwell_time_stiction`` the spread of the stick durations
       ``stick_durations_s`` [s]: the effect only shows as a dependence of the
       breakaway on the preceding stick time, so if (p90 - p10) / median is
       below ``min_spread`` (-; at one constant drive speed every stick lasts as
-      long as the next) it is confounded with mu0.
+      long as the next) it is confounded with mu0;
+    * a parameter the simulation does not depend on is not identifiable;
+    * the correlation of a candidate parameter with mu0 or mu_inf above
+      ``max_correlation`` (-): the record cannot tell the effect from a change
+      of the friction law (the linearisation is then not trustworthy either);
+    * the relative standard error of every candidate parameter (the
+      correlation with mu0/mu_inf inflates it) must not exceed ``max_rel_se``
+      (-): otherwise this record cannot pin the effect down.
 
-    Returns the verdict with a one-line reason (the experiment that would
+    Returns the verdict with a one-line reason (with the experiment that would
     decide it when it cannot). Meant to move to a shared identifiability
     module of the offline workflow.
     """
-    names = ['mu0', 'mu_inf', *param_names]
-    if correlation.shape != (len(names), len(names)):
+    idx = {n: i for i, n in enumerate(gn.names)}
+    missing = [n for n in ('mu0', 'mu_inf', *param_names) if n not in idx]
+    if missing:
         raise InvalidParameterError(
-            f'correlation matrix has shape {correlation.shape}, expected '
-            f'({len(names)}, {len(names)}) for {names}'
+            f'identifiability: the fit lacks {missing} (has {list(gn.names)})'
         )
     if candidate == 'dwell_time_stiction':
         d = np.asarray(stick_durations_s, dtype=np.float64)
@@ -288,24 +330,36 @@ def identifiability(
             return Identifiability(
                 False,
                 f'all sticks last {1e3 * lo:.1f}-{1e3 * hi:.1f} ms: dwell-time stiction is '
-                'confounded with mu0 (a second drive speed or a speed step would decide it)',
+                f'confounded with mu0 {_DECIDE}',
             )
+    dead = [n for n in param_names if n in gn.dead]
+    if dead:
+        return Identifiability(False, f'the record does not depend on {", ".join(dead)} here')
     worst, pair = 0.0, ('', '')
-    for i, pn in enumerate(param_names, start=2):
-        for j, bn in enumerate(('mu0', 'mu_inf')):
-            c = abs(float(correlation[i, j]))
+    for pn in param_names:
+        for bn in ('mu0', 'mu_inf'):
+            c = abs(float(gn.corr[idx[pn], idx[bn]]))
             if c > worst:
                 worst, pair = c, (pn, bn)
+    corr_txt = f'correlation of {pair[0]} with {pair[1]} {worst:.3f}'
     if worst > max_correlation:
         return Identifiability(
             False,
-            f'{pair[0]} correlates with {pair[1]} at {worst:.3f} (> {max_correlation:g}): '
-            f'{candidate} is confounded with the friction law in this record '
-            '(a second drive speed or a speed step would decide it)',
+            f'{corr_txt} (> {max_correlation:g}): {candidate} is confounded with the friction '
+            f'law in this record {_DECIDE}',
         )
-    return Identifiability(
-        True, f'largest correlation with mu0/mu_inf {worst:.2f} (<= {max_correlation:g})'
-    )
+    parts = []
+    for pn in param_names:
+        v, se = gn.values[idx[pn]], gn.se[idx[pn]]
+        rel = se / abs(v) if v != 0 else math.inf
+        parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %)')
+        if not rel <= max_rel_se:
+            return Identifiability(
+                False,
+                f'{parts[-1]} exceeds {100 * max_rel_se:g} %: this window cannot pin '
+                f'{candidate} down; {corr_txt} {_DECIDE}',
+            )
+    return Identifiability(True, f'{"; ".join(parts)} (1 SE); {corr_txt}')
 
 
 # --------------------------------------------------------------------------- localisation
@@ -607,26 +661,30 @@ class WindowMonitor:
                 if best is None or c_rms < best[2]:
                     best = (c, vals, c_rms)
         name, params, units, c_rms = '', {}, {}, math.nan
-        ident = Identifiability(False, 'no candidate tried' if not tried else '')
-        if best is not None and best[2] <= (1.0 - cfg.min_gain) * base_rms:
-            c, vals, c_rms = best
-            name = c.name
-            params = {n: float(vals[n]) for n in c.param_names}
-            units = c.units()
-            corr = gauss_newton_correlation(pb, _specs(c), vals, cmask)
+        ident = Identifiability(False, 'no candidate tried')
+        if best is not None:
+            c, vals, b_rms = best
+            gn = gauss_newton(pb, _specs(c), vals, cmask)
             ident = identifiability(
                 c.name,
                 c.param_names,
-                corr,
+                gn,
                 stick_durations(stick[cov], rec.fs),
+                max_rel_se=cfg.max_rel_se,
                 max_correlation=cfg.max_correlation,
             )
-        elif tried:
-            ident = Identifiability(
-                False,
-                f'no tried candidate ({", ".join(tried)}) lowers the residual by '
-                f'{100 * cfg.min_gain:g} %',
-            )
+            if b_rms <= (1.0 - cfg.min_gain) * base_rms:
+                name, c_rms = c.name, b_rms
+                params = {n: float(vals[n]) for n in c.param_names}
+                units = c.units()
+            else:
+                # nothing named; say why the best one could not help if the record says so
+                ident = Identifiability(
+                    False,
+                    f'no tried candidate ({", ".join(tried)}) lowers the residual by '
+                    f'{100 * cfg.min_gain:g} %'
+                    + ('' if ident.ok else f'; {c.name}: {ident.reason}'),
+                )
         elif ratio < cfg.ratio_threshold:
             ident = Identifiability(
                 False, f'residual within {cfg.ratio_threshold:g} x the noise floor: nothing to add'
@@ -660,13 +718,14 @@ class WindowMonitor:
 
 __all__ = [
     'REGIONS',
+    'GaussNewton',
     'Identifiability',
     'MonitorConfig',
     'WindowData',
     'WindowMonitor',
     'WindowResult',
     'concentration',
-    'gauss_newton_correlation',
+    'gauss_newton',
     'identifiability',
     'linearised_gains',
 ]
