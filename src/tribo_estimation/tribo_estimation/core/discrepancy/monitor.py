@@ -78,9 +78,10 @@ class MonitorConfig:
     ``max_rel_se``, ``max_correlation`` identifiability limits of
     :func:`identifiability` (relative standard error, correlation with
     mu0/mu_inf) [-];
-    ``block_time`` segment block length [s]; ``thin`` the candidate stage
-    (ranking, refits, correlation) uses every ``thin``-th segment of the
-    window (the baseline and the reported rms use all of them).
+    ``block_time`` segment block length [s]; ``thin`` the fits (baseline,
+    ranking, refits, covariance) use every ``thin``-th segment of the window
+    (the reported residuals all of them); ``partial_ratio`` a named candidate
+    that leaves more than this many noise floors is flagged ``partial`` [-].
     """
 
     window: float = 6.0
@@ -104,6 +105,7 @@ class MonitorConfig:
     max_correlation: float = 0.999
     block_time: float = 0.25
     thin: int = 2
+    partial_ratio: float = 1.5
 
     def __post_init__(self) -> None:
         for name in ('window', 'hop', 'time_budget', 'block_time'):
@@ -159,7 +161,8 @@ class WindowResult:
     was tried or none lowered the rms by ``min_gain`` (then ``candidate_rms``
     is NaN); ``quality`` 'ok' or ';'-separated flags (``no_sticks``: too few
     stick phases to fit, ``over_budget``: the window took longer than the
-    hop, ``fit_failed``).
+    hop, ``fit_failed``, ``partial``: the named candidate leaves more than
+    ``partial_ratio`` noise floors).
     """
 
     t_start: float
@@ -617,9 +620,11 @@ class WindowMonitor:
         except EstimationError:
             return self._empty(w, t0, 'no_sticks', w0)
         pb = Problem(rec, self.rig, drive, k=self.k, segments=segs)
+        # the fits use every `thin`-th segment; the reported residuals all of them
+        cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
         try:
             start = self._last_values or _baseline_starts(pb)[1]
-            base = pb.fit([MU0, MU_INF], start, max_nfev=cfg.baseline_nfev).values
+            base = pb.fit([MU0, MU_INF], start, seg_mask=cmask, max_nfev=cfg.baseline_nfev).values
             sim = pb.simulate(base)
             floors = {}
             for ch in CHANNELS:
@@ -639,7 +644,6 @@ class WindowMonitor:
         where, share = concentration(r, stick, np.asarray(sim.slip_speed), rec.fs)
         best: tuple[Candidate, dict[str, float], float] | None = None
         tried: list[str] = []
-        cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
         ranking: tuple[tuple[str, float], ...] = ()
         if ratio >= cfg.ratio_threshold and cfg.candidates and cfg.max_candidates > 0:
             # rank by the linearised gain (one simulation each), refit the best few
@@ -690,6 +694,11 @@ class WindowMonitor:
                 False, f'residual within {cfg.ratio_threshold:g} x the noise floor: nothing to add'
             )
         elapsed = _time.perf_counter() - t0
+        flags = []
+        if name and c_rms > cfg.partial_ratio * sigma:
+            flags.append('partial')
+        if elapsed > cfg.hop:
+            flags.append('over_budget')
         return WindowResult(
             t_start=float(w.time[0]),
             t_end=float(w.time[-1]),
@@ -711,7 +720,7 @@ class WindowMonitor:
             identifiable_reason=ident.reason,
             tried=tuple(tried),
             processing_time=elapsed,
-            quality='over_budget' if elapsed > cfg.hop else 'ok',
+            quality=';'.join(flags) or 'ok',
             ranking=ranking,
         )
 
