@@ -215,3 +215,16 @@ def test_concentration_names_the_region() -> None:
     r2 = r + np.where(stick, 0.2, 0.0)  # a residual only while sticking
     name, share = concentration(r2, stick, slip, fs)
     assert name == 'stick' and share > 0.8
+
+
+def test_single_sample_chunks_with_known_rate() -> None:
+    rc = load_rig_config(CONFIG / 'rig.yaml')
+    mon = WindowMonitor(rc.rig, rc.drive, config=MonitorConfig(window=0.01, hop=0.005))
+    due = []
+    for i in range(150):  # 15 ms at 10 kHz, one sample at a time
+        due += mon.add([i / FS], [0.0], [0.0], [0.0], sample_rate=FS)
+    # windows of 100 samples ending at 9.9 ms and 14.9 ms
+    assert [d.time.size for d in due] == [100, 100]
+    assert [round(d.time[-1] * FS) for d in due] == [99, 149]
+    with pytest.raises(InvalidDataError, match='sample_rate'):
+        mon.add([1.0], [0.0], [0.0], [0.0], sample_rate=0.0)

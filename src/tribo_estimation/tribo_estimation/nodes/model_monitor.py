@@ -207,7 +207,9 @@ class ModelMonitorNode(Node):
             t = (ev.first_index + np.arange(n)) / ev.sample_rate
             offset = ev.t0 - ev.first_index / ev.sample_rate  # stream stamp - drive time [s]
             try:
-                due = self._monitor.add(t, ev.torsion, ev.accel, ev.speed)
+                due = self._monitor.add(
+                    t, ev.torsion, ev.accel, ev.speed, sample_rate=ev.sample_rate
+                )
             except EstimationError as exc:
                 self.get_logger().error(f'samples dropped: {exc}')
                 self._monitor.reset()

@@ -508,11 +508,14 @@ class WindowMonitor:
         torsion_moment: npt.ArrayLike,
         angular_acceleration: npt.ArrayLike,
         speed: npt.ArrayLike,
+        *,
+        sample_rate: float | None = None,
     ) -> list[WindowData]:
         """Append contiguous samples; return the windows that became due.
 
         ``time`` [s] must continue the buffered samples at the same rate (a
-        jump resets the buffer: windows never bridge a gap). A window is due
+        jump resets the buffer: windows never bridge a gap); ``sample_rate``
+        [Hz] if known (else estimated from ``time``). A window is due
         every ``hop`` s once ``window`` s are buffered; if several became due
         at once only the latest is returned (the monitor always evaluates the
         newest data).
@@ -528,11 +531,16 @@ class WindowMonitor:
             )
         if t.size == 0:
             return []
-        if t.size > 1:
-            dt = float(np.median(np.diff(t)))
-            if not dt > 0:
-                raise InvalidDataError('monitor input time is not increasing')
-            fs = 1.0 / dt
+        if sample_rate is not None or t.size > 1:
+            if sample_rate is not None:
+                if not (math.isfinite(sample_rate) and sample_rate > 0.0):
+                    raise InvalidDataError(f'monitor sample_rate must be > 0 Hz, got {sample_rate}')
+                fs = float(sample_rate)
+            else:
+                dt = float(np.median(np.diff(t)))
+                if not dt > 0:
+                    raise InvalidDataError('monitor input time is not increasing')
+                fs = 1.0 / dt
             if self._fs is None or abs(fs - self._fs) > 1e-6 * fs:
                 if self._fs is not None:
                     self.reset()
