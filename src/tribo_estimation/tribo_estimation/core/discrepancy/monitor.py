@@ -409,13 +409,18 @@ def concentration(
     return 'uniform', 1.0
 
 
+#: Size of the ranking's probe step, as a fraction of a parameter's typical scale (-).
+PROBE_FRACTION = 0.1
+
+
 def _probe(c: Candidate) -> dict[str, float]:
-    """A model point of candidate ``c`` a typical distance from the nested model:
-    its default start, with parameters that default to 0 set to their scale."""
+    """A model point of candidate ``c`` a small step from the nested model: its
+    default start, with parameters that default to 0 set to ``PROBE_FRACTION``
+    of their scale (small, so that the step stays in the linear range)."""
     out = c.default_start()
     for p in c.params:
         if not p.log and out[p.name] == 0.0:
-            out[p.name] = min(p.scale, p.upper)
+            out[p.name] = min(PROBE_FRACTION * p.scale, p.upper)
     return out
 
 
