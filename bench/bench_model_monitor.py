@@ -7,7 +7,8 @@ noise of the rig file, pushed through
 chunks with the default settings (6 s window, 2 s hop, time budget 1 s, up to
 2 candidates). Prints per record the windows' processing times (median, max;
 target: below the 2 s hop on this 2-core machine), the residual ratio, the
-named candidate and the identifiability verdict.
+named candidate, its residual rms over the noise floor (median) and the
+identifiability verdict.
 
     .venv/bin/python bench/bench_model_monitor.py [--duration 20] [--effects viscous_friction]
         [--thin 2] [--budget 1.0]
@@ -76,7 +77,7 @@ def main() -> int:
     )
     print(
         f'{"hidden":<22s} {"windows":>7s} {"median [s]":>10s} {"max [s]":>8s} {"ratio":>6s} '
-        f'{"named":<22s} {"identifiable":<12s} over budget'
+        f'{"named":<22s} {"after/floor":>11s} {"identifiable":<12s} over budget'
     )
     worst = 0.0
     for i, name in enumerate(['none', *[e for e in args.effects.split(',') if e]]):
@@ -86,9 +87,12 @@ def main() -> int:
         named = {r.candidate or '-' for r in res}
         ident = {str(r.identifiable) for r in res if r.candidate}
         over = sum(r.processing_time > cfg.hop for r in res)
+        after = [r.candidate_rms / r.noise_floor for r in res if r.candidate]
+        after_s = f'{statistics.median(after):11.2f}' if after else f'{"-":>11s}'
         print(
             f'{name:<22s} {len(res):7d} {statistics.median(times):10.3f} {max(times):8.3f} '
             f'{statistics.median(r.ratio for r in res):6.2f} {",".join(sorted(named)):<22s} '
+            f'{after_s} '
             f'{",".join(sorted(ident)) or "-":<12s} {over}'
         )
         for r in res[:1]:

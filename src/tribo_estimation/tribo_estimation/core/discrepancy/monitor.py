@@ -69,7 +69,8 @@ class MonitorConfig:
     ``window`` evaluated stretch [s]; ``hop`` time between evaluations [s];
     ``candidates`` candidate effects that may be tried (names of
     :mod:`.candidates`; empty = baseline only); ``max_candidates`` at most this
-    many are refitted per window (the best ranked by the localiser);
+    many are refitted per window (the best ranked first; no further one once
+    a candidate leaves only ``partial_ratio`` noise floors);
     ``time_budget`` wall time per window after which no further candidate is
     started [s] (keep it below ``hop``); ``baseline_nfev`` / ``candidate_nfev``
     simulations per fit; ``ratio_threshold`` candidates are only tried when the
@@ -98,7 +99,7 @@ class MonitorConfig:
     max_candidates: int = 2
     time_budget: float = 1.0
     baseline_nfev: int = 15
-    candidate_nfev: int = 20
+    candidate_nfev: int = 30
     ratio_threshold: float = 1.3
     min_gain: float = 0.1
     max_rel_se: float = 0.2
@@ -667,6 +668,8 @@ class WindowMonitor:
             for c in ranked[: cfg.max_candidates]:
                 if tried and _time.perf_counter() - t0 > cfg.time_budget:
                     break
+                if best is not None and best[2] <= cfg.partial_ratio * sigma:
+                    break  # the best so far leaves only noise: nothing more to explain
                 st = dict(base)
                 st.update(c.default_start())
                 try:
