@@ -80,7 +80,13 @@ def test_entry_points_resolve(pkg: str) -> None:
 
 def test_messages_built() -> None:
     share = INSTALL / 'tribo_msgs' / 'share' / 'tribo_msgs' / 'msg'
-    for name in ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState'):
+    for name in (
+        'SampleBlock',
+        'DetectorCounts',
+        'FrictionEstimate',
+        'WearState',
+        'ModelDiscrepancy',
+    ):
         assert (share / f'{name}.msg').is_file(), f'{name}.msg not installed'
 
 
