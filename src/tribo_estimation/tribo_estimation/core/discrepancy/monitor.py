@@ -40,7 +40,7 @@ from tribo_estimation.errors import EstimationError, InvalidDataError, InvalidPa
 
 from . import candidates as cand_lib
 from .candidates import Candidate, ParamSpec
-from .fitting import CHANNELS, MU0, MU_INF, Problem, Record, make_segments
+from .fitting import CHANNELS, MU0, MU_INF, Problem, Record
 from .localise import torque_residual
 from .select import _baseline_starts
 from .stats import (
@@ -78,11 +78,10 @@ class MonitorConfig:
     is named only if it lowers the torsion residual rms by this fraction [-];
     ``max_rel_se``, ``max_correlation`` identifiability limits of
     :func:`identifiability` (relative standard error, correlation with
-    mu0/mu_inf) [-];
-    ``block_time`` segment block length [s]; ``thin`` the fits (baseline,
-    ranking, refits, covariance) use every ``thin``-th segment of the window
-    (the reported residuals all of them); ``partial_ratio`` a named candidate
-    that leaves more than this many noise floors is flagged ``partial`` [-].
+    mu0/mu_inf) [-]; ``thin`` the fits (baseline, ranking, refits,
+    covariance) use every ``thin``-th segment of the window (the reported
+    residuals all of them); ``partial_ratio`` a named candidate that leaves
+    more than this many noise floors is flagged ``partial`` [-].
     """
 
     window: float = 6.0
@@ -104,12 +103,11 @@ class MonitorConfig:
     min_gain: float = 0.1
     max_rel_se: float = 0.2
     max_correlation: float = 0.999
-    block_time: float = 0.25
     thin: int = 2
     partial_ratio: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ('window', 'hop', 'time_budget', 'block_time'):
+        for name in ('window', 'hop', 'time_budget'):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise InvalidParameterError(f'monitor {name} must be > 0 s, got {v}')
@@ -630,10 +628,11 @@ class WindowMonitor:
         drive = DriveProfile(w0, self.drive.ramp_time)
         try:
             rec = Record(w.time, w.torsion_moment, w.angular_acceleration, w.speed)
-            segs = make_segments(rec, self.rig.C1, block_time=cfg.block_time)
+            # the Problem cuts the window into stick-started segments (make_segments)
+            pb = Problem(rec, self.rig, drive, k=self.k)
         except EstimationError:
             return self._empty(w, t0, 'no_sticks', w0)
-        pb = Problem(rec, self.rig, drive, k=self.k, segments=segs)
+        segs = pb.segments
         # the fits use every `thin`-th segment; the reported residuals all of them
         cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
         try:
