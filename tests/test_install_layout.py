@@ -44,7 +44,7 @@ def test_ament_index_marker(pkg: str) -> None:
 
 EXPECTED = {
     'tribo_drivers': {'sim_rig', 'sim_detector', 'daq_driver', 'counter_driver', 'can_driver'},
-    'tribo_estimation': {'friction_estimator'},
+    'tribo_estimation': {'friction_estimator', 'model_monitor'},
     'tribo_nvct': {'wear_monitor'},
     'tribo_bringup': {'tribo', 'live_bridge'},
 }
@@ -80,7 +80,13 @@ def test_entry_points_resolve(pkg: str) -> None:
 
 def test_messages_built() -> None:
     share = INSTALL / 'tribo_msgs' / 'share' / 'tribo_msgs' / 'msg'
-    for name in ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState'):
+    for name in (
+        'SampleBlock',
+        'DetectorCounts',
+        'FrictionEstimate',
+        'WearState',
+        'ModelDiscrepancy',
+    ):
         assert (share / f'{name}.msg').is_file(), f'{name}.msg not installed'
 
 

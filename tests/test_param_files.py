@@ -23,6 +23,7 @@ LAUNCH = Path(__file__).resolve().parents[1] / 'src' / 'tribo_bringup' / 'launch
 NODE_CLASSES = {
     'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
     'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
+    'model_monitor': ('tribo_estimation.nodes.model_monitor', 'ModelMonitorNode'),
     'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
     'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
     'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),

@@ -24,6 +24,7 @@ setup(
     entry_points={
         'console_scripts': [
             'friction_estimator = tribo_estimation.nodes.friction_estimator:main',
+            'model_monitor = tribo_estimation.nodes.model_monitor:main',
         ],
     },
 )

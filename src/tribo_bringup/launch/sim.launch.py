@@ -59,6 +59,10 @@ def _graph(context: LaunchContext) -> list:
             parameters=[params('friction_estimator.yaml')],
         ),
         Node(
+            package='tribo_estimation', executable='model_monitor', name='model_monitor',
+            namespace=ns, parameters=[params('model_monitor.yaml')],
+        ),
+        Node(
             package='tribo_nvct', executable='wear_monitor', name='wear_monitor', namespace=ns,
             parameters=[params('wear_monitor.yaml'), wear],
         ),
@@ -71,7 +75,7 @@ def _graph(context: LaunchContext) -> list:
 
 
 def generate_launch_description() -> LaunchDescription:
-    """Simulated rig + detector, friction estimator, wear monitor (+ optional rosbag2 record)."""
+    """Simulated rig + detector, friction estimator, model and wear monitors (+ rosbag2 record)."""
     return LaunchDescription(
         [
             DeclareLaunchArgument(

@@ -52,7 +52,7 @@ from tribo_bringup.errors import BagError, BagTruncatedError
 from tribo_common import topics as topic_table
 
 #: Message types of this project, by rosbags name.
-TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState')
+TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState', 'ModelDiscrepancy')
 
 #: The graph's topics (root-namespace names) and their types, from the topic table.
 TOPIC_TYPES: dict[str, str] = {t.resolve(): t.msgtype for t in topic_table.TOPICS}

@@ -359,6 +359,28 @@ COUNTS_FIELDS: dict[str, tuple[str, str]] = {
     'live_time': ('number', 'live time of the counter [s]'),
 }
 
+#: ModelDiscrepancy fields (the live model monitor): name -> (JSON type, description with unit).
+DISCREPANCY_FIELDS: dict[str, tuple[str, str]] = {
+    't_start': ('number', 'window start [s]'),
+    't_end': ('number', 'window end [s]'),
+    'n_samples': ('integer', 'samples in the window'),
+    'mu0': ('number', 'baseline mu0 of the window [-] (Equ. 8)'),
+    'mu_inf': ('number', 'baseline mu_inf of the window [-] (Equ. 8)'),
+    'drive_speed': ('number', 'drive speed w0 used [rad/s]'),
+    'residual_rms': ('number', 'torsion-moment residual rms of the baseline [N m]'),
+    'residual_rms_accel': ('number', 'acceleration residual rms of the baseline [rad/s^2]'),
+    'noise_floor': ('number', 'noise floor of the torsion-moment residual [N m]'),
+    'ratio': ('number', 'residual rms / noise floor [-]'),
+    'concentration': ('string', 'where the residual concentrates (stick, slip, ..., uniform)'),
+    'concentration_share': ('number', 'share of the residual energy there [-]'),
+    'candidate': ('string', 'best single candidate effect ("" = none)'),
+    'candidate_rms': ('number', 'torsion-moment residual rms with the candidate [N m]'),
+    'identifiable': ('boolean', 'whether the window can tell the candidate from mu0/mu_inf'),
+    'identifiable_reason': ('string', 'why (not)'),
+    'processing_time': ('number', 'wall time spent on the window [s]'),
+    'quality': ('string', 'ok or ;-separated flags'),
+}
+
 #: Uncertainty bands added to the JSON messages: name -> (value, se, description).
 #: The band is value -/+ BAND_K standard errors.
 BAND_K = 2.0
@@ -387,6 +409,7 @@ def _schema(title: str, fields: Mapping[str, tuple[str, str]], bands: Iterable[s
 FRICTION_SCHEMA = _schema('tribo_msgs/FrictionEstimate', FRICTION_FIELDS, FRICTION_BANDS)
 WEAR_SCHEMA = _schema('tribo_msgs/WearState', WEAR_FIELDS, WEAR_BANDS)
 COUNTS_SCHEMA = _schema('tribo_msgs/DetectorCounts', COUNTS_FIELDS, ())
+DISCREPANCY_SCHEMA = _schema('tribo_msgs/ModelDiscrepancy', DISCREPANCY_FIELDS, ())
 
 
 def stamp_ns_of(msg: Any) -> int:
@@ -398,7 +421,7 @@ def stamp_ns_of(msg: Any) -> int:
 def record_message(
     msg: Any, fields: Mapping[str, tuple[str, str]], bands: Mapping[str, tuple[str, str]]
 ) -> dict[str, Any]:
-    """JSON dict of a FrictionEstimate / WearState / DetectorCounts message.
+    """JSON dict of a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy message.
 
     Works for rclpy and rosbags message objects (attribute access only).
     Adds ``<name>_lo``/``<name>_hi`` = value -/+ BAND_K * se for the bands.
@@ -445,6 +468,9 @@ RECORD_TOPICS: dict[str, RecordTopic] = {
     ),
     topics.NVCT_WEAR.resolve(): RecordTopic('WearState', WEAR_FIELDS, WEAR_BANDS, WEAR_SCHEMA),
     topics.NVCT_COUNTS.resolve(): RecordTopic('DetectorCounts', COUNTS_FIELDS, {}, COUNTS_SCHEMA),
+    topics.MODEL_DISCREPANCY.resolve(): RecordTopic(
+        'ModelDiscrepancy', DISCREPANCY_FIELDS, {}, DISCREPANCY_SCHEMA
+    ),
 }
 
 

@@ -25,6 +25,7 @@ NODES: dict[str, tuple[str, str]] = {
     'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
     'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetector'),
     'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
+    'model_monitor': ('tribo_estimation.nodes.model_monitor', 'ModelMonitorNode'),
     'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
     'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
     'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
@@ -59,7 +60,12 @@ def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
     )
     for f in fields(cfg.extensions):
         sim[f'effects.{f.name}'] = float(getattr(cfg.extensions, f.name))
-    return {'sim_rig': sim, 'friction_estimator': common, 'live_bridge': {'C1': common['C1']}}
+    return {
+        'sim_rig': sim,
+        'friction_estimator': common,
+        'model_monitor': {**common, 'ramp_time': cfg.drive.ramp_time},
+        'live_bridge': {'C1': common['C1']},
+    }
 
 
 @dataclass

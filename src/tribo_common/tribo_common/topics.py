@@ -102,6 +102,11 @@ NVCT_WEAR = Topic(
     'nvct/wear', 'tribo_msgs/msg/WearState', QosKind.HISTORY, 0.0, '',
     'wear volume, height and rate per dwell (Equ. 8-10 of section 3), latched history',
 )  # fmt: skip
+MODEL_DISCREPANCY = Topic(
+    'model/discrepancy', 'tribo_msgs/msg/ModelDiscrepancy', QosKind.HISTORY, 0.5, '',
+    'live model monitor: residual rms vs noise floor over a rolling window, best candidate '
+    'effect and whether it is identifiable, latched history',
+)  # fmt: skip
 DIAGNOSTICS = Topic(
     '/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', QosKind.STATUS, 1.0, '',
     'driver status (port, rates, errors), absolute name',
@@ -118,6 +123,7 @@ TOPICS: tuple[Topic, ...] = (
     FRICTION_ESTIMATE,
     NVCT_COUNTS,
     NVCT_WEAR,
+    MODEL_DISCREPANCY,
     DIAGNOSTICS,
 )
 

@@ -2,7 +2,7 @@
 
 1. Run the live graph in this process: simulated rig (10 kHz) with one hidden
    model extension switched on, simulated nVCT detector (a 240 min wear test
-   compressed into the run), friction estimator, wear monitor, and a recorder
+   compressed into the run), friction estimator, live model monitor, wear monitor, and a recorder
    writing every topic into ``OUT/bag``.
 2. Check the bag's sample streams for gaps.
 3. Run the analyses (``tribo friction``, ``tribo wear``) and the discrepancy
@@ -37,7 +37,8 @@ def register(sub: Any) -> None:
         'demo',
         help='simulated rig on the live graph, recorded, analysed and reported (make demo)',
         description='Run the simulated rig (one hidden effect on), the simulated nVCT detector, '
-        'the friction estimator and the wear monitor on the live ROS 2 graph for --duration '
+        'the friction estimator, the live model monitor and the wear monitor on the live ROS 2 '
+        'graph for --duration '
         'seconds, record everything, run the friction, wear and discrepancy analyses on the bag '
         'and write OUT/report/report.html. Prints progress while running and a five-line '
         'summary at the end.',
@@ -113,6 +114,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
     params: dict[str, dict[str, Any]] = {
         'sim_rig': {**over['sim_rig'], 'duration': float(duration)},
         'friction_estimator': over['friction_estimator'],
+        'model_monitor': over['model_monitor'],
         'sim_detector': {
             'sim_config': str(CONFIG / 'sim_detector.yaml'),
             'time_scale': time_scale,
@@ -125,7 +127,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
         'live_bridge': {'C1': float(over['friction_estimator']['C1'])},
     }
     # the rig last: its stream starts at once, every subscriber should be there first
-    wanted = ['sim_detector', 'friction_estimator', 'wear_monitor', 'sim_rig']
+    wanted = ['sim_detector', 'friction_estimator', 'model_monitor', 'wear_monitor', 'sim_rig']
     if bridge:
         wanted.insert(0, 'live_bridge')
     graph = Graph(nodes=[], overrides=params)

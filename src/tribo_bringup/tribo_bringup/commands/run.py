@@ -69,11 +69,18 @@ def register(sub: Any) -> None:
         '--params',
         nargs='*',
         default=None,
-        help='ROS 2 parameter files (default: config/friction_estimator.yaml where present)',
+        help='ROS 2 parameter files (default: config/{friction_estimator,wear_monitor,'
+        'model_monitor}.yaml where present)',
     )
     p.add_argument('--duration', type=float, default=0.0, help='seconds to run (0: until Ctrl-C)')
     p.add_argument('--record', metavar='BAG', help='also record all topics into this bag')
     p.add_argument('--bridge', action='store_true', help='also serve the Foxglove live bridge')
+    p.add_argument(
+        '--monitor',
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help='run the live model monitor (model_monitor -> /model/discrepancy; default: on)',
+    )
     p.add_argument(
         '--nodes', nargs='+', help='explicit node list (overrides --sim/--bridge selection)'
     )
@@ -82,7 +89,7 @@ def register(sub: Any) -> None:
 
 def default_params(nodes: list[str] | None = None) -> list[str]:
     """The parameter files in config/ used by default (those of the drivers run too)."""
-    names = ['friction_estimator.yaml', 'wear_monitor.yaml']
+    names = ['friction_estimator.yaml', 'wear_monitor.yaml', 'model_monitor.yaml']
     names += [f'{n}.yaml' for n in DRIVERS if nodes is not None and n in nodes]
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
 
@@ -100,6 +107,8 @@ def select_nodes(args: argparse.Namespace) -> list[str]:
         nodes = ['sim_rig', 'sim_detector'] if args.sim else []
         nodes += [n for n, opt in DRIVERS.items() if getattr(args, opt, None)]
         nodes += ['friction_estimator', 'wear_monitor']
+        if getattr(args, 'monitor', False):
+            nodes.append('model_monitor')
     if args.bridge and 'live_bridge' not in nodes:
         nodes.append('live_bridge')
     return nodes

@@ -22,6 +22,7 @@ from .scan import scan_bag
 from .sections import (
     analysis_section,
     friction_section,
+    monitor_section,
     rig_section,
     session_section,
     summary_lines,
@@ -191,6 +192,9 @@ def build_report(
         say('friction section and plots')
         sections += friction_section(ests, source, results, stage, bag_p, rig_params, rig_note)
         sections.append(wear_sec)
+        mon_sec = monitor_section(scan, results, stage)
+        if mon_sec is not None:
+            sections.append(mon_sec)
         sections += [analysis_section(r, an.ANALYSES[r.key]) for r in outcomes]
         prov = provenance(command)
         results['provenance'] = prov

@@ -19,6 +19,7 @@ from tribo_bringup import bagio
 from tribo_bringup import bridge_core as bc
 from tribo_bringup.errors import BagError
 from tribo_bringup.sessions import rig_bag_events
+from tribo_common import topics as topic_table
 from tribo_estimation.errors import EstimationError
 
 if TYPE_CHECKING:
@@ -27,8 +28,9 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 
 #: Topics whose messages the report keeps in full (low rate).
-FRICTION_TOPIC = '/friction/estimate'
-WEAR_TOPIC = '/nvct/wear'
+FRICTION_TOPIC = topic_table.FRICTION_ESTIMATE.resolve()
+WEAR_TOPIC = topic_table.NVCT_WEAR.resolve()
+MONITOR_TOPIC = topic_table.MODEL_DISCREPANCY.resolve()
 
 
 @dataclass
@@ -40,6 +42,8 @@ class BagScan:
         t_first_ns, t_last_ns: receive time of the first and last message [ns].
         estimates: one dict per /friction/estimate message (bridge_core field names).
         wear: one dict per /nvct/wear message.
+        monitor: one dict per /model/discrepancy window (live model monitor; bridge_core
+            field names plus ``params``, the candidate's fitted values as text).
         streams: sample continuity per SampleBlock topic.
         truncated: the warning of a bag that ends early ('' if none).
     """
@@ -49,6 +53,7 @@ class BagScan:
     t_last_ns: int = 0
     estimates: list[dict[str, Any]] = field(default_factory=list)
     wear: list[dict[str, Any]] = field(default_factory=list)
+    monitor: list[dict[str, Any]] = field(default_factory=list)
     streams: list[bagio.StreamCheck] = field(default_factory=list)
     truncated: str = ''
 
@@ -60,7 +65,7 @@ def scan_bag(path: str | Path) -> BagScan:
         BagError: the bag holds no message of a known type.
     """
     scan = BagScan()
-    small = {FRICTION_TOPIC, WEAR_TOPIC}
+    small = {FRICTION_TOPIC, WEAR_TOPIC, MONITOR_TOPIC}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('always')
         for m in bagio.iter_messages(path, on_error='warn', deserialize=False):
@@ -71,6 +76,15 @@ def scan_bag(path: str | Path) -> BagScan:
         for m in bagio.iter_messages(path, small, on_error='warn'):
             if m.topic == FRICTION_TOPIC:
                 scan.estimates.append(bc.record_message(m.msg, bc.FRICTION_FIELDS, {}))
+            elif m.topic == MONITOR_TOPIC:
+                d = bc.record_message(m.msg, bc.DISCREPANCY_FIELDS, {})
+                d['params'] = ', '.join(
+                    f'{n} = {float(v):.4g} {u}'.rstrip()
+                    for n, v, u in zip(
+                        m.msg.param_names, m.msg.param_values, m.msg.param_units, strict=False
+                    )
+                )
+                scan.monitor.append(d)
             else:
                 scan.wear.append(bc.record_message(m.msg, bc.WEAR_FIELDS, {}))
         sample_topics = [t for t in bc.SAMPLE_TOPICS if scan.counts.get(t)]

@@ -370,6 +370,70 @@ def wear_section(
     return Section('wear', title, body)
 
 
+def monitor_section(scan: BagScan, results: dict[str, Any], out: Path) -> Section | None:
+    """The live model monitor's windows (/model/discrepancy), or None if the bag has none.
+
+    One row per window: end time from the first window [s], baseline mu0/mu_inf
+    (Equ. 8), torsion residual rms and noise floor [N m] and their ratio, where the
+    residual concentrates, the best candidate with its fitted values, the rms with
+    it [N m], whether the window can identify it and why, and the processing time [s].
+    """
+    ws = scan.monitor
+    if not ws:
+        results['monitor'] = None
+        return None
+    cols = (
+        't_start',
+        't_end',
+        *[k for k in bc.DISCREPANCY_FIELDS if k not in ('t_start', 't_end')],
+    )
+    write_csv(out / 'monitor_windows.csv', ws, (*cols, 'params'))
+    named: dict[str, int] = {}
+    for w in ws:
+        if w['candidate']:
+            named[w['candidate']] = named.get(w['candidate'], 0) + 1
+    times = [w['processing_time'] for w in ws if w['processing_time'] is not None]
+    results['monitor'] = {
+        'windows': len(ws),
+        'named': named,
+        'identifiable_windows': sum(1 for w in ws if w['identifiable']),
+        'processing_time_max_s': max(times) if times else None,
+        'processing_time_median_s': float(np.median(times)) if times else None,
+    }
+    t0 = ws[0]['t_end'] or 0.0
+    rows = [
+        (
+            (w['t_end'] or 0.0) - t0,
+            w['mu0'],
+            w['mu_inf'],
+            w['residual_rms'],
+            w['noise_floor'],
+            w['ratio'],
+            f'{w["concentration"]} ({fmt(w["concentration_share"], 2)})',
+            w['candidate'] or '-',
+            w['params'] or '-',
+            w['candidate_rms'],
+            w['identifiable'],
+            w['identifiable_reason'],
+            w['processing_time'],
+        )
+        for w in ws
+    ]
+    header = (
+        'window end - first [s]', 'mu0 [-]', 'mu_inf [-]', 'residual rms [N m]',
+        'noise floor [N m]', 'ratio [-]', 'concentrates in (share)', 'best candidate',
+        'fitted', 'rms with it [N m]', 'identifiable', 'why', 'processing [s]',
+    )  # fmt: skip
+    body = (
+        f"<p>{len(ws)} windows of the live model monitor: the paper's model (Equ. 1-8) "
+        'fitted over a rolling window of the rig streams, its residual against the noise '
+        'floor, where the residual concentrates and the best single candidate effect. '
+        'Windows as CSV: <code>monitor_windows.csv</code>.</p>'
+    )
+    body += table(rows, header, 'monitor-windows')
+    return Section('monitor', 'Live model monitor (/model/discrepancy)', body)
+
+
 def analysis_section(res: AnalysisOutcome, title: str) -> Section:
     """An offline analysis: what it called, its finding, numbers, figures and files."""
     if not res.ok:

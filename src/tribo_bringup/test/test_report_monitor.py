@@ -1,0 +1,110 @@
+"""The session report lists the live model monitor's windows (/model/discrepancy).
+
+A bag with three ModelDiscrepancy windows (values written, so every number on the
+page is known) comes back in the scan, the monitor section and results.json; a
+bag without the topic has no monitor section.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tribo_bringup import bagio
+from tribo_bringup.report.page import Section
+from tribo_bringup.report.scan import scan_bag
+from tribo_bringup.report.sections import monitor_section
+
+T0 = 1_700_000_000_000_000_000
+
+
+def _write(path: Path, n: int) -> list[dict[str, object]]:
+    store = bagio.typestore()
+    MD = store.types['tribo_msgs/msg/ModelDiscrepancy']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    written = []
+    with bagio.BagWriter(path) as w:
+        w.add_topic('/model/discrepancy', bagio.TOPIC_TYPES['/model/discrepancy'])
+        for i in range(n):
+            stamp = T0 + (6 + 2 * i) * 1_000_000_000
+            named = i > 0
+            vals = dict(
+                t_start=2.0 * i,
+                t_end=6.0 + 2.0 * i,
+                n_samples=60_000,
+                mu0=0.1286,
+                mu_inf=0.1049,
+                drive_speed=3.14159,
+                residual_rms=0.31,
+                residual_rms_accel=5.0,
+                noise_floor=0.05,
+                ratio=6.2,
+                concentration='slip_end',
+                concentration_share=0.62,
+                candidate='viscous_friction' if named else '',
+                param_names=['viscous'] if named else [],
+                param_values=np.array([0.5 + 0.001 * i] if named else [], dtype=np.float64),
+                param_units=['N m s/rad'] if named else [],
+                candidate_rms=0.0534 if named else math.nan,
+                identifiable=False,
+                identifiable_reason='viscous correlates with mu_inf at 0.985 (> 0.95)',
+                processing_time=0.8 + 0.1 * i,
+                quality='ok',
+            )
+            msg = MD(
+                header=Header(stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id='m'),
+                **vals,
+            )
+            w.write_msg('/model/discrepancy', stamp, msg)
+            written.append(vals)
+    return written
+
+
+def test_monitor_windows_in_scan_section_and_results(tmp_path: Path) -> None:
+    _write(tmp_path / 'bag', 3)
+    scan = scan_bag(tmp_path / 'bag')
+    assert len(scan.monitor) == 3
+    assert scan.monitor[0]['candidate'] == '' and scan.monitor[0]['params'] == ''
+    assert scan.monitor[2]['params'] == 'viscous = 0.502 N m s/rad'
+    assert scan.monitor[0]['candidate_rms'] is None  # NaN -> null
+    results: dict[str, object] = {}
+    out = tmp_path / 'out'
+    out.mkdir()
+    sec = monitor_section(scan, results, out)
+    assert isinstance(sec, Section) and sec.key == 'monitor'
+    assert 'id="monitor-windows"' in sec.body and sec.body.count('<tr>') == 4  # header + 3
+    assert 'viscous = 0.501 N m s/rad' in sec.body and 'slip_end (0.62)' in sec.body
+    mon = results['monitor']
+    assert isinstance(mon, dict)
+    assert mon['windows'] == 3 and mon['named'] == {'viscous_friction': 2}
+    assert mon['identifiable_windows'] == 0
+    assert mon['processing_time_max_s'] == pytest.approx(1.0)
+    assert mon['processing_time_median_s'] == pytest.approx(0.9)
+    csv = (out / 'monitor_windows.csv').read_text().splitlines()
+    assert len(csv) == 4 and csv[0].startswith('t_start,t_end,n_samples,')
+
+
+def test_no_monitor_topic_no_section(tmp_path: Path) -> None:
+    store = bagio.typestore()
+    DC = store.types['tribo_msgs/msg/DetectorCounts']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    with bagio.BagWriter(tmp_path / 'bag') as w:
+        w.add_topic('/nvct/counts', bagio.TOPIC_TYPES['/nvct/counts'])
+        msg = DC(
+            header=Header(stamp=Time(sec=1, nanosec=0), frame_id='c'),
+            seq=0,
+            t_start=0.0,
+            t_end=60.0,
+            counts=10,
+            live_time=59.0,
+        )
+        w.write_msg('/nvct/counts', T0, msg)
+    scan = scan_bag(tmp_path / 'bag')
+    results: dict[str, object] = {}
+    assert monitor_section(scan, results, tmp_path) is None
+    assert results['monitor'] is None

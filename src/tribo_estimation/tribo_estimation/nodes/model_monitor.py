@@ -1,0 +1,295 @@
+"""ROS 2 node ``model_monitor``: the discrepancy workflow on a rolling window of the live rig.
+
+Subscribes ``/rig/torsion_moment``, ``/rig/angular_acceleration``, ``/rig/speed``
+(tribo_msgs/SampleBlock), aligns them by sample index (a gap or a restart
+empties the window: windows never bridge missing samples) and every ``hop``
+seconds evaluates the last ``window`` seconds: baseline fit of the paper's
+model (Equ. 1-8), noise floor, where the residual concentrates, the best
+single candidate effect and whether this window can identify it. Publishes one
+``/model/discrepancy`` (tribo_msgs/ModelDiscrepancy, reliable and latched)
+per window.
+
+Thin shell: the work is
+:class:`tribo_estimation.core.discrepancy.monitor.WindowMonitor`. The
+subscriptions only align and buffer; the windows are evaluated on a worker
+thread (always the newest due window: if one evaluation overruns the hop, the
+windows it missed are skipped, never queued). Parameters: the RIG.yaml names
+(SI units, as the friction estimator) plus the monitor settings; read-only
+after start.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
+
+from tribo_common import topics
+from tribo_common.msgconv import block_from_msg, float64_array, time_from_ns
+from tribo_common.node_main import run_node
+from tribo_common.params import ParameterError, declare
+from tribo_common.qos import data_qos, history_qos
+from tribo_estimation.core.align import AlignedChunk, ChannelAligner
+from tribo_estimation.core.discrepancy.monitor import (
+    MonitorConfig,
+    WindowData,
+    WindowMonitor,
+    WindowResult,
+)
+from tribo_estimation.core.model import DriveProfile, RigParams
+from tribo_estimation.errors import EstimationError
+from tribo_estimation.nodes.friction_estimator import FLOAT_PARAMS as ESTIMATOR_PARAMS
+from tribo_estimation.nodes.friction_estimator import TOPICS
+from tribo_msgs.msg import ModelDiscrepancy, SampleBlock
+
+#: Output topic.
+OUTPUT_TOPIC = topics.MODEL_DISCREPANCY.name
+
+_DEFAULTS = MonitorConfig()
+
+#: Rig parameters (those of the friction estimator, without its block length).
+RIG_PARAMS = tuple(p for p in ESTIMATOR_PARAMS if p[0] != 'block_length')
+
+#: (name, default, description with unit, low, high, low exclusive) of the monitor's floats.
+MONITOR_FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
+    ('window', _DEFAULTS.window, 'length of the evaluated window [s]', 0.0, 3600.0, True),
+    ('hop', _DEFAULTS.hop, 'time between two evaluations [s]', 0.0, 3600.0, True),
+    (
+        'time_budget',
+        _DEFAULTS.time_budget,
+        'wall time per window after which no further candidate is refitted [s]',
+        0.0,
+        3600.0,
+        True,
+    ),
+    (
+        'ratio_threshold',
+        _DEFAULTS.ratio_threshold,
+        'try candidates only when the residual rms exceeds this many noise floors [-]',
+        0.0,
+        1e6,
+        False,
+    ),
+    (
+        'min_gain',
+        _DEFAULTS.min_gain,
+        'name a candidate only if it lowers the residual rms by this fraction [-]',
+        0.0,
+        0.99,
+        False,
+    ),
+    (
+        'max_rel_se',
+        _DEFAULTS.max_rel_se,
+        'identifiable only if every candidate parameter has a relative standard error below [-]',
+        0.0,
+        1e6,
+        True,
+    ),
+    (
+        'max_correlation',
+        _DEFAULTS.max_correlation,
+        'identifiable only if no candidate parameter correlates more with mu0/mu_inf [-]',
+        0.0,
+        1.0,
+        True,
+    ),
+)
+
+
+class ModelMonitorNode(Node):
+    """Live model monitor (see the module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('model_monitor', **kwargs)
+        v: dict[str, Any] = {}
+        for name, default, desc, low, high, excl in (*RIG_PARAMS, *MONITOR_FLOAT_PARAMS):
+            v[name] = float(
+                declare(
+                    self,
+                    name,
+                    default,
+                    desc,
+                    low=low,
+                    high=high,
+                    low_exclusive=excl,
+                    read_only=True,
+                )
+            )
+        max_cand = int(
+            declare(
+                self,
+                'max_candidates',
+                _DEFAULTS.max_candidates,
+                'candidate effects refitted per window, best ranked first [-]',
+                low=0,
+                high=20,
+                read_only=True,
+            )
+        )
+        cands = list(
+            declare(
+                self,
+                'candidates',
+                list(_DEFAULTS.candidates),
+                'candidate effects that may be tried (names of the discrepancy library)',
+                read_only=True,
+            )
+        )
+        try:
+            rig = RigParams.from_mapping(v)
+            drive = DriveProfile(v['nominal_speed'], v['ramp_time'])
+            cfg = MonitorConfig(
+                window=v['window'],
+                hop=v['hop'],
+                candidates=tuple(str(c) for c in cands if str(c)),
+                max_candidates=max_cand,
+                time_budget=v['time_budget'],
+                ratio_threshold=v['ratio_threshold'],
+                min_gain=v['min_gain'],
+                max_rel_se=v['max_rel_se'],
+                max_correlation=v['max_correlation'],
+            )
+        except EstimationError as exc:
+            raise ParameterError(str(exc)) from exc
+        self._monitor = WindowMonitor(rig, drive, k=v['k'], config=cfg)
+        self._aligner = ChannelAligner()
+        self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self._pending: tuple[WindowData, float] | None = None
+        self._closing = False
+        self.skipped = 0
+        self.published = 0
+        self._pub = self.create_publisher(ModelDiscrepancy, OUTPUT_TOPIC, history_qos())
+        group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
+        qos = data_qos()
+        self._subs = [
+            self.create_subscription(
+                SampleBlock, topic, self._callback(ch), qos, callback_group=group
+            )
+            for topic, ch in TOPICS.items()
+        ]
+        self._worker = threading.Thread(target=self._work, name='model_monitor', daemon=True)
+        self._worker.start()
+        self.get_logger().info(
+            f'model monitor: {cfg.window:g} s window every {cfg.hop:g} s, '
+            f'up to {cfg.max_candidates} of {len(cfg.candidates)} candidates, '
+            f'budget {cfg.time_budget:g} s'
+        )
+
+    # ------------------------------------------------------------------ input
+    def _callback(self, channel: str) -> Callable[[SampleBlock], None]:
+        def cb(msg: SampleBlock) -> None:
+            self._on_block(channel, msg)
+
+        return cb
+
+    def _on_block(self, channel: str, msg: SampleBlock) -> None:
+        b = block_from_msg(msg, channel)
+        try:
+            events = self._aligner.push(
+                channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
+            )
+        except EstimationError as exc:
+            self.get_logger().error(f'{channel}: block dropped: {exc}')
+            return
+        for ev in events:
+            if not isinstance(ev, AlignedChunk):
+                self.get_logger().warning(f'{ev}: the monitor window starts again')
+                self._monitor.reset()
+                continue
+            n = len(ev)
+            # the drive's time base: s since the stream started (the ramp refers to it)
+            t = (ev.first_index + np.arange(n)) / ev.sample_rate
+            offset = ev.t0 - ev.first_index / ev.sample_rate  # stream stamp - drive time [s]
+            try:
+                due = self._monitor.add(
+                    t, ev.torsion, ev.accel, ev.speed, sample_rate=ev.sample_rate
+                )
+            except EstimationError as exc:
+                self.get_logger().error(f'samples dropped: {exc}')
+                self._monitor.reset()
+                continue
+            for w in due:
+                with self._cond:
+                    if self._pending is not None:
+                        self.skipped += 1
+                    self._pending = (w, offset)
+                    self._cond.notify()
+
+    # ----------------------------------------------------------------- worker
+    def _work(self) -> None:
+        while True:
+            with self._cond:
+                while self._pending is None and not self._closing:
+                    self._cond.wait(timeout=0.5)
+                if self._closing and self._pending is None:
+                    return
+                item = self._pending
+                self._pending = None
+            if item is None:
+                continue
+            w, offset = item
+            try:
+                res = self._monitor.evaluate(w)
+            except EstimationError as exc:
+                self.get_logger().error(f'window ending {w.time[-1]:.2f} s: {exc}')
+                continue
+            except Exception as exc:  # keep a long test running; the window is reported lost
+                self.get_logger().error(f'window ending {w.time[-1]:.2f} s: crashed: {exc!r}')
+                continue
+            self._pub.publish(to_msg(res, offset))
+            self.published += 1
+
+    def close(self) -> None:
+        """Stop the worker after the window being evaluated."""
+        with self._cond:
+            self._closing = True
+            self._cond.notify()
+        self._worker.join(timeout=10.0)
+
+
+def to_msg(r: WindowResult, offset: float = 0.0) -> ModelDiscrepancy:
+    """ModelDiscrepancy message of one window; ``offset`` [s] maps the monitor's
+    time base to stream time (the stamps of the SampleBlocks)."""
+    m = ModelDiscrepancy()
+    t_end = r.t_end + offset
+    if math.isfinite(t_end):
+        m.header.stamp = time_from_ns(round(t_end * 1e9))
+    m.header.frame_id = 'model'
+    m.t_start = float(r.t_start + offset)
+    m.t_end = float(t_end)
+    m.n_samples = int(r.n_samples)
+    m.mu0 = float(r.mu0)
+    m.mu_inf = float(r.mu_inf)
+    m.drive_speed = float(r.drive_speed)
+    m.residual_rms = float(r.residual_rms)
+    m.residual_rms_accel = float(r.residual_rms_accel)
+    m.noise_floor = float(r.noise_floor)
+    m.ratio = float(r.ratio)
+    m.concentration = r.concentration
+    m.concentration_share = float(r.concentration_share)
+    m.candidate = r.candidate
+    m.param_names = list(r.params)
+    m.param_values = float64_array([r.params[k] for k in r.params])
+    m.param_units = [r.units.get(k, '') for k in r.params]
+    m.candidate_rms = float(r.candidate_rms)
+    m.identifiable = bool(r.identifiable)
+    m.identifiable_reason = r.identifiable_reason
+    m.processing_time = float(r.processing_time)
+    m.quality = r.quality
+    return m
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point of the ``model_monitor`` executable."""
+    return run_node(ModelMonitorNode, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
