@@ -100,7 +100,9 @@ def test_sim_launch_defaults_start_a_fresh_test_in_the_root_namespace(
 ) -> None:
     acts = _actions('sim.launch.py', monkeypatch)
     nodes = {a.kwargs['name']: a for a in acts if type(a).__name__ == 'Node'}
-    assert set(nodes) == {'sim_rig', 'sim_detector', 'friction_estimator', 'wear_monitor'}
+    assert set(nodes) == {
+        'sim_rig', 'sim_detector', 'friction_estimator', 'model_monitor', 'wear_monitor'
+    }
     assert all(a.kwargs['namespace'] == '' for a in nodes.values())
     wear = _params(nodes['wear_monitor'])
     assert wear['fresh_start'] is True and 'state_file' not in wear
