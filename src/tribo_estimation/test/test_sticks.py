@@ -250,3 +250,21 @@ def test_detect_sticks_is_find_sticks() -> None:
     rec = _gen(60, 0.005, 1.0)
     args = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed, RIG)
     assert detect_sticks(*args) == list(find_sticks(*args).sticks)
+
+
+@pytest.mark.parametrize('speed_rpm', [10, 60])
+def test_known_torsion_lag_compensated(speed_rpm: int) -> None:
+    tq, ac, sp = rig_channels(1.0, speed_lag=0.005, torsion_lag=0.001)
+    rec = make_record(
+        RecordSpec(RIG, LAW, SpeedProfile.startup(rpm(speed_rpm)), torsion=tq, accel=ac,
+                   speed=sp, seed=3, duration=0.6, start_offset=0.3)
+    )  # fmt: skip
+    args = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed, RIG)
+    _check_against_truth(rec, find_sticks(*args, torsion_lag=0.001))
+    # uncompensated, a 1 ms amplifier lag bends the stick lines: sticks are lost or cut
+    lost = find_sticks(*args)
+    t0, t1 = rec.time[0], rec.time[-1]
+    truth = rec.sticks_between(t0, t1, MIN_STICK)
+    good = [p for p in lost.sticks if any(abs(p.start - a) < 3e-4 and abs(p.end - b) < 3e-4
+                                          for a, b in truth)]  # fmt: skip
+    assert len(good) < 0.5 * len(truth)

@@ -194,6 +194,22 @@ def stick_residual(
     )
 
 
+def torsion_lag_compensated(
+    torsion: np.ndarray, w: np.ndarray, dt: float, tau: float, c1: float
+) -> np.ndarray:
+    """Torsion moment [N m] before a first-order sensor lag of ``tau`` [s], up to a constant.
+
+    With ``y = lag(M_t)``: ``M_t - y = tau*y' = tau*lag(M_t') = tau*C1*lag(w1)``
+    (Equ. 1 kinematics, ``M_t' = C1*w1``), so ``M_t = y + tau*C1*lag(w)`` with ``w``
+    the integrated acceleration (:func:`chamber_speed_integral`, the chamber speed
+    up to a constant): exact, no differentiation of the noisy signal. The lag uses
+    the first-order-hold discretisation (a zero-order hold's half-sample delay
+    would move stick starts by ~0.5 ms at 10 rpm)."""
+    from tribo_estimation.core.reference_records import first_order_lag
+
+    return torsion + tau * c1 * first_order_lag(w, dt, tau)
+
+
 def drive_speed_level(speed: np.ndarray, fs: float, window: float = _DRIVE_WIN) -> np.ndarray:
     """Drive-speed level w0 [rad/s] per sample: centred moving mean of the shaft
     speed over ``window`` [s] (edges: the window shrinks). Over whole stick-slip
@@ -261,6 +277,7 @@ def _detect_all(
     rig: RigParams,
     speed_threshold: float | None,
     n_sigma: float,
+    torsion_lag: float = 0.0,
 ) -> tuple[list[StickPhase], float]:
     """Every detected phase (any duration) and the mean drive-speed level [rad/s].
 
@@ -271,6 +288,8 @@ def _detect_all(
     dt = float(np.median(np.diff(t)))
     fs = 1.0 / dt
     w = chamber_speed_integral(ac, dt)
+    if torsion_lag > 0.0:
+        mt = torsion_lag_compensated(mt, w, dt, torsion_lag, rig.C1)
     r = stick_residual(rig, mt, ac, w)
     slope = local_slope(r, dt)
     sig = _noise_level(r)
@@ -353,6 +372,7 @@ def find_sticks(
     min_duration: float = MIN_STICK,
     speed_threshold: float | None = None,
     n_sigma: float = 4.0,
+    torsion_lag: float = 0.0,
 ) -> StickReport:
     """The project's stick detector (criterion in the module docstring).
 
@@ -361,10 +381,12 @@ def find_sticks(
     lag of the speed channel does not matter). Phases of at least ``min_duration``
     [s] are sticks, shorter ones micro-sticks. ``speed_threshold`` [rad/s] of the
     candidate stage (default: 0.15 rad/s or 5 noise levels of the slip-speed
-    estimate); ``n_sigma`` width of the residual band.
+    estimate); ``n_sigma`` width of the residual band; ``torsion_lag`` [s] a known
+    first-order lag of the torsion amplifier, compensated exactly
+    (:func:`torsion_lag_compensated`; an uncompensated lag of 1 ms loses most sticks).
     """
     t, mt, ac, w2 = _checked(time, torsion, accel, speed, min_duration, n_sigma)
-    phases, w0 = _detect_all(t, mt, ac, w2, rig, speed_threshold, n_sigma)
+    phases, w0 = _detect_all(t, mt, ac, w2, rig, speed_threshold, n_sigma, torsion_lag)
     sticks = tuple(p for p in phases if p.duration >= min_duration)
     micro = tuple(p for p in phases if p.duration < min_duration)
     motion = classify_motion(t, mt, ac, w2, rig, sticks=list(sticks), min_duration=min_duration)
@@ -382,6 +404,7 @@ def detect_sticks(
     speed_threshold: float | None = None,
     n_sigma: float = 4.0,
     corner_hz: float = 20.0,
+    torsion_lag: float = 0.0,
 ) -> list[StickPhase]:
     """Stick phases (start, end [s]) of at least ``min_duration`` [s] in a record
     (:func:`find_sticks`; ``corner_hz`` is accepted for compatibility and unused).
@@ -390,7 +413,7 @@ def detect_sticks(
     work per candidate (about 1 ms per 1 s block at 10 kHz)."""
     del corner_hz
     t, mt, ac, w2 = _checked(time, torsion, accel, speed, min_duration, n_sigma)
-    phases, _ = _detect_all(t, mt, ac, w2, rig, speed_threshold, n_sigma)
+    phases, _ = _detect_all(t, mt, ac, w2, rig, speed_threshold, n_sigma, torsion_lag)
     return [p for p in phases if p.duration >= min_duration]
 
 
