@@ -76,6 +76,21 @@ class Condition:
     law: tuple[float, float] | None = None
 
 
+@dataclass(frozen=True)
+class Row:
+    """Result of one condition (errors relative [-], wall time [ms] per block)."""
+
+    name: str
+    blocks: int
+    mu0_err: float
+    mu_inf_err: float
+    nan: int
+    cnt_fit: float
+    cnt_det: float
+    ms_per_block: float
+    fails: tuple[str, ...]
+
+
 def conditions(quick: bool) -> list[Condition]:
     if quick:
         return [
@@ -124,9 +139,7 @@ def _true_counts(rec: RecordTruth, t0: float, t1: float) -> int:
     return sum(1 for a, b in rec.sticks if t0 < a <= t1 and b - a >= MIN_STICK)
 
 
-def run_condition(
-    c: Condition, base: dict[str, object], tmp: Path, duration: float
-) -> dict[str, object]:
+def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: float) -> Row:
     rig = RigParams.from_mapping(base)  # type: ignore[arg-type]
     law = (
         FrictionLaw(*c.law, k=float(base['k']))  # type: ignore[arg-type]
@@ -196,20 +209,10 @@ def run_condition(
         fails.append('cnt_fit')
     if c_det > TARGET_COUNT:
         fails.append('cnt_det')
-    return {
-        'name': c.name,
-        'blocks': n_blk,
-        'mu0_err': e0,
-        'mu_inf_err': e1,
-        'nan': n_nan,
-        'cnt_fit': c_fit,
-        'cnt_det': c_det,
-        'ms_per_block': 1e3 * wall / max(n_blk, 1),
-        'fails': fails,
-    }
+    return Row(c.name, n_blk, e0, e1, n_nan, c_fit, c_det, 1e3 * wall / max(n_blk, 1), tuple(fails))
 
 
-def main(argv: list[str] | None = None) -> list[dict[str, object]]:
+def main(argv: list[str] | None = None) -> list[Row]:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='three conditions of 2 s')
     ap.add_argument('--duration', type=float, default=None, help='record length [s] (3)')
@@ -229,22 +232,35 @@ def main(argv: list[str] | None = None) -> list[dict[str, object]]:
         for c in conditions(a.quick):
             r = run_condition(c, base, Path(td), duration)
             rows.append(r)
-            res = 'PASS' if not r['fails'] else 'FAIL ' + ','.join(r['fails'])  # type: ignore[arg-type]
-            nan = f' ({r["nan"]} NaN blocks)' if r['nan'] else ''
+            res = 'PASS' if not r.fails else 'FAIL ' + ','.join(r.fails)
+            nan = f' ({r.nan} NaN blocks)' if r.nan else ''
             print(
-                f'{r["name"]:22s} {r["blocks"]:3d} {100 * r["mu0_err"]:7.3f} '  # type: ignore[operator]
-                f'{100 * r["mu_inf_err"]:7.3f} {100 * r["cnt_fit"]:8.1f} '  # type: ignore[operator]
-                f'{100 * r["cnt_det"]:8.1f} {r["ms_per_block"]:7.1f}  {res}{nan}',
+                f'{r.name:22s} {r.blocks:3d} {100 * r.mu0_err:7.3f} {100 * r.mu_inf_err:7.3f} '
+                f'{100 * r.cnt_fit:8.1f} {100 * r.cnt_det:8.1f} {r.ms_per_block:7.1f}  '
+                f'{res}{nan}',
                 flush=True,
             )
-    n_pass = sum(1 for r in rows if not r['fails'])
+    n_pass = sum(1 for r in rows if not r.fails)
     print(
         f'{n_pass}/{len(rows)} conditions pass (mu0 {100 * TARGET_MU0:g} %, mu_inf '
         f'{100 * TARGET_MUINF:g} %, counts {100 * TARGET_COUNT:g} %); '
         f'{time.perf_counter() - t_all:.0f} s'
     )
-    worst_det = max(float(r['cnt_det']) for r in rows)  # type: ignore[arg-type]
+    worst_det = max(r.cnt_det for r in rows)
     print(f'stick detector: worst per-block count error {100 * worst_det:.1f} %')
+    if not a.quick:
+        rig = RigParams.from_mapping(base)
+        law = FrictionLaw(float(base['mu0']), float(base['mu_inf']), float(base['k']))
+        tq, ac, sp = rig_channels(1.0, speed_lag=0.005)
+        t0 = time.perf_counter()
+        rec = make_record(
+            RecordSpec(rig, law, SpeedProfile.startup(rpm(60), RAMP), torsion=tq, accel=ac,
+                       speed=sp, duration=6.0)
+        )  # fmt: skip
+        print(
+            f'generator: 6 s record at 60 rpm, 10 kHz ({len(rec.sticks)} sticks) in '
+            f'{time.perf_counter() - t0:.1f} s'
+        )
     return rows
 
 

@@ -20,12 +20,12 @@ def test_bench_realrecords_quick(capsys: object) -> None:
     sys.modules['bench_realrecords'] = mod  # dataclasses look their module up
     spec.loader.exec_module(mod)
     rows = mod.main(['--quick'])
-    assert [r['name'] for r in rows] == [c.name for c in mod.conditions(True)]
+    assert [r.name for r in rows] == [c.name for c in mod.conditions(True)]
     for r in rows:
-        assert r['blocks'] >= 2
+        assert r.blocks >= 2
         # the fit's errors are numbers (the fit itself is judged by the matrix)
-        assert math.isfinite(r['mu0_err']) and math.isfinite(r['mu_inf_err'])
+        assert math.isfinite(r.mu0_err) and math.isfinite(r.mu_inf_err)
         # issue target for the one stick detector: counts (>= 1 ms) within 5 %
-        assert r['cnt_det'] <= 0.05
+        assert r.cnt_det <= 0.05
     out = capsys.readouterr().out  # type: ignore[attr-defined]
     assert 'conditions pass' in out
