@@ -11,7 +11,7 @@ the start-up, its ramp time), and through the stick detector
 Printed per condition: worst relative error of mu0 and mu_inf over the blocks after the
 start-up block [%], worst per-block stick-count error (sticks >= 1 ms starting in the
 block) of the block fit's ``n_sticks`` (``cnt_fit``) and of the detector (``cnt_det``,
-given the torsion amplifier's lag as a known value) [%], wall time per block of ``tribo
+torsion lag estimated by the detector) [%], wall time per block of ``tribo
 friction`` [ms], and PASS/FAIL against the issue's targets (mu0 1 %, mu_inf 0.5 %,
 counts 5 %; a NaN estimate fails). Conditions: speeds 10/25/60 rpm, with and without the
 start-up in the record, a 12 -> 30 rpm step, speed-sensor lag 0/2/5/10 ms, torsion lag
@@ -190,7 +190,6 @@ def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: fl
             rec.angular_acceleration[sl],
             rec.speed[sl],
             rig,
-            torsion_lag=c.torsion_lag,
         )
         n_det = rep.count_starting_after(float(rec.time[sl][0]) + 0.5 / fs)
         n_fit = float(blocks['n_sticks'][i])
