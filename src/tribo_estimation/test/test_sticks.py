@@ -286,3 +286,27 @@ def test_estimate_torsion_lag(tau: float, noise: float) -> None:
     est = estimate_torsion_lag(rec.torsion_moment, rec.angular_acceleration, rec.spec.fs, RIG.C1)
     # stated accuracy: 2 % + 20 us (the amplifier lag of the issue: up to 2 ms)
     assert est == pytest.approx(tau, abs=2e-5 + 0.02 * tau)
+
+
+def test_converging_oil_block_is_stick_slip_with_every_stick() -> None:
+    # the issue's case: mu0 drifts down towards mu_inf, the sticks shrink to 1.0-2.1 ms
+    # in this block (5 ms speed lag); every one of them is counted, motion stick-slip
+    rec = _gen(
+        25, 0.005, 1.0, law=FrictionLaw(0.12, 0.10), ext=Extensions(drift_mu0=-0.004),
+        start=3.5, duration=1.0, seed=2,
+    )  # fmt: skip
+    durations = [b - a for a, b in rec.sticks_between(rec.time[0], rec.time[-1])]
+    assert min(durations) < 1.2e-3 and max(durations) < 2.5e-3
+    rep = find_sticks(rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed, RIG)
+    _check_against_truth(rec, rep)
+    # at the end of the block the sticks fall below 1 ms: micro-sticks, counted apart
+    t0, t1 = rec.time[0], rec.time[-1]
+    micro = [(a, b) for a, b in rec.sticks_between(t0, t1) if b - a < MIN_STICK]
+    assert len(micro) >= 3
+    near = sum(1 for a, b in rec.sticks_between(t0, t1) if abs((b - a) - MIN_STICK) < 1e-4)
+    assert abs(rep.n_micro - len(micro)) <= max(1, near)
+    hit = [
+        (a, b) for a, b in micro
+        if any(abs(p.start - a) < 3e-4 and abs(p.end - b) < 3e-4 for p in rep.micro)
+    ]  # fmt: skip
+    assert len(hit) >= len(micro) - 1, f'{len(hit)} of {len(micro)} micro-sticks matched'

@@ -588,13 +588,18 @@ def _stick_bounds(
     for k in range(c_lo.shape[0]):
         i0 = c_lo[k]
         i1 = c_hi[k]
-        if i1 - i0 + 1 < 4 or i1 <= last_end:
+        if i1 - i0 + 1 < 2 or i1 <= last_end:
             continue
         # first fit on the inside: the candidate run (from the windowed slope) falls
         # short of the stick start (the jump of r there spreads over the window) but
-        # overshoots the breakaway by a few samples (v grows smoothly from 0)
-        a0 = i0 + 1
-        a1 = i1 - min(3, max(0, i1 - i0 - 3))
+        # overshoots the breakaway by a few samples (v grows smoothly from 0); a short
+        # run (a stick of about one window) is centred on its stick: widen it
+        if i1 - i0 + 1 < 6:
+            a0 = max(0, i0 - 2)
+            a1 = min(n - 1, i1)
+        else:
+            a0 = i0 + 1
+            a1 = i1 - min(3, max(0, i1 - i0 - 3))
         lo = a0
         hi = a1
         ok = True
