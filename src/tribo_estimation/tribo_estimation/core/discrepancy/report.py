@@ -11,7 +11,13 @@ Layout (rms values are of the torsion-moment residual, measured - simulated, N m
 
 Further keys: ``noise_floor`` (N m), ``rounds`` (every candidate's score per
 selection round), ``proposed_terms`` (sparse regression on the final residual),
-``localisation`` (baseline and final residual statistics), ``settings``.
+``localisation`` (baseline and final residual statistics), ``settings``,
+``instrument`` (the speed-sensor model fitted with the baseline:
+``{"speed_lag_tau": {"value": s, "se": s, "unit": "s"}, "speed_offset": {...}}``)
+and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
+[rad/s], ``mismatch`` [-], ``mismatched`` (> 5 %), ``warning``, the profile's
+``knot_time`` [s] / ``knot_speed`` [rad/s] and per time block ``blocks``:
+``[{"block", "t_start", "t_end", "w0"}]``).
 """
 
 from __future__ import annotations
@@ -76,6 +82,8 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
             'final': result.localisation_after,
         },
         'settings': dict(result.settings),
+        'instrument': dict(result.instrument),
+        'drive': dict(result.drive),
     }
     return _clean(d)
 

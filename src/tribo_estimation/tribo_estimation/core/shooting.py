@@ -1,0 +1,257 @@
+"""The one multiple-shooting engine: states at segment starts from the measured
+signals, and the integration of every segment with the compiled kernel.
+
+Used by the block fit (:mod:`.blockfit`) and the discrepancy fit
+(:mod:`.discrepancy.fitting`).
+
+**Drive.** Each segment is driven by one linear piece of the measured drive
+profile (:mod:`.drive`): ``w0(t) = w0_k + rate_k*(t - t_k)`` (kernel ``P_W0``,
+``P_W0_RATE``, ``P_T_DRIVE``; the start-up ramp parameter is switched off).
+The drive *angle* never comes from ``w0*t``: only the belt deflection
+``phi2 - phi0`` enters Equ. 2, and it is reconstructed from the measured
+state at the segment start.
+
+**Stuck state** (Equ. 4, 6): ``w1 = w2 = w``; ``phi1 = M_t/C1`` and
+``w = phi1' = (dM_t/dt)/C1`` from a local cubic through the torsion moment
+``M_t`` (so neither the speed channel's lag nor its offset enters); the belt
+deflection from the stuck system's moment balance with the measured
+acceleration ``a``: ``Q1 = chamber moment (Equ. 1)``, ``Q2 = (I1 + I2)*a - Q1``,
+``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (Equ. 2).
+
+**Sliding state** (past the slip-speed peak): ``phi1``, ``w1`` as above;
+``w2``, ``w2'`` from a local cubic through the shaft speed (corrected for the
+speed sensor's first-order lag ``tau``: ``w2 = y + tau*y'``) and
+``C2*(phi2 - phi0) = -M - I2*w2' - K2*(w2 - w0)`` (Equ. 2) with the friction
+moment ``M`` of the observer.
+
+Units: SI (N m, rad, rad/s, rad/s^2, s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from . import kernel as kn
+from .drive import DriveEstimate
+from .signal import CHAMBER_HALF
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class SegmentDrive:
+    """Linear drive piece per segment: ``w0(t) = w0 + rate*(t - t_ref)`` [rad/s]."""
+
+    w0: FloatArray
+    rate: FloatArray
+    t_ref: FloatArray
+
+    @staticmethod
+    def from_estimate(drive: DriveEstimate, t_start: FloatArray) -> SegmentDrive:
+        """The piece of ``drive`` at every segment start time [s]."""
+        ts = np.asarray(t_start, dtype=np.float64)
+        return SegmentDrive(drive.speed(ts), drive.rate(ts), ts.copy())
+
+    @staticmethod
+    def constant(w0: float, t_start: FloatArray) -> SegmentDrive:
+        """A constant drive speed ``w0`` [rad/s] for every segment."""
+        ts = np.asarray(t_start, dtype=np.float64)
+        return SegmentDrive(np.full(ts.size, float(w0)), np.zeros(ts.size), ts.copy())
+
+    def select(self, mask: npt.NDArray[np.bool_]) -> SegmentDrive:
+        """The pieces of the selected segments."""
+        return SegmentDrive(self.w0[mask], self.rate[mask], self.t_ref[mask])
+
+
+@njit(cache=True, nogil=True)
+def _segment_params(p: np.ndarray, w0: float, rate: float, t_ref: float) -> np.ndarray:
+    q = p.copy()
+    q[kn.P_RAMP] = 0.0
+    q[kn.P_W0] = w0
+    q[kn.P_W0_RATE] = rate
+    q[kn.P_T_DRIVE] = t_ref
+    return q
+
+
+@njit(cache=True, nogil=True)
+def shoot(
+    p: np.ndarray,
+    states: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    w0: np.ndarray,
+    rate: np.ndarray,
+    t_ref: np.ndarray,
+    dt: float,
+    n_sub: int,
+    out: np.ndarray,
+) -> int:
+    """Integrate every segment ``[starts[k], stops[k])`` from ``states[k]`` with the
+    kernel (:func:`kernel.integrate`), driven by its linear drive piece; write the
+    kernel's output channels into ``out`` (``kernel.N_CH`` x record length).
+    ``states`` are not modified. Returns the number of switching events."""
+    max_len = 1
+    for k in range(starts.shape[0]):
+        max_len = max(max_len, stops[k] - starts[k])
+    buf = np.empty((kn.N_CH, max_len))
+    n_ev = 0
+    for k in range(starts.shape[0]):
+        n = stops[k] - starts[k]
+        if n <= 0:
+            continue
+        q = _segment_params(p, w0[k], rate[k], t_ref[k])
+        s = states[k].copy()
+        n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
+        for c in range(kn.N_CH):
+            for i in range(n):
+                out[c, starts[k] + i] = buf[c, i]
+    return n_ev
+
+
+@njit(cache=True, nogil=True)
+def stuck_states(
+    p: np.ndarray,
+    t: np.ndarray,
+    torsion: np.ndarray,
+    w: np.ndarray,
+    accel: np.ndarray,
+    t_stick: np.ndarray,
+    w0: np.ndarray,
+    rate: np.ndarray,
+    t_ref: np.ndarray,
+) -> np.ndarray:
+    """Kernel states (``kernel.S_*``) of stuck discs at times ``t`` [s] from the true
+    torsion moment C1*phi1 [N m], the common speed ``w`` [rad/s], the acceleration
+    [rad/s^2] and the time already stuck [s] (module doc; the kernel's own Q1, Q2)."""
+    m = t.shape[0]
+    out = np.zeros((m, kn.NS))
+    for k in range(m):
+        q = _segment_params(p, w0[k], rate[k], t_ref[k])
+        phi1 = torsion[k] / q[kn.P_C1]
+        q1 = kn.chamber_moment(q, phi1, w[k])
+        phi0 = kn.drive_angle(q, t[k])
+        qa = kn.shaft_moment(q, t[k], phi0, w[k])
+        target = (q[kn.P_I1] + q[kn.P_I2]) * accel[k] - q1
+        # Q2 is affine in phi2 with slope -C2
+        phi2 = phi0 - (target - qa) / q[kn.P_C2]
+        out[k, kn.S_T] = t[k]
+        out[k, kn.S_PHI1] = phi1
+        out[k, kn.S_W1] = w[k]
+        out[k, kn.S_PHI2] = phi2
+        out[k, kn.S_W2] = w[k]
+        out[k, kn.S_LAG] = q[kn.P_MU0]
+        out[k, kn.S_STUCK] = 1.0
+        out[k, kn.S_DIR] = 1.0
+        out[k, kn.S_TSTICK] = t_stick[k]
+        out[k, kn.S_SENSOR] = math.nan
+    return out
+
+
+@njit(cache=True, nogil=True)
+def sliding_states(
+    p: np.ndarray,
+    t: np.ndarray,
+    torsion: np.ndarray,
+    w1: np.ndarray,
+    w2: np.ndarray,
+    w2_dot: np.ndarray,
+    moment: np.ndarray,
+    w0: np.ndarray,
+    rate: np.ndarray,
+    t_ref: np.ndarray,
+) -> np.ndarray:
+    """Kernel states while sliding past the slip-speed peak (module doc): torsion
+    moment [N m], chamber speed w1, shaft speed w2 [rad/s], w2' [rad/s^2] and the
+    friction moment M [N m] at times ``t`` [s]."""
+    m = t.shape[0]
+    out = np.zeros((m, kn.NS))
+    for k in range(m):
+        q = _segment_params(p, w0[k], rate[k], t_ref[k])
+        phi0 = kn.drive_angle(q, t[k])
+        w0t = kn.drive_speed(q, t[k])
+        out[k, kn.S_T] = t[k]
+        out[k, kn.S_PHI1] = torsion[k] / q[kn.P_C1]
+        out[k, kn.S_W1] = w1[k]
+        out[k, kn.S_W2] = w2[k]
+        out[k, kn.S_PHI2] = (
+            phi0 - (moment[k] + q[kn.P_I2] * w2_dot[k] + q[kn.P_K2] * (w2[k] - w0t)) / q[kn.P_C2]
+        )
+        v = w2[k] - w1[k]
+        out[k, kn.S_DIR] = 1.0 if v >= 0.0 else -1.0
+        out[k, kn.S_PEAK] = 1.0
+        out[k, kn.S_VMAX] = abs(v)
+        out[k, kn.S_LAG] = q[kn.P_MUINF]
+        out[k, kn.S_SENSOR] = math.nan
+    return out
+
+
+# ------------------------------------------------------------- local polynomials
+def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
+    """Rows (value, slope per sample) of the least-squares cubic through the
+    offsets lo_off..hi_off-1."""
+    x = np.arange(lo_off, hi_off, dtype=float)
+    A = np.vstack((np.ones_like(x), x, x * x, x * x * x)).T
+    return np.asarray(np.linalg.pinv(A)[:2], dtype=np.float64)
+
+
+_SYM_ROWS = _cubic_rows(-CHAMBER_HALF, CHAMBER_HALF + 1)
+
+
+def local_cubic(
+    y: FloatArray, idx: IntArray, lo: IntArray | None = None, hi: IntArray | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Value and slope per sample at the samples ``idx`` of a local cubic through
+    ``y`` over +-7 samples, limited to ``[lo, hi)`` per index (e.g. one stick phase).
+    Windows of fewer than 6 samples give the sample value and a NaN slope."""
+    n = y.shape[0]
+    j = np.asarray(idx, dtype=np.int64)
+    lo_a = np.zeros(j.size, np.int64) if lo is None else np.asarray(lo, dtype=np.int64)
+    hi_a = np.full(j.size, n, np.int64) if hi is None else np.asarray(hi, dtype=np.int64)
+    a = np.maximum(lo_a, j - CHAMBER_HALF)
+    b = np.minimum(hi_a, j + CHAMBER_HALF + 1)
+    val = np.empty(j.size)
+    slope = np.empty(j.size)
+    sym = (a == j - CHAMBER_HALF) & (b == j + CHAMBER_HALF + 1)
+    if sym.any():
+        win = j[sym][:, None] + np.arange(-CHAMBER_HALF, CHAMBER_HALF + 1)[None, :]
+        seg = y[win]
+        val[sym] = seg @ _SYM_ROWS[0]
+        slope[sym] = seg @ _SYM_ROWS[1]
+    for i in np.flatnonzero(~sym).tolist():
+        jj, aa, bb = int(j[i]), int(a[i]), int(b[i])
+        if bb - aa < 6:
+            val[i], slope[i] = float(y[jj]), math.nan
+            continue
+        c = _cubic_rows(aa - jj, bb - jj) @ y[aa:bb]
+        val[i], slope[i] = float(c[0]), float(c[1])
+    return val, slope
+
+
+def window_mean(
+    y: FloatArray, idx: IntArray, half: int, lo: IntArray | None = None, hi: IntArray | None = None
+) -> FloatArray:
+    """Mean of ``y`` over +-``half`` samples around ``idx``, limited to ``[lo, hi)``."""
+    n = y.shape[0]
+    j = np.asarray(idx, dtype=np.int64)
+    lo_a = np.zeros(j.size, np.int64) if lo is None else np.asarray(lo, dtype=np.int64)
+    hi_a = np.full(j.size, n, np.int64) if hi is None else np.asarray(hi, dtype=np.int64)
+    c = np.concatenate(([0.0], np.cumsum(y)))
+    a = np.maximum(lo_a, j - half)
+    b = np.maximum(np.minimum(hi_a, j + half + 1), a + 1)
+    return np.asarray((c[b] - c[a]) / (b - a), dtype=np.float64)
+
+
+__all__ = [
+    'SegmentDrive',
+    'local_cubic',
+    'shoot',
+    'sliding_states',
+    'stuck_states',
+    'window_mean',
+]
