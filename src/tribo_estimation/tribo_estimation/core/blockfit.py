@@ -61,7 +61,7 @@ from .drive import DriveEstimate, estimate_drive
 from .lsq import levenberg_marquardt
 from .model import DriveProfile, FrictionLaw, RigParams, pack_params
 from .observer import FrictionObserver, friction_moment
-from .shooting import SegmentDrive, local_cubic, shoot, sliding_states, stuck_states, window_mean
+from .shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
 from .signal import CHAMBER_HALF, chamber_speed, longest_run, noise_level, runs
 from .sticks import classify_motion, detect_sticks
 
@@ -573,7 +573,7 @@ class _Nodes:
     start: npt.NDArray[np.int64]
     end: npt.NDArray[np.int64]
     states: FloatArray
-    drive: SegmentDrive
+    drive: DriveKnots
 
 
 def _shooting_nodes(
@@ -589,6 +589,7 @@ def _shooting_nodes(
     starts_s, ends_s = starts_s[keep], ends_s[keep]
     c1 = float(p[kn.P_C1])
     t_of = d.t0 + np.arange(n) / d.fs
+    dk = DriveKnots.from_estimate(drive)
     node_idx: list[npt.NDArray[np.int64]] = []
     node_states: list[FloatArray] = []
     if starts_s.size:
@@ -599,11 +600,8 @@ def _shooting_nodes(
         w = np.where(np.isfinite(slope), slope * d.fs / c1, d.chamber_speed[anchors])
         acc = window_mean(d.accel, anchors, 2, starts_s, ends_s)
         ts = t_of[anchors]
-        sd = SegmentDrive.from_estimate(drive, ts)
         node_idx.append(anchors)
-        node_states.append(
-            stuck_states(p, ts, mt, w, acc, np.zeros(ts.size), sd.w0, sd.rate, sd.t_ref)
-        )
+        node_states.append(stuck_states(p, ts, mt, w, acc, np.zeros(ts.size), dk.time, dk.speed))
     slide = _sliding_nodes(np.abs(d.speed - d.chamber_speed), starts_s, ends_s, d.fs)
     if slide.size == 0 and starts_s.size == 0:
         slide = np.zeros(1, dtype=np.int64)  # short block: start at its first sample
@@ -615,9 +613,8 @@ def _shooting_nodes(
         w2d = np.where(np.isfinite(dy), dy * d.fs, 0.0)
         w2 = y + speed_lag * w2d  # first-order sensor lag inverted: w2 = y + tau*y'
         ts = t_of[slide]
-        sd = SegmentDrive.from_estimate(drive, ts)
         node_idx.append(slide)
-        node_states.append(sliding_states(p, ts, mt, w1, w2, w2d, mom, sd.w0, sd.rate, sd.t_ref))
+        node_states.append(sliding_states(p, ts, mt, w1, w2, w2d, mom, dk.time, dk.speed))
     idx = np.concatenate(node_idx)
     states = np.vstack(node_states)
     order = np.argsort(idx, kind='stable')
@@ -626,7 +623,7 @@ def _shooting_nodes(
     states = states[first]
     end = np.r_[idx[1:], n].astype(np.int64)
     ts = t_of[idx]
-    return _Nodes(idx, end, states, SegmentDrive.from_estimate(drive, ts)), bool(starts_s.size)
+    return _Nodes(idx, end, states, dk), bool(starts_s.size)
 
 
 def _noise_weights(cfg: BlockConfig, d: BlockData, fallback_torque: float) -> tuple[float, float]:
@@ -694,7 +691,7 @@ def fit_block(
     n_sub = kn.substeps_for(p0, dt)
     used = np.arange(int(nodes.start[0]), n)
     meas_t, meas_a = d.torsion[used], d.accel[used]
-    sd = nodes.drive
+    dk = nodes.drive
 
     recent: dict[bytes, FloatArray] = {}  # the last simulations, by theta
 
@@ -706,7 +703,7 @@ def fit_block(
         p = p0.copy()
         p[index] = th
         out = np.full((kn.N_CH, n), np.nan)
-        shoot(p, nodes.states, nodes.start, nodes.end, sd.w0, sd.rate, sd.t_ref, dt, n_sub, out)
+        shoot(p, nodes.states, nodes.start, nodes.end, dk.time, dk.speed, dt, n_sub, out)
         if len(recent) >= 4:
             recent.pop(next(iter(recent)))
         recent[key] = out

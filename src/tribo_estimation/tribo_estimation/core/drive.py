@@ -202,20 +202,35 @@ def estimate_drive(
 __all__ = ['MISMATCH_LIMIT', 'SMOOTH_TIME', 'DriveEstimate', 'estimate_drive', 'tolerance']
 
 
-def refine_with_angles(drive: DriveEstimate, t: FloatArray, phi0: FloatArray) -> DriveEstimate:
+def refine_with_angles(
+    drive: DriveEstimate, t: FloatArray, phi0: FloatArray, hint_knots: FloatArray | None = None
+) -> DriveEstimate:
     """The knot speeds of ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
     at times ``t`` [s] (least squares of ``c + integral of w0``; the knot times
     stay). The drive angle at a stick follows from the shaft angle (integral of
     w2) and the belt deflection of Equ. 2, which is known while the discs stick;
     the angle pins the mean drive speed between sticks to the noise of that
-    deflection (~1e-3 rad/s), far better than the smoothed shaft speed."""
+    deflection (~1e-3 rad/s), far better than the smoothed shaft speed.
+    ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up ramp end); a
+    detected knot within :data:`SMOOTH_TIME` of one moves onto it."""
     # the smoothing blurs a corner over +-SMOOTH_TIME/2: extra knots around each
     # interior knot let the angles place it
+    # interior knots next to a hinted corner (e.g. the end of RIG.yaml's start-up ramp)
+    # move onto it; the others get the extra knots
     inner = drive.knot_time[1:-1]
-    extra = (inner[:, None] + SMOOTH_TIME * np.array([-0.5, -0.25, 0.25, 0.5])[None, :]).ravel()
     t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
+    hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
+    hints = hints[(hints > t_lo + 0.01) & (hints < t_hi - 0.01)]
+    if hints.size and inner.size:
+        dist = np.abs(inner[:, None] - hints[None, :])
+        hinted = (dist <= SMOOTH_TIME).any(axis=1)
+        moved = hints[np.argmin(dist, axis=1)][hinted]
+        inner = inner[~hinted]
+    else:
+        moved = np.zeros(0)
+    extra = (inner[:, None] + SMOOTH_TIME * np.array([-0.5, -0.25, 0.25, 0.5])[None, :]).ravel()
     extra = extra[(extra > t_lo + 0.01) & (extra < t_hi - 0.01)]
-    tk = np.unique(np.concatenate((drive.knot_time, extra)))
+    tk = np.unique(np.concatenate(([t_lo, t_hi], inner, moved, extra)))
     tt = np.asarray(t, dtype=np.float64)
     ph = np.asarray(phi0, dtype=np.float64)
     ok = np.isfinite(tt) & np.isfinite(ph)

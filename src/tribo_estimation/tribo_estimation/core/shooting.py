@@ -4,9 +4,10 @@ signals, and the integration of every segment with the compiled kernel.
 Used by the block fit (:mod:`.blockfit`) and the discrepancy fit
 (:mod:`.discrepancy.fitting`).
 
-**Drive.** Each segment is driven by one linear piece of the measured drive
-profile (:mod:`.drive`): ``w0(t) = w0_k + rate_k*(t - t_k)`` (kernel ``P_W0``,
-``P_W0_RATE``, ``P_T_DRIVE``; the start-up ramp parameter is switched off).
+**Drive.** The model is driven by the measured piecewise-linear drive profile
+(:mod:`.drive`): each piece ``w0(t) = w_j + rate_j*(t - t_j)`` goes to the kernel
+as ``P_W0``, ``P_W0_RATE``, ``P_T_DRIVE`` (the start-up ramp parameter is
+switched off); a segment crossing a knot changes piece there.
 The drive *angle* never comes from ``w0*t``: only the belt deflection
 ``phi2 - phi0`` enters Equ. 2, and it is reconstructed from the measured
 state at the segment start.
@@ -45,37 +46,57 @@ IntArray = npt.NDArray[np.int64]
 
 
 @dataclass(frozen=True)
-class SegmentDrive:
-    """Linear drive piece per segment: ``w0(t) = w0 + rate*(t - t_ref)`` [rad/s]."""
+class DriveKnots:
+    """Continuous piecewise-linear drive speed: ``speed`` [rad/s] at the knots
+    ``time`` [s] (constant beyond the ends); see :mod:`.drive`."""
 
-    w0: FloatArray
-    rate: FloatArray
-    t_ref: FloatArray
-
-    @staticmethod
-    def from_estimate(drive: DriveEstimate, t_start: FloatArray) -> SegmentDrive:
-        """The piece of ``drive`` at every segment start time [s]."""
-        ts = np.asarray(t_start, dtype=np.float64)
-        return SegmentDrive(drive.speed(ts), drive.rate(ts), ts.copy())
+    time: FloatArray
+    speed: FloatArray
 
     @staticmethod
-    def constant(w0: float, t_start: FloatArray) -> SegmentDrive:
-        """A constant drive speed ``w0`` [rad/s] for every segment."""
-        ts = np.asarray(t_start, dtype=np.float64)
-        return SegmentDrive(np.full(ts.size, float(w0)), np.zeros(ts.size), ts.copy())
+    def from_estimate(drive: DriveEstimate) -> DriveKnots:
+        """The knots of a measured drive profile."""
+        return DriveKnots(
+            np.ascontiguousarray(drive.knot_time, dtype=np.float64),
+            np.ascontiguousarray(drive.knot_speed, dtype=np.float64),
+        )
 
-    def select(self, mask: npt.NDArray[np.bool_]) -> SegmentDrive:
-        """The pieces of the selected segments."""
-        return SegmentDrive(self.w0[mask], self.rate[mask], self.t_ref[mask])
+    @staticmethod
+    def constant(w0: float, t0: float = 0.0, t1: float = 1.0) -> DriveKnots:
+        """A constant drive speed ``w0`` [rad/s]."""
+        return DriveKnots(np.array([t0, max(t1, t0 + 1e-9)]), np.array([w0, w0], dtype=float))
 
 
 @njit(cache=True, nogil=True)
-def _segment_params(p: np.ndarray, w0: float, rate: float, t_ref: float) -> np.ndarray:
+def _piece(tk: np.ndarray, vk: np.ndarray, t: float) -> int:
+    """Index j of the drive piece [tk[j], tk[j+1]) holding t (-1 before, K-1 after)."""
+    k = tk.shape[0]
+    if t < tk[0]:
+        return -1
+    j = 0
+    while j < k - 1 and t >= tk[j + 1]:
+        j += 1
+    return j
+
+
+@njit(cache=True, nogil=True)
+def _piece_params(p: np.ndarray, tk: np.ndarray, vk: np.ndarray, j: int) -> np.ndarray:
+    """Kernel parameters driven by piece j: ``w0 = vk[j] + rate*(t - tk[j])``."""
     q = p.copy()
     q[kn.P_RAMP] = 0.0
-    q[kn.P_W0] = w0
-    q[kn.P_W0_RATE] = rate
-    q[kn.P_T_DRIVE] = t_ref
+    k = tk.shape[0]
+    if j < 0:
+        q[kn.P_W0] = vk[0]
+        q[kn.P_W0_RATE] = 0.0
+        q[kn.P_T_DRIVE] = tk[0]
+    elif j >= k - 1:
+        q[kn.P_W0] = vk[k - 1]
+        q[kn.P_W0_RATE] = 0.0
+        q[kn.P_T_DRIVE] = tk[k - 1]
+    else:
+        q[kn.P_W0] = vk[j]
+        q[kn.P_W0_RATE] = (vk[j + 1] - vk[j]) / max(tk[j + 1] - tk[j], 1e-12)
+        q[kn.P_T_DRIVE] = tk[j]
     return q
 
 
@@ -85,32 +106,54 @@ def shoot(
     states: np.ndarray,
     starts: np.ndarray,
     stops: np.ndarray,
-    w0: np.ndarray,
-    rate: np.ndarray,
-    t_ref: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
     dt: float,
     n_sub: int,
     out: np.ndarray,
 ) -> int:
     """Integrate every segment ``[starts[k], stops[k])`` from ``states[k]`` with the
-    kernel (:func:`kernel.integrate`), driven by its linear drive piece; write the
-    kernel's output channels into ``out`` (``kernel.N_CH`` x record length).
-    ``states`` are not modified. Returns the number of switching events."""
+    kernel (:func:`kernel.integrate`), driven by the piecewise-linear drive (knots
+    ``tk`` [s], ``vk`` [rad/s]); at a knot inside a segment the drive piece changes
+    at the next sample and the shaft angle is shifted so that the belt deflection
+    ``phi2 - phi0`` stays continuous. Writes the kernel's output channels into
+    ``out`` (``kernel.N_CH`` x record length); ``states`` are not modified.
+    Returns the number of switching events."""
     max_len = 1
     for k in range(starts.shape[0]):
         max_len = max(max_len, stops[k] - starts[k])
     buf = np.empty((kn.N_CH, max_len))
     n_ev = 0
+    nk = tk.shape[0]
     for k in range(starts.shape[0]):
-        n = stops[k] - starts[k]
-        if n <= 0:
+        n_left = stops[k] - starts[k]
+        if n_left <= 0:
             continue
-        q = _segment_params(p, w0[k], rate[k], t_ref[k])
         s = states[k].copy()
-        n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
-        for c in range(kn.N_CH):
-            for i in range(n):
-                out[c, starts[k] + i] = buf[c, i]
+        pos = starts[k]
+        j = _piece(tk, vk, s[kn.S_T])
+        while n_left > 0:
+            q = _piece_params(p, tk, vk, j)
+            # samples until the next knot (the piece changes at the first sample after it)
+            n = n_left
+            if j < nk - 1:
+                t_next = tk[j + 1] if j >= 0 else tk[0]
+                m = math.ceil((t_next - s[kn.S_T]) / dt - 1e-9)
+                if 1 <= m < n:
+                    n = m
+            n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
+            for c in range(kn.N_CH):
+                for i in range(n):
+                    out[c, pos + i] = buf[c, i]
+            pos += n
+            n_left -= n
+            if n_left > 0:
+                j_new = _piece(tk, vk, s[kn.S_T])
+                if j_new != j:
+                    q_new = _piece_params(p, tk, vk, j_new)
+                    t = s[kn.S_T]
+                    s[kn.S_PHI2] += kn.drive_angle(q_new, t) - kn.drive_angle(q, t)
+                    j = j_new
     return n_ev
 
 
@@ -122,17 +165,17 @@ def stuck_states(
     w: np.ndarray,
     accel: np.ndarray,
     t_stick: np.ndarray,
-    w0: np.ndarray,
-    rate: np.ndarray,
-    t_ref: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
 ) -> np.ndarray:
     """Kernel states (``kernel.S_*``) of stuck discs at times ``t`` [s] from the true
     torsion moment C1*phi1 [N m], the common speed ``w`` [rad/s], the acceleration
-    [rad/s^2] and the time already stuck [s] (module doc; the kernel's own Q1, Q2)."""
+    [rad/s^2] and the time already stuck [s] (module doc; the kernel's own Q1, Q2),
+    for the drive with knots ``tk`` [s], ``vk`` [rad/s]."""
     m = t.shape[0]
     out = np.zeros((m, kn.NS))
     for k in range(m):
-        q = _segment_params(p, w0[k], rate[k], t_ref[k])
+        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
         phi1 = torsion[k] / q[kn.P_C1]
         q1 = kn.chamber_moment(q, phi1, w[k])
         phi0 = kn.drive_angle(q, t[k])
@@ -162,17 +205,16 @@ def sliding_states(
     w2: np.ndarray,
     w2_dot: np.ndarray,
     moment: np.ndarray,
-    w0: np.ndarray,
-    rate: np.ndarray,
-    t_ref: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
 ) -> np.ndarray:
     """Kernel states while sliding past the slip-speed peak (module doc): torsion
     moment [N m], chamber speed w1, shaft speed w2 [rad/s], w2' [rad/s^2] and the
-    friction moment M [N m] at times ``t`` [s]."""
+    friction moment M [N m] at times ``t`` [s]; drive knots ``tk`` [s], ``vk`` [rad/s]."""
     m = t.shape[0]
     out = np.zeros((m, kn.NS))
     for k in range(m):
-        q = _segment_params(p, w0[k], rate[k], t_ref[k])
+        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
         phi0 = kn.drive_angle(q, t[k])
         w0t = kn.drive_speed(q, t[k])
         out[k, kn.S_T] = t[k]
@@ -248,7 +290,7 @@ def window_mean(
 
 
 __all__ = [
-    'SegmentDrive',
+    'DriveKnots',
     'local_cubic',
     'shoot',
     'sliding_states',

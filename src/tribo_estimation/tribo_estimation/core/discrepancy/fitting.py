@@ -37,12 +37,13 @@ from tribo_estimation.core.model import (
     pack_params,
 )
 from tribo_estimation.core.shooting import (
-    SegmentDrive,
+    DriveKnots,
     local_cubic,
     shoot,
     stuck_states,
     window_mean,
 )
+from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
 from tribo_estimation.core.simulate import sensor_lag, sensor_offset
 from tribo_estimation.core.sticks import detect_sticks
 from tribo_estimation.errors import (
@@ -263,6 +264,73 @@ def make_segments(
     )
 
 
+@dataclass(frozen=True)
+class SpeedSensor:
+    """Identified speed-sensor model: first-order lag ``tau`` [s] and zero offset
+    ``offset`` [rad/s] with standard errors; ``n`` stick samples used."""
+
+    tau: float
+    tau_se: float
+    offset: float
+    offset_se: float
+    n: int
+
+    def values(self) -> dict[str, float]:
+        """As model values (:data:`INSTRUMENT_FIELDS`)."""
+        return {'speed_lag_tau': self.tau, 'speed_offset': self.offset}
+
+
+def identify_speed_sensor(
+    record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
+) -> SpeedSensor:
+    """Speed-sensor lag and offset from the stick phases, independent of friction.
+
+    While the discs stick, the shaft speed equals the chamber speed
+    ``w = (dM_t/dt)/C1`` (Equ. 4; from the torsion moment, which carries neither
+    of the speed sensor's errors). A first-order sensor shows ``y`` with
+    ``w = y + tau*y'`` and ``y' ~ w' = a`` (the measured acceleration), so
+    ``y - w = offset - tau*a``: a linear regression over the stick samples
+    (10 samples from each end of a phase left out) gives both; standard errors
+    are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
+    """
+    from tribo_estimation.core.signal import chamber_speed
+
+    if runs is None:
+        a0, b0, _ = stick_runs(record, rig)
+    else:
+        a0, b0 = runs
+    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    acc = moving_average(record.angular_acceleration, 2 * CHAMBER_HALF + 1)
+    guard = CHAMBER_HALF + 3
+    idx_l: list[IntArray] = []
+    cl_l: list[IntArray] = []
+    for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
+        if b - a > 2 * guard + 2:
+            ii = np.arange(int(a) + guard, int(b) - guard, dtype=np.int64)
+            idx_l.append(ii)
+            cl_l.append(np.full(ii.size, k, dtype=np.int64))
+    if not idx_l:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, 0)
+    idx = np.concatenate(idx_l)
+    cl = np.concatenate(cl_l)
+    d = record.speed[idx] - w[idx]
+    X = np.column_stack((np.ones(idx.size), -acc[idx]))
+    try:
+        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
+        binv = np.linalg.inv(X.T @ X)
+    except np.linalg.LinAlgError:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
+    r = d - X @ coef
+    _, g = np.unique(cl, return_inverse=True)
+    G = int(g.max()) + 1
+    scores = np.zeros((G, 2))
+    np.add.at(scores, g, X * r[:, None])
+    cov = binv @ (scores.T @ scores) @ binv * (G / max(G - 1, 1))
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
+    return SpeedSensor(tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size))
+
+
 @njit(cache=True)
 def _lag_segments(
     x: np.ndarray,
@@ -353,7 +421,7 @@ class Problem:
         self._drive_speed0 = self.drive_estimate
         sp = record.speed
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
-        self._seg_drive = SegmentDrive.from_estimate(self.drive_estimate, self._t0)
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
         # state at the segment starts: the torsion moment (local cubic) and the
         # acceleration; the common speed of the stuck discs from the speed channel
         # with its sensor model inverted (:meth:`_set_instrument`)
@@ -361,13 +429,30 @@ class Problem:
         self._m_slope = np.where(np.isfinite(slope), slope * fs, 0.0)
         self._a0 = window_mean(record.angular_acceleration, i, 2, seg.run_start, seg.run_stop)
         self._speed_start = window_mean(record.speed, i, 5, seg.run_start, seg.run_stop)
+        # stick samples (every 4th, away from the phase ends) and smoothed channels
+        # for the drive angle (:meth:`_set_instrument`)
+        width = 2 * CHAMBER_HALF + 1
+        self._smooth_speed = moving_average(record.speed, width)
+        self._smooth_accel = moving_average(record.angular_acceleration, width)
+        self._smooth_torque = moving_average(record.torsion_moment, width)
+        guard = CHAMBER_HALF + 1
+        ra = seg.run_start if seg.run_start is not None else seg.start
+        rb = seg.run_stop if seg.run_stop is not None else seg.start + 1
+        idx = [
+            np.arange(int(a) + guard, int(b) - guard, 4, dtype=np.int64)
+            for a, b in zip(ra, rb, strict=True)
+            if b - a > 2 * guard
+        ]
+        self._stick_samples = (
+            np.unique(np.concatenate(idx)) if idx else np.asarray(seg.start, dtype=np.int64)
+        )
         self._meas: dict[str, FloatArray] = {
             'torsion_moment': record.torsion_moment,
             'chamber_speed': np.full(record.time.size, np.nan),
             'speed': record.speed,
         }
         self._w_start = self._speed_start.copy()
-        self._instrument = (math.nan, math.nan)
+        self._instrument: tuple[float, ...] = (math.nan,) * 5
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -430,26 +515,18 @@ class Problem:
             lag_eff = rec.dt * a_l / (1.0 - a_l)
         m_true = m_lagged + lag_eff * (self._m_slope[sel] - ext.torque_offset_drift)
         self._set_instrument(
-            float(values.get('speed_lag_tau', 0.0)), float(values.get('speed_offset', 0.0))
+            float(values.get('speed_lag_tau', 0.0)),
+            float(values.get('speed_offset', 0.0)),
+            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase),
         )
-        sd = self._seg_drive.select(sel)
+        dk = self._knots
         states = stuck_states(
-            p,
-            t0,
-            m_true,
-            self._w_start[sel],
-            self._a0[sel],
-            seg.stick_time[sel],
-            sd.w0,
-            sd.rate,
-            sd.t_ref,
+            p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time, dk.speed
         )
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
-        shoot(
-            p, states, seg.start[sel], seg.stop[sel], sd.w0, sd.rate, sd.t_ref, rec.dt, n_sub, out
-        )
+        shoot(p, states, seg.start[sel], seg.stop[sel], dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1
         speed = self._speed_sensor(out[kn.OUT_SPEED], values, sel)
         torsion = out[kn.OUT_TORSION].copy()
@@ -474,15 +551,22 @@ class Problem:
             covered=covered,
         )
 
-    def _set_instrument(self, tau: float, offset: float) -> None:
+    def _set_instrument(
+        self, tau: float, offset: float, ripple: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ) -> None:
         """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment
         starts: while stuck the discs share one speed w with w' = the measured
         acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
         ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
         chamber speed channel is ``w(start) + integral of a`` per segment."""
-        if self._instrument == (tau, offset):
+        key = (tau, offset, *ripple)
+        if self._instrument == key:
             return
-        self._instrument = (tau, offset)
+        same_sensor = self._instrument[:2] == (tau, offset)
+        self._instrument = key
+        if same_sensor:  # only the model's drive ripple changed
+            self._fit_drive(tau, offset, ripple)
+            return
         rec = self.record
         self._w_start = self._speed_start - offset + tau * self._a0
         w1 = np.full(rec.time.size, np.nan)
@@ -492,19 +576,36 @@ class Problem:
             w1[a] = self._w_start[k]
             w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
-        # drive angle at the segment starts = shaft angle (integral of the corrected
-        # speed; the lag shifts it by tau*(w - w_first)) - belt deflection (Equ. 2 with
-        # the stuck balance), then the drive speed profile fitted to these angles
+        self._fit_drive(tau, offset, ripple)
+
+    def _fit_drive(self, tau: float, offset: float, ripple: tuple[float, float, float]) -> None:
+        """The drive profile from the drive angles at the stick samples, with the
+        speed sensor inverted and the model's drive-speed ripple (its angle) taken out."""
+        rec = self.record
+        # drive angle while stuck = shaft angle (integral of the speed channel, less
+        # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
+        # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
         rig = self.rig
-        w = self._w_start
-        q1 = -rig.K1 * w - self._m_val
-        q2 = (rig.I1 + rig.I2) * self._a0 - q1
-        w0_est = self._drive_speed0.speed(self._t0)
-        defl = -(q2 + rig.K2 * (w - w0_est)) / rig.C2
-        phi2 = self._shaft_angle[self.segments.start] - offset * (self._t0 - rec.time[0])
-        phi2 = phi2 + tau * (w - float(rec.speed[0]) + offset)
-        self.drive_estimate = refine_with_angles(self._drive_speed0, self._t0, phi2 - defl)
-        self._seg_drive = SegmentDrive.from_estimate(self.drive_estimate, self._t0)
+        j = self._stick_samples
+        y = self._smooth_speed[j]
+        w = y - offset + tau * self._smooth_accel[j]
+        t = rec.time[j]
+        q1 = -rig.K1 * w - self._smooth_torque[j]
+        q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
+        defl = -(q2 + rig.K2 * (w - self._drive_speed0.speed(t))) / rig.C2
+        phi2 = (
+            self._shaft_angle[j]
+            - offset * (t - rec.time[0])
+            + tau * (y - float(self._smooth_speed[0]))
+        )
+        phi0 = phi2 - defl
+        amp, freq, phase = ripple
+        if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
+            om = 2.0 * math.pi * freq
+            phi0 = phi0 - amp / om * (math.cos(phase) - np.cos(om * t + phase))
+        hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
+        self.drive_estimate = refine_with_angles(self._drive_speed0, t, phi0, hints)
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
     def _speed_sensor(
         self, w2: FloatArray, values: Mapping[str, float], sel: npt.NDArray[np.bool_]

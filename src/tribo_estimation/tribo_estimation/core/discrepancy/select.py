@@ -44,12 +44,12 @@ from . import candidates as cand_lib
 from .candidates import Candidate, ParamSpec, StartContext
 from .fitting import (
     CHANNELS,
-    INSTRUMENT,
     MU0,
     MU_INF,
     Problem,
     Record,
     SimulatedRecord,
+    identify_speed_sensor,
     make_segments,
 )
 from .localise import localise, shaft_angle, torque_residual, variable
@@ -484,11 +484,25 @@ def run_discrepancy(
         record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
     )
     sel = _Selector(pb, st, say)
+    # the instrument model (speed-sensor lag and offset) is identified from the stick
+    # phases before any fit (friction-free) and held fixed by every model
+    sensor = identify_speed_sensor(record, rig, (pb.segments.run_start, pb.segments.run_stop))
+    instrument = {
+        'speed_lag_tau': {'value': sensor.tau, 'se': sensor.tau_se, 'unit': 's'},
+        'speed_offset': {'value': sensor.offset, 'se': sensor.offset_se, 'unit': 'rad/s'},
+        'stick_samples': sensor.n,
+    }
+    say(
+        f'speed sensor: lag {1e3 * sensor.tau:.3g} +- {1e3 * sensor.tau_se:.2g} ms, offset '
+        f'{sensor.offset:.3g} +- {sensor.offset_se:.2g} rad/s'
+    )
     say(
         f'{pb.segments.n} segments in {pb.segments.n_blocks} blocks; fitting the baseline '
         '(paper model: mu0, mu_inf)'
     )
-    base_vals = sel.fit_best([MU0, MU_INF], _baseline_starts(pb))
+    base_vals = sel.fit_best(
+        [MU0, MU_INF], [{**sensor.values(), **st0} for st0 in _baseline_starts(pb)]
+    )
     base_sim = pb.simulate(base_vals)
     floors: dict[str, float] = {}
     for ch in CHANNELS:
@@ -497,17 +511,7 @@ def run_discrepancy(
     pb.set_residual_weights(base_sim, floors)
     # the instrument model (speed-sensor lag and offset) joins the baseline before
     # any effect is tried; the effects' fits hold it fixed
-    start = {**{p.name: p.initial for p in INSTRUMENT}, **base_vals}
-    base_fit = pb.fit([MU0, MU_INF, *INSTRUMENT], start, max_nfev=2 * st.max_nfev)
-    base_vals = base_fit.values
-    instrument = {
-        p.name: {
-            'value': base_vals[p.name],
-            'se': base_fit.se.get(p.name, math.nan),
-            'unit': p.unit,
-        }
-        for p in INSTRUMENT
-    }
+    base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
     base_sim = pb.simulate(base_vals)
     current = sel.score((), base_vals)
     baseline = current
