@@ -209,12 +209,12 @@ def identify_free_decay(
         return np.concatenate([(mt - m) / wm, (ac_ - a) / wa])
 
     q = q0 / scale
-    lo = np.full(q.size, -np.inf)
-    hi = np.full(q.size, np.inf)
+    q_lo = np.full(q.size, -np.inf)
+    q_hi = np.full(q.size, np.inf)
 
     def solve(qq: np.ndarray, wm: float, wa: float) -> LsqResult:
         return levenberg_marquardt(
-            lambda x: resid(x, wm, wa), qq, lo, hi, max_iter=200, max_nfev=2000, ftol=1e-12
+            lambda x: resid(x, wm, wa), qq, q_lo, q_hi, max_iter=200, max_nfev=2000, ftol=1e-12
         )
 
     for _ in range(2):
@@ -233,7 +233,7 @@ def identify_free_decay(
         sol.jac
         if sol.jac_current
         else forward_jacobian(
-            lambda x: resid(x, sm, sa), qs, sol.fun, hi, np.maximum(1e-4 * np.abs(qs), 1e-4)
+            lambda x: resid(x, sm, sa), qs, sol.fun, q_hi, np.maximum(1e-4 * np.abs(qs), 1e-4)
         )
     )
     n_res = jac.shape[0]

@@ -486,7 +486,14 @@ def run_discrepancy(
     sel = _Selector(pb, st, say)
     # the instrument model (speed-sensor lag and offset) is identified from the stick
     # phases before any fit (friction-free) and held fixed by every model
-    sensor = identify_speed_sensor(record, rig, (pb.segments.run_start, pb.segments.run_stop))
+    seg = pb.segments
+    sensor = identify_speed_sensor(
+        record,
+        rig,
+        (seg.run_start, seg.run_stop)
+        if seg.run_start is not None and seg.run_stop is not None
+        else None,
+    )
     instrument = {
         'speed_lag_tau': {'value': sensor.tau, 'se': sensor.tau_se, 'unit': 's'},
         'speed_offset': {'value': sensor.offset, 'se': sensor.offset_se, 'unit': 'rad/s'},
