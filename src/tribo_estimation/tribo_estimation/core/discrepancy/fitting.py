@@ -204,7 +204,21 @@ def stick_runs(
     b = np.array([min(n, max(0, math.ceil((p.end - t0) * fs - 1e-9))) for p in phases], np.int64)
     onset = np.array([p.start for p in phases], dtype=np.float64)
     keep = b > a
-    return a[keep], b[keep], onset[keep]
+    a, b, onset = a[keep], b[keep], onset[keep]
+    # overlapping phases (if a detector reports any) are merged
+    order = np.argsort(a, kind='stable')
+    ma: list[int] = []
+    mb: list[int] = []
+    mo: list[float] = []
+    for i in order.tolist():
+        if ma and a[i] < mb[-1]:
+            mb[-1] = max(mb[-1], int(b[i]))
+            mo[-1] = min(mo[-1], float(onset[i]))
+        else:
+            ma.append(int(a[i]))
+            mb.append(int(b[i]))
+            mo.append(float(onset[i]))
+    return np.array(ma, np.int64), np.array(mb, np.int64), np.array(mo, np.float64)
 
 
 def make_segments(
