@@ -302,11 +302,13 @@ def identify_speed_sensor(
     While the discs stick, the shaft speed equals the chamber speed
     ``w = (dM_t/dt)/C1`` (Equ. 4; from the torsion moment, which carries neither
     of the speed sensor's errors). A first-order sensor shows ``y`` with
-    ``w = y + tau*y'`` and ``y' ~ w' = a`` (the measured acceleration), so
-    ``y - w = offset - tau*a``: a linear regression over the stick samples
+    ``w = y + tau*y'`` (``y'`` from a local cubic through the speed channel), so
+    ``y - w = offset - tau*y'``: a linear regression over the stick samples
     (10 samples from each end of a phase left out) gives both; standard errors
     are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
     """
+    from scipy.signal import savgol_filter
+
     from tribo_estimation.core.signal import chamber_speed
 
     if runs is None:
@@ -314,7 +316,11 @@ def identify_speed_sensor(
     else:
         a0, b0 = runs
     w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    acc = moving_average(record.angular_acceleration, 2 * CHAMBER_HALF + 1)
+    # y' from the speed channel itself (during a stick it follows w' through the lag,
+    # and before it the shaft's own acceleration)
+    acc = np.asarray(
+        savgol_filter(record.speed, 4 * CHAMBER_HALF + 1, 3, deriv=1, delta=record.dt)
+    )
     guard = CHAMBER_HALF + 3
     idx_l: list[IntArray] = []
     cl_l: list[IntArray] = []
