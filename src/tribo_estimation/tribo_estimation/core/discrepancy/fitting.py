@@ -278,6 +278,17 @@ def make_segments(
     )
 
 
+def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
+    """Slope y' [rad/s^2] of the speed channel (local cubic over 4*7+1 samples): with
+    a first-order sensor lag tau the shaft speed is ``w = y + tau*y'``."""
+    from scipy.signal import savgol_filter
+
+    win = 4 * CHAMBER_HALF + 1
+    if speed.size < win:
+        return np.zeros(speed.size)
+    return np.asarray(savgol_filter(speed, win, 3, deriv=1, delta=dt), dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class SpeedSensor:
     """Identified speed-sensor model: first-order lag ``tau`` [s] and zero offset
@@ -307,8 +318,6 @@ def identify_speed_sensor(
     (10 samples from each end of a phase left out) gives both; standard errors
     are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
     """
-    from scipy.signal import savgol_filter
-
     from tribo_estimation.core.signal import chamber_speed
 
     if runs is None:
@@ -318,9 +327,7 @@ def identify_speed_sensor(
     w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
     # y' from the speed channel itself (during a stick it follows w' through the lag,
     # and before it the shaft's own acceleration)
-    acc = np.asarray(
-        savgol_filter(record.speed, 4 * CHAMBER_HALF + 1, 3, deriv=1, delta=record.dt)
-    )
+    acc = speed_slope(record.speed, record.dt)
     guard = CHAMBER_HALF + 3
     idx_l: list[IntArray] = []
     cl_l: list[IntArray] = []
@@ -453,6 +460,7 @@ class Problem:
         # for the drive angle (:meth:`_set_instrument`)
         width = 2 * CHAMBER_HALF + 1
         self._smooth_speed = moving_average(record.speed, width)
+        self._speed_slope = speed_slope(record.speed, record.dt)
         self._smooth_accel = moving_average(record.angular_acceleration, width)
         self._smooth_torque = moving_average(record.torsion_moment, width)
         guard = CHAMBER_HALF + 1
@@ -588,7 +596,7 @@ class Problem:
             self._fit_drive(tau, offset, ripple)
             return
         rec = self.record
-        self._w_start = self._speed_start - offset + tau * self._a0
+        self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
         for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
@@ -608,7 +616,7 @@ class Problem:
         rig = self.rig
         j = self._stick_samples
         y = self._smooth_speed[j]
-        w = y - offset + tau * self._smooth_accel[j]
+        w = y - offset + tau * self._speed_slope[j]
         t = rec.time[j]
         q1 = -rig.K1 * w - self._smooth_torque[j]
         q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
