@@ -205,7 +205,8 @@ class BlockResult:
         return ';'.join(self.quality) if self.quality else 'ok'
 
 
-#: Columns of ``blocks.csv`` (issue 4), then ``quality``.
+#: Block-table columns shared with the live estimates (FrictionEstimate) and the
+#: report, then ``quality``.
 CSV_COLUMNS: tuple[str, ...] = (
     't_start',
     't_end',
@@ -220,15 +221,15 @@ CSV_COLUMNS: tuple[str, ...] = (
     'n_sticks',
     'stick_fraction',
     'rms_residual',
-    'w0',
-    'drive_mismatch',
     'quality',
 )
 
-#: Columns a ``blocks.csv`` must have (older files lack ``w0``, ``drive_mismatch``).
-REQUIRED_COLUMNS: tuple[str, ...] = tuple(
-    c for c in CSV_COLUMNS if c not in ('w0', 'drive_mismatch')
-)
+#: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
+#: fit used (``w0`` [rad/s], measured) and its relative deviation from the
+#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``. Older files
+#: without the two are read too.
+FILE_COLUMNS: tuple[str, ...] = (*CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality')
+REQUIRED_COLUMNS = CSV_COLUMNS
 
 
 def _fmt(v: float) -> str:
@@ -245,7 +246,7 @@ class BlockCsvWriter:
         self.path = os.fspath(path)
         self._fh: TextIO = open(self.path, 'w', newline='', encoding='utf-8')  # noqa: SIM115
         self._w = csv.writer(self._fh, lineterminator='\n')
-        self._w.writerow(CSV_COLUMNS)
+        self._w.writerow(FILE_COLUMNS)
         self._fh.flush()
         self.rows = 0
 
@@ -306,7 +307,7 @@ def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
                 raise MissingColumnError(f'{p}: missing column {c!r} in blocks table')
         rows = list(reader)
     out: dict[str, np.ndarray] = {}
-    for c in CSV_COLUMNS:
+    for c in FILE_COLUMNS:
         vals = [r.get(c) or 'nan' for r in rows]
         if c in ('motion', 'quality'):
             out[c] = np.array(vals, dtype=object)
@@ -1198,6 +1199,7 @@ class StreamingPipeline:
 
 __all__ = [
     'CSV_COLUMNS',
+    'FILE_COLUMNS',
     'FLAGS',
     'MOTIONS',
     'BlockConfig',
