@@ -301,8 +301,17 @@ class SpeedSensor:
     n: int
 
     def values(self) -> dict[str, float]:
-        """As model values (:data:`INSTRUMENT_FIELDS`)."""
-        return {'speed_lag_tau': self.tau, 'speed_offset': self.offset}
+        """As model values (:data:`INSTRUMENT_FIELDS`); a value within 3 standard
+        errors of zero is not used (0): the model is very sensitive to a wrong speed
+        offset (it shifts the drive speed), so noise must not enter it."""
+
+        def significant(v: float, se: float) -> float:
+            return v if math.isfinite(se) and abs(v) > 3.0 * se else 0.0
+
+        return {
+            'speed_lag_tau': significant(self.tau, self.tau_se),
+            'speed_offset': significant(self.offset, self.offset_se),
+        }
 
 
 def identify_speed_sensor(
@@ -480,7 +489,7 @@ class Problem:
             'speed': record.speed,
         }
         self._w_start = self._speed_start.copy()
-        self._instrument: tuple[float, ...] = (math.nan,) * 5
+        self._instrument: tuple[float, ...] = (math.nan,) * 7
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -546,6 +555,7 @@ class Problem:
             float(values.get('speed_lag_tau', 0.0)),
             float(values.get('speed_offset', 0.0)),
             (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase),
+            (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
         states = stuck_states(
@@ -580,20 +590,24 @@ class Problem:
         )
 
     def _set_instrument(
-        self, tau: float, offset: float, ripple: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        torque: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment
         starts: while stuck the discs share one speed w with w' = the measured
         acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
         ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
         chamber speed channel is ``w(start) + integral of a`` per segment."""
-        key = (tau, offset, *ripple)
+        key = (tau, offset, *ripple, *torque)
         if self._instrument == key:
             return
         same_sensor = self._instrument[:2] == (tau, offset)
         self._instrument = key
-        if same_sensor:  # only the model's drive ripple changed
-            self._fit_drive(tau, offset, ripple)
+        if same_sensor:  # only the model's drive ripple or torque offset changed
+            self._fit_drive(tau, offset, ripple, torque)
             return
         rec = self.record
         self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
@@ -604,11 +618,18 @@ class Problem:
             w1[a] = self._w_start[k]
             w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
-        self._fit_drive(tau, offset, ripple)
+        self._fit_drive(tau, offset, ripple, torque)
 
-    def _fit_drive(self, tau: float, offset: float, ripple: tuple[float, float, float]) -> None:
+    def _fit_drive(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float],
+        torque: tuple[float, float],
+    ) -> None:
         """The drive profile from the drive angles at the stick samples, with the
-        speed sensor inverted and the model's drive-speed ripple (its angle) taken out."""
+        speed sensor inverted, the model's torque offset and drift [N m, N m/s] taken
+        off the torsion moment and the model's drive-speed ripple (its angle) taken out."""
         rec = self.record
         # drive angle while stuck = shaft angle (integral of the speed channel, less
         # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
@@ -618,21 +639,26 @@ class Problem:
         y = self._smooth_speed[j]
         w = y - offset + tau * self._speed_slope[j]
         t = rec.time[j]
-        q1 = -rig.K1 * w - self._smooth_torque[j]
+        q1 = -rig.K1 * w - (self._smooth_torque[j] - torque[0] - torque[1] * t)
         q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
-        defl = -(q2 + rig.K2 * (w - self._drive_speed0.speed(t))) / rig.C2
         phi2 = (
             self._shaft_angle[j]
             - offset * (t - rec.time[0])
             + tau * (y - float(self._smooth_speed[0]))
         )
-        phi0 = phi2 - defl
         amp, freq, phase = ripple
+        ripple_angle = np.zeros_like(t)
         if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
             om = 2.0 * math.pi * freq
-            phi0 = phi0 - amp / om * (math.cos(phase) - np.cos(om * t + phase))
+            ripple_angle = amp / om * (math.cos(phase) - np.cos(om * t + phase))
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
-        self.drive_estimate = refine_with_angles(self._drive_speed0, t, phi0, hints)
+        # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
+        # more with the profile from the angles
+        drive = self._drive_speed0
+        for _ in range(2):
+            defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
+            drive = refine_with_angles(self._drive_speed0, t, phi2 - defl - ripple_angle, hints)
+        self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
     def _speed_sensor(

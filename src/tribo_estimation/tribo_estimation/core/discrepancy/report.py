@@ -13,7 +13,9 @@ Further keys: ``noise_floor`` (N m), ``rounds`` (every candidate's score per
 selection round), ``proposed_terms`` (sparse regression on the final residual),
 ``localisation`` (baseline and final residual statistics), ``settings``,
 ``instrument`` (the speed-sensor model fitted with the baseline:
-``{"speed_lag_tau": {"value": s, "se": s, "unit": "s"}, "speed_offset": {...}}``)
+``{"speed_lag_tau": {"value": s, "se": s, "unit": "s", "used": s}, "speed_offset":
+{...}, "stick_samples": n}``; ``used`` is the value the models use: 0 unless the
+estimate is beyond 3 standard errors)
 and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
 [rad/s], ``mismatch`` [-], ``mismatched`` (> 5 %), ``warning``, the profile's
 ``knot_time`` [s] / ``knot_speed`` [rad/s] and per time block ``blocks``:

@@ -494,9 +494,20 @@ def run_discrepancy(
         if seg.run_start is not None and seg.run_stop is not None
         else None,
     )
+    used = sensor.values()
     instrument = {
-        'speed_lag_tau': {'value': sensor.tau, 'se': sensor.tau_se, 'unit': 's'},
-        'speed_offset': {'value': sensor.offset, 'se': sensor.offset_se, 'unit': 'rad/s'},
+        'speed_lag_tau': {
+            'value': sensor.tau,
+            'se': sensor.tau_se,
+            'unit': 's',
+            'used': used['speed_lag_tau'],
+        },
+        'speed_offset': {
+            'value': sensor.offset,
+            'se': sensor.offset_se,
+            'unit': 'rad/s',
+            'used': used['speed_offset'],
+        },
         'stick_samples': sensor.n,
     }
     say(
