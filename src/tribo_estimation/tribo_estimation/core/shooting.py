@@ -233,6 +233,24 @@ def sliding_states(
     return out
 
 
+@njit(cache=True, nogil=True)
+def lag_segments(
+    x: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    y_prev: np.ndarray,
+    a: float,
+    out: np.ndarray,
+) -> None:
+    """First-order sensor lag ``y[n] = a*y[n-1] + (1 - a)*x[n]`` (``a = exp(-dt/tau)``)
+    per segment, each started from its filter state ``y_prev``; written into ``out``."""
+    for k in range(starts.shape[0]):
+        y = y_prev[k]
+        for i in range(starts[k], stops[k]):
+            y = a * y + (1.0 - a) * x[i]
+            out[i] = y
+
+
 # ------------------------------------------------------------- local polynomials
 def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
     """Rows (value, slope per sample) of the least-squares cubic through the
@@ -291,6 +309,7 @@ def window_mean(
 
 __all__ = [
     'DriveKnots',
+    'lag_segments',
     'local_cubic',
     'shoot',
     'sliding_states',

@@ -24,7 +24,6 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import DriveEstimate, estimate_drive, refine_with_angles
@@ -38,6 +37,7 @@ from tribo_estimation.core.model import (
 )
 from tribo_estimation.core.shooting import (
     DriveKnots,
+    lag_segments,
     local_cubic,
     shoot,
     stuck_states,
@@ -367,24 +367,6 @@ def identify_speed_sensor(
     return SpeedSensor(tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size))
 
 
-@njit(cache=True)
-def _lag_segments(
-    x: np.ndarray,
-    starts: np.ndarray,
-    stops: np.ndarray,
-    y_prev: np.ndarray,
-    a: float,
-    out: np.ndarray,
-) -> None:
-    """First-order sensor lag ``y[n] = a*y[n-1] + (1 - a)*x[n]`` per segment, each
-    started from its filter state ``y_prev``; written into ``out``."""
-    for k in range(starts.shape[0]):
-        y = y_prev[k]
-        for i in range(starts[k], stops[k]):
-            y = a * y + (1.0 - a) * x[i]
-            out[i] = y
-
-
 @dataclass(frozen=True)
 class SimulatedRecord:
     """Model output on the record's time base (NaN outside the segments).
@@ -674,7 +656,7 @@ class Problem:
         out = w2.copy()
         if tau > 0.0:
             seg = self.segments
-            _lag_segments(
+            lag_segments(
                 w2,
                 seg.start[sel],
                 seg.stop[sel],
