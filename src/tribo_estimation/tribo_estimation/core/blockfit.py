@@ -86,7 +86,8 @@ class BlockConfig:
         min_fraction: smallest fraction of valid samples for a fit [-].
         saturation_run: this many equal consecutive samples at the block's
             extreme value mark a clipped sensor [samples].
-        min_stick_duration: shortest stick phase counted (FrictionEstimate: 2 ms) [s].
+        min_stick_duration: shortest stick phase counted (1 ms: 10 samples at 10 kHz;
+            shorter ones are micro-sticks) [s].
         speed_lag: known first-order lag of the shaft-speed sensor [s] (the fit uses
             the speed channel only for the drive level and, lag-corrected, at
             sliding nodes).
@@ -101,7 +102,7 @@ class BlockConfig:
     max_iter: int = 8
     min_fraction: float = 0.5
     saturation_run: int = 5
-    min_stick_duration: float = 2e-3
+    min_stick_duration: float = 1e-3
     speed_lag: float = 0.0
 
     def __post_init__(self) -> None:
