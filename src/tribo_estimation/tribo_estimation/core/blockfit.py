@@ -63,7 +63,13 @@ from .model import DriveProfile, FrictionLaw, RigParams, pack_params
 from .observer import FrictionObserver, friction_moment
 from .shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
 from .signal import CHAMBER_HALF, chamber_speed, longest_run, noise_level, runs
-from .sticks import classify_motion, detect_sticks
+from .sticks import (
+    chamber_speed_integral,
+    classify_motion,
+    detect_sticks,
+    estimate_torsion_lag,
+    torsion_lag_compensated,
+)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -91,6 +97,10 @@ class BlockConfig:
         speed_lag: known first-order lag of the shaft-speed sensor [s] (the fit uses
             the speed channel only for the drive level and, lag-corrected, at
             sliding nodes).
+        torsion_lag: first-order lag of the torsion amplifier [s]; ``None`` = estimated
+            per block (:func:`sticks.estimate_torsion_lag`), 0 = none. The measured
+            torsion moment is compensated before the fit
+            (:func:`sticks.torsion_lag_compensated`, exact for a first-order lag).
     """
 
     block_length: float = 1.0
@@ -104,6 +114,7 @@ class BlockConfig:
     saturation_run: int = 5
     min_stick_duration: float = 1e-3
     speed_lag: float = 0.0
+    torsion_lag: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length) and 0.01 <= self.block_length <= 600.0):
@@ -130,6 +141,12 @@ class BlockConfig:
             )
         if not (math.isfinite(self.speed_lag) and 0.0 <= self.speed_lag <= 0.1):
             raise InvalidParameterError(f'speed_lag must be in [0, 0.1] s, got {self.speed_lag!r}')
+        if self.torsion_lag is not None and not (
+            math.isfinite(self.torsion_lag) and 0.0 <= self.torsion_lag <= 0.01
+        ):
+            raise InvalidParameterError(
+                f'torsion_lag must be in [0, 0.01] s, got {self.torsion_lag!r}'
+            )
         if self.saturation_run < 2:
             raise InvalidParameterError(
                 f'saturation_run must be >= 2 samples, got {self.saturation_run}'
@@ -892,6 +909,11 @@ def evaluate_block(
             'the speed looks like rpm, expected rad/s'
         )
     time = t0 + np.arange(n) / blk.fs
+    tau_t = _torsion_lag(cfg, rig, tq, ac, blk.fs)
+    if tau_t > 0.0:  # the torsion amplifier's lag taken out (the mean kept)
+        dt = 1.0 / blk.fs
+        comp = torsion_lag_compensated(tq, chamber_speed_integral(ac, dt), dt, tau_t, rig.C1)
+        tq = comp - (float(np.mean(comp)) - float(np.mean(tq)))
     # the drive speed is measured (the shaft speed over several stick-slip periods);
     # the nominal speed is only a check (drive_mismatch)
     drive = estimate_drive(time, sp, cfg.nominal_speed)
@@ -901,7 +923,7 @@ def evaluate_block(
     )
     c1 = rig.C1
     w1 = chamber_speed(tq, blk.fs, c1)
-    if blk.moment is not None and np.all(np.isfinite(blk.moment[a:b])):
+    if tau_t == 0.0 and blk.moment is not None and np.all(np.isfinite(blk.moment[a:b])):
         moment = blk.moment[a:b]
     else:  # one-shot observer (Equ. 1 solved for M) started at the measured speed
         moment, _ = friction_moment(rig, tq, ac, blk.fs, initial_speed=float(w1[0]))
@@ -953,6 +975,20 @@ def evaluate_block(
     ):
         flags.add('fit_failed')
     return finish(out, stick, motion, n_sticks, w0, data)
+
+
+def _torsion_lag(
+    cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
+) -> float:
+    """The torsion amplifier's lag [s]: configured, else estimated from the block
+    (below 0.1 ms taken as none)."""
+    if cfg.torsion_lag is not None:
+        return cfg.torsion_lag
+    try:
+        tau = float(estimate_torsion_lag(torsion, accel, fs, rig.C1))
+    except (EstimationError, ValueError, np.linalg.LinAlgError):
+        return 0.0
+    return tau if math.isfinite(tau) and 1e-4 <= tau <= 0.01 else 0.0
 
 
 class BlockEstimator:
