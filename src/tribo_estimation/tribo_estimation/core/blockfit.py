@@ -363,13 +363,11 @@ def is_saturated(x: FloatArray, run: int) -> bool:
     if hi == lo:
         return False
     for ext in (hi, lo):
-        m = (x == ext).astype(np.int8)
+        m = x == ext
         if int(m.sum()) < run:
             continue
-        d = np.diff(np.r_[0, m, 0])
-        starts = np.flatnonzero(d == 1)
-        ends = np.flatnonzero(d == -1)
-        if np.max(ends - starts) >= run:
+        a, b = longest_run(m)
+        if b - a >= run:
             return True
     return False
 
