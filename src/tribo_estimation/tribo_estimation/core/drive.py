@@ -202,6 +202,10 @@ def estimate_drive(
 __all__ = ['MISMATCH_LIMIT', 'SMOOTH_TIME', 'DriveEstimate', 'estimate_drive', 'tolerance']
 
 
+#: Weight of the knot-speed smoothness penalty of :func:`refine_with_angles` [s].
+_KNOT_SMOOTH = 1e-4
+
+
 def refine_with_angles(
     drive: DriveEstimate, t: FloatArray, phi0: FloatArray, hint_knots: FloatArray | None = None
 ) -> DriveEstimate:
@@ -247,6 +251,15 @@ def refine_with_angles(
         cum = np.concatenate(([0.0], np.cumsum(0.5 * (hat[1:] + hat[:-1]) * np.diff(grid))))
         cols.append(np.interp(tt, grid, cum))
     basis = np.column_stack(cols)
+    # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
+    # closely spaced knots with few samples between them from oscillating
+    k = tk.size
+    if k >= 3:
+        d2 = np.zeros((k - 2, k + 1))
+        for i in range(k - 2):
+            d2[i, 1 + i : 4 + i] = (_KNOT_SMOOTH, -2.0 * _KNOT_SMOOTH, _KNOT_SMOOTH)
+        basis = np.vstack((basis, d2))
+        ph = np.concatenate((ph, np.zeros(k - 2)))
     sol, *_ = np.linalg.lstsq(basis, ph, rcond=None)
     vk = np.asarray(sol[1:], dtype=np.float64)
     if not np.all(np.isfinite(vk)):
