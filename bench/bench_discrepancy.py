@@ -16,6 +16,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 for pkg in ('tribo_estimation',):
@@ -30,6 +31,30 @@ from tribo_estimation.core.simulate import simulate  # noqa: E402
 #: Fields not identifiable from the record (see candidates.py: a constant torque
 #: offset is indistinguishable from a common shift of mu0 and mu_inf).
 NOT_IDENTIFIABLE = {'torque_offset'}
+
+
+def _baseline_timing(rec: Record, base: Any) -> None:
+    """Wall time of the baseline alone (segments, drive profile, speed sensor,
+    mu0/mu_inf fit) on the no-effect record (issue 11 target: <= 3 s for 6 s)."""
+    from tribo_estimation.core.discrepancy.fitting import (
+        MU0,
+        MU_INF,
+        Problem,
+        identify_speed_sensor,
+    )
+
+    t0 = time.perf_counter()
+    pb = Problem(rec, base.rig, base.drive, k=base.friction.k)
+    seg = pb.segments
+    sensor = identify_speed_sensor(rec, base.rig, (seg.run_start, seg.run_stop))
+    fit = pb.fit([MU0, MU_INF], {**sensor.values(), 'mu0': 0.12, 'mu_inf': 0.09})
+    rms = pb.torque_rms(pb.simulate(fit.values))
+    dt = time.perf_counter() - t0
+    print(
+        f'baseline only ({rec.time[-1] - rec.time[0]:.1f} s record): {dt:.2f} s, '
+        f'torque rms {rms:.4f} N m, {fit.nfev} simulations, drive '
+        f'{pb.drive_estimate.level:.4f} rad/s'
+    )
 
 
 def main() -> int:
@@ -59,6 +84,8 @@ def main() -> int:
             seed=args.seed + i,
         )
         rec = Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+        if name == 'none':
+            _baseline_timing(rec, base)
         t0 = time.perf_counter()
         res = run_discrepancy(rec, base.rig, base.drive, k=base.friction.k)
         dt = time.perf_counter() - t0

@@ -43,6 +43,17 @@ def main() -> int:
         drive,
         settings=SelectionSettings(max_effects=1, candidates=('viscous_friction',)),
     )
+    # paths the short record may not reach: sliding nodes, the speed-sensor lag
+    import numpy as np
+
+    from tribo_estimation.core import shooting
+    from tribo_estimation.core.model import pack_params
+
+    p = pack_params(rig, friction, drive)
+    one = np.ones(1)
+    knots = shooting.DriveKnots.constant(3.14159)
+    shooting.sliding_states(p, one, one, one, one, one, one, knots.time, knots.speed)
+    shooting.lag_segments(one, np.zeros(1, np.int64), np.ones(1, np.int64), one, 0.5, one.copy())
     t3 = time.monotonic()
     print(
         f'warmup: numba code ready in {t3 - t0:.1f} s (simulator {t1 - t0:.1f} s, '

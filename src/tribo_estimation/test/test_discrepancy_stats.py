@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 
 from tribo_estimation.core.discrepancy import candidates as cl
-from tribo_estimation.core.discrepancy.fitting import levenberg_marquardt
 from tribo_estimation.core.discrepancy.sparse import stlsq
 from tribo_estimation.core.discrepancy.stats import (
     SLIP_ACCEL,
@@ -31,7 +30,9 @@ from tribo_estimation.core.discrepancy.stats import (
     time_since_breakaway,
     trend,
 )
+from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.model import Extensions
+from tribo_estimation.errors import FitError
 
 FS = 10_000.0
 
@@ -191,10 +192,28 @@ def test_levenberg_marquardt_exponential_fit_and_bounds() -> None:
         return x[0] * np.exp(-x[1] * t) - y
 
     lo, hi = np.array([0.0, 0.0]), np.array([10.0, 10.0])
-    x, _, nfev, conv = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_nfev=200)
-    assert conv and nfev <= 200
-    assert x == pytest.approx([3.0, 2.5], rel=1e-4)  # noise-free: converges to the truth
+    sol = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_nfev=200)
+    assert sol.converged and sol.nfev <= 200
+    assert sol.x == pytest.approx([3.0, 2.5], rel=1e-4)  # noise-free: converges to the truth
     # with the decay rate capped below its true value the solution sits on the bound
     hi2 = np.array([10.0, 2.0])
-    x2, *_ = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi2, max_nfev=200)
+    x2 = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi2, max_nfev=200).x
     assert x2[1] == pytest.approx(2.0)
+
+
+def test_levenberg_marquardt_rejects_non_finite_steps_and_stops_at_its_limits() -> None:
+    t = np.linspace(0.0, 1.0, 50)
+    y = 3.0 * np.exp(-2.5 * t)
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        # a model that overflows for large rates: such steps must be rejected
+        return np.where(x[1] > 2.6, np.inf, x[0] * np.exp(-x[1] * t) - y)
+
+    lo, hi = np.array([0.0, 0.0]), np.array([10.0, 10.0])
+    sol = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_iter=100)
+    assert np.all(np.isfinite(sol.fun))
+    assert sol.x == pytest.approx([3.0, 2.5], rel=1e-3)
+    capped = levenberg_marquardt(fun, np.array([1.0, 1.0]), lo, hi, max_iter=2, max_nfev=7)
+    assert capped.n_iter <= 2 and capped.nfev <= 7
+    with pytest.raises(FitError):
+        levenberg_marquardt(lambda x: np.full(3, np.nan), np.array([1.0]), lo[:1], hi[:1])

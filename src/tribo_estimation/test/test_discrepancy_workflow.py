@@ -59,19 +59,27 @@ CASES: dict[str, tuple[dict[str, float], tuple[str, ...]]] = {
 }
 
 
+#: The records start this long after the drive start [s] (inside the 0.5 s start-up
+#: ramp of config/rig.yaml; the drive is measured from the record). From rest (0 s),
+#: a torque-offset drift and an equal drift of mu0 and mu_inf are not told apart in
+#: a 1 s record (open, see test_realfit for the start-up itself).
+START = 0.25
+
+
 def _record(effects: dict[str, float], seed: int, *, disturbance: float = 0.0) -> Record:
     cfg = load_rig_config(RIG_YAML)
     r = simulate(
         cfg.rig,
         cfg.friction,
         cfg.drive,
-        DURATION,
+        START + DURATION,
         extensions=Extensions(**effects),
         noise=NOISE,
         seed=seed,
     )
     torque = r.torsion_moment + disturbance * np.sin(2 * np.pi * 37.0 * r.time + 0.3)
-    return Record(r.time, torque, r.angular_acceleration, r.speed)
+    m = r.time >= START
+    return Record(r.time[m], torque[m], r.angular_acceleration[m], r.speed[m])
 
 
 def _run(record: Record, **kw: Any) -> DiscrepancyResult:

@@ -171,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
 
         for p in write_plots(result, out):
             _say(f'wrote {p}')
+    if result.drive.get('warning'):
+        _say(f'warning: {result.drive["warning"]}')
     added = ', '.join(a.effect for a in result.added) or 'nothing'
     print(
         f'added: {added}; torque residual rms {result.baseline.rms:.4g} -> '

@@ -51,7 +51,8 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--tacho-speed',
         action='store_true',
-        help='drive each block at the tachometer mean instead of nominal_speed of RIG.yaml',
+        help='do not check the measured drive speed against nominal_speed of RIG.yaml '
+        '(the drive speed is always measured from the speed channel)',
     )
     p.add_argument('--no-plots', action='store_true', help='write blocks.csv only')
     p.add_argument('--quiet', action='store_true', help='no progress on stderr')
@@ -168,6 +169,7 @@ def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
     from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
     from tribo_estimation.core.config import load_rig_config
+    from tribo_estimation.core.drive import MISMATCH_LIMIT
 
     src = Path(args.input)
     if not src.exists():
@@ -217,6 +219,23 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_plots:
         _plots(out, results, coll, cfg_rig.friction.k)
     n_ok = sum(r.ok for r in results)
+    off = [
+        r
+        for r in results
+        if 'startup' not in r.quality
+        and math.isfinite(r.drive_mismatch)
+        and abs(r.drive_mismatch) > MISMATCH_LIMIT
+    ]
+    if off:
+        worst = max(off, key=lambda r: abs(r.drive_mismatch))
+        print(
+            f'friction: warning: the drive speed of {len(off)} block(s) differs from the '
+            f'RIG.yaml nominal_speed {nominal:.4g} rad/s by more than '
+            f'{100 * MISMATCH_LIMIT:.0f} % (worst: block {worst.index}, {worst.w0:.4g} rad/s, '
+            f'{100 * worst.drive_mismatch:+.1f} %); the measured drive speed is used '
+            '(blocks.csv columns w0, drive_mismatch)',
+            file=sys.stderr,
+        )
     if not args.quiet:
         print(
             f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '

@@ -53,14 +53,23 @@ from typing import TextIO
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
 from ..errors import EstimationError, FitError, InvalidDataError, InvalidParameterError, UnitError
 from . import kernel as kn
 from .align import AlignEvent, GapEvent, RestartEvent
+from .drive import DriveEstimate, estimate_drive
+from .lsq import levenberg_marquardt
 from .model import DriveProfile, FrictionLaw, RigParams, pack_params
 from .observer import FrictionObserver, friction_moment
-from .sticks import classify_motion, detect_sticks
+from .shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
+from .signal import CHAMBER_HALF, chamber_speed, longest_run, noise_level, runs
+from .sticks import (
+    chamber_speed_integral,
+    classify_motion,
+    detect_sticks,
+    estimate_torsion_lag,
+    torsion_lag_compensated,
+)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -83,7 +92,15 @@ class BlockConfig:
         min_fraction: smallest fraction of valid samples for a fit [-].
         saturation_run: this many equal consecutive samples at the block's
             extreme value mark a clipped sensor [samples].
-        min_stick_duration: shortest stick phase counted (FrictionEstimate: 2 ms) [s].
+        min_stick_duration: shortest stick phase counted (1 ms: 10 samples at 10 kHz;
+            shorter ones are micro-sticks) [s].
+        speed_lag: known first-order lag of the shaft-speed sensor [s] (the fit uses
+            the speed channel only for the drive level and, lag-corrected, at
+            sliding nodes).
+        torsion_lag: first-order lag of the torsion amplifier [s]; ``None`` = estimated
+            per block (:func:`sticks.estimate_torsion_lag`), 0 = none. The measured
+            torsion moment is compensated before the fit
+            (:func:`sticks.torsion_lag_compensated`, exact for a first-order lag).
     """
 
     block_length: float = 1.0
@@ -95,7 +112,9 @@ class BlockConfig:
     max_iter: int = 8
     min_fraction: float = 0.5
     saturation_run: int = 5
-    min_stick_duration: float = 2e-3
+    min_stick_duration: float = 1e-3
+    speed_lag: float = 0.0
+    torsion_lag: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.block_length) and 0.01 <= self.block_length <= 600.0):
@@ -119,6 +138,14 @@ class BlockConfig:
         if not 0.0 < self.min_fraction <= 1.0:
             raise InvalidParameterError(
                 f'min_fraction must be in (0, 1], got {self.min_fraction!r}'
+            )
+        if not (math.isfinite(self.speed_lag) and 0.0 <= self.speed_lag <= 0.1):
+            raise InvalidParameterError(f'speed_lag must be in [0, 0.1] s, got {self.speed_lag!r}')
+        if self.torsion_lag is not None and not (
+            math.isfinite(self.torsion_lag) and 0.0 <= self.torsion_lag <= 0.01
+        ):
+            raise InvalidParameterError(
+                f'torsion_lag must be in [0, 0.01] s, got {self.torsion_lag!r}'
             )
         if self.saturation_run < 2:
             raise InvalidParameterError(
@@ -154,7 +181,10 @@ class BlockResult:
         stick_fraction: fraction of the block's samples sticking [-].
         rms_residual: RMS of the torsion-moment residual of the fit [N m].
         quality: flags from :data:`FLAGS` (empty = ok).
-        w0: drive speed the fit used [rad/s].
+        w0: drive speed the fit used, measured from the shaft speed (mean over the
+            block) [rad/s].
+        drive_mismatch: relative deviation of ``w0`` from the configured nominal
+            speed [-] (NaN: none configured); beyond 5 % the command warns.
         n_samples: valid samples used [-].
         n_iter: Levenberg-Marquardt iterations [-].
     """
@@ -180,6 +210,7 @@ class BlockResult:
     w0: float = math.nan
     n_samples: int = 0
     n_iter: int = 0
+    drive_mismatch: float = math.nan
 
     @property
     def ok(self) -> bool:
@@ -192,7 +223,8 @@ class BlockResult:
         return ';'.join(self.quality) if self.quality else 'ok'
 
 
-#: Columns of ``blocks.csv`` (issue 4), then ``quality``.
+#: Block-table columns shared with the live estimates (FrictionEstimate) and the
+#: report, then ``quality``.
 CSV_COLUMNS: tuple[str, ...] = (
     't_start',
     't_end',
@@ -210,6 +242,13 @@ CSV_COLUMNS: tuple[str, ...] = (
     'quality',
 )
 
+#: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
+#: fit used (``w0`` [rad/s], measured) and its relative deviation from the
+#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``. Older files
+#: without the two are read too.
+FILE_COLUMNS: tuple[str, ...] = (*CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality')
+REQUIRED_COLUMNS = CSV_COLUMNS
+
 
 def _fmt(v: float) -> str:
     return 'nan' if not math.isfinite(v) else f'{v:.9g}'
@@ -225,7 +264,7 @@ class BlockCsvWriter:
         self.path = os.fspath(path)
         self._fh: TextIO = open(self.path, 'w', newline='', encoding='utf-8')  # noqa: SIM115
         self._w = csv.writer(self._fh, lineterminator='\n')
-        self._w.writerow(CSV_COLUMNS)
+        self._w.writerow(FILE_COLUMNS)
         self._fh.flush()
         self.rows = 0
 
@@ -246,6 +285,8 @@ class BlockCsvWriter:
                 str(r.n_sticks),
                 _fmt(r.stick_fraction),
                 _fmt(r.rms_residual),
+                _fmt(r.w0),
+                _fmt(r.drive_mismatch),
                 r.quality_str,
             ]
         )
@@ -279,13 +320,13 @@ def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     with fh:
         reader = csv.DictReader(fh)
         cols = reader.fieldnames or []
-        for c in CSV_COLUMNS:
+        for c in REQUIRED_COLUMNS:
             if c not in cols:
                 raise MissingColumnError(f'{p}: missing column {c!r} in blocks table')
         rows = list(reader)
     out: dict[str, np.ndarray] = {}
-    for c in CSV_COLUMNS:
-        vals = [r[c] for r in rows]
+    for c in FILE_COLUMNS:
+        vals = [r.get(c) or 'nan' for r in rows]
         if c in ('motion', 'quality'):
             out[c] = np.array(vals, dtype=object)
         else:
@@ -311,19 +352,6 @@ def results_table(results: Iterable[BlockResult]) -> dict[str, np.ndarray]:
 
 
 # ============================================================ signal checks
-def noise_level(x: FloatArray) -> float:
-    """Robust white-noise standard deviation of a sampled signal [unit of x].
-
-    From the median absolute second difference (a smooth signal's second
-    difference is far below the noise at 10 kHz): ``sigma = 1.4826*MAD/sqrt(6)``.
-    """
-    if x.shape[0] < 8:
-        return math.nan
-    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / math.sqrt(6.0)
-
-
 def is_saturated(x: FloatArray, run: int) -> bool:
     """True if ``x`` holds ``run`` or more equal consecutive samples at its max or min
     (a clipped sensor). A constant signal is not called saturated."""
@@ -335,53 +363,13 @@ def is_saturated(x: FloatArray, run: int) -> bool:
     if hi == lo:
         return False
     for ext in (hi, lo):
-        m = (x == ext).astype(np.int8)
+        m = x == ext
         if int(m.sum()) < run:
             continue
-        d = np.diff(np.r_[0, m, 0])
-        starts = np.flatnonzero(d == 1)
-        ends = np.flatnonzero(d == -1)
-        if np.max(ends - starts) >= run:
+        a, b = longest_run(m)
+        if b - a >= run:
             return True
     return False
-
-
-def stick_phases(stick: BoolArray) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-    """Start and end (exclusive) indices of the runs of True in ``stick``."""
-    s = np.asarray(stick, dtype=np.int8)
-    d = np.diff(np.r_[0, s, 0])
-    return np.flatnonzero(d == 1).astype(np.int64), np.flatnonzero(d == -1).astype(np.int64)
-
-
-# ============================================================ compiled multiple shooting
-@njit(cache=True, nogil=True)
-def _shoot(
-    p: np.ndarray,
-    states: np.ndarray,
-    starts: np.ndarray,
-    ends: np.ndarray,
-    dt: float,
-    n_sub: int,
-    sim_torsion: np.ndarray,
-    sim_accel: np.ndarray,
-    scratch: np.ndarray,
-) -> int:
-    """Simulate every segment ``[starts[i], ends[i])`` from ``states[i]`` with the
-    kernel (:func:`kernel.integrate`) and write torsion moment [N m] and
-    acceleration [rad/s^2] into the block-length arrays. Returns the events."""
-    n_ev = 0
-    s = np.empty(states.shape[1])
-    for i in range(starts.shape[0]):
-        n = ends[i] - starts[i]
-        if n <= 0:
-            continue
-        for j in range(states.shape[1]):
-            s[j] = states[i, j]
-        n_ev += kn.integrate(p, s, n, dt, n_sub, scratch)
-        for j in range(n):
-            sim_torsion[starts[i] + j] = scratch[kn.OUT_TORSION, j]
-            sim_accel[starts[i] + j] = scratch[kn.OUT_ACCEL, j]
-    return n_ev
 
 
 # ============================================================ the fit of one block
@@ -437,9 +425,6 @@ class FitOutcome:
     w0: float
 
 
-#: Half width of the local polynomial that gives phi1 and w1 = phi1' [samples].
-_HALF = 7
-
 #: Shooting nodes sit this many samples before the detected end of a stick phase
 #: (the stuck motion before it does not depend on the friction law) [samples].
 _LEAD = 15
@@ -454,108 +439,6 @@ _MIN_NODE = 2
 #: after a breakaway (past the slip-speed peak) [s].
 _SLIDE_SPACING = 0.05
 _SLIDE_SETTLE = 0.02
-
-
-def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
-    """Rows (value, slope) of the least-squares cubic through offsets lo_off..hi_off-1."""
-    x = np.arange(lo_off, hi_off, dtype=float)
-    A = np.vstack((np.ones_like(x), x, x * x, x * x * x)).T
-    return np.linalg.pinv(A)[:2]
-
-
-_SYM_ROWS = _cubic_rows(-_HALF, _HALF + 1)
-
-
-def _local_poly(y: FloatArray, j: int, lo: int, hi: int) -> tuple[float, float]:
-    """Value at sample j and slope per sample of a local cubic through y[lo:hi]."""
-    n = hi - lo
-    if n < 6:
-        return float(y[j]), math.nan
-    rows = _SYM_ROWS if (lo == j - _HALF and hi == j + _HALF + 1) else _cubic_rows(lo - j, hi - j)
-    c = rows @ y[lo:hi]
-    return float(c[0]), float(c[1])
-
-
-def _stuck_states(
-    p: np.ndarray,
-    d: BlockData,
-    anchors: npt.NDArray[np.int64],
-    lo: npt.NDArray[np.int64],
-    hi: npt.NDArray[np.int64],
-    w0: float,
-) -> FloatArray:
-    """Full kernel states at samples ``anchors`` of stick phases ``[lo, hi)``.
-
-    Sticking (Equ. 4): w1 = w2 = w. phi1 = M_t/C1 and w = phi1' = (dM_t/dt)/C1
-    from a local cubic through the stick samples around the anchor (the
-    derivative estimate of :func:`chamber_speed` when the phase is too short).
-    The shaft twist follows from Equ. 1 and 2 with w1' = w2' = a (measured):
-    ``Q1 = -K1*w - C1*phi1``, ``Q2 = (I1 + I2)*a - Q1``,
-    ``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (phi0 = 0 at the segment start).
-    Returns an array (len(anchors), kernel.NS).
-    """
-    c1 = p[kn.P_C1]
-    m = anchors.shape[0]
-    mt = np.empty(m)
-    w = np.empty(m)
-    acc = np.empty(m)
-    sym = (anchors - _HALF >= lo) & (anchors + _HALF + 1 <= hi)
-    if sym.any():
-        j = anchors[sym]
-        win = j[:, None] + np.arange(-_HALF, _HALF + 1)[None, :]
-        seg = d.torsion[win]
-        mt[sym] = seg @ _SYM_ROWS[0]
-        w[sym] = (seg @ _SYM_ROWS[1]) * d.fs / c1
-        acc[sym] = d.accel[j[:, None] + np.arange(-2, 3)[None, :]].mean(axis=1)
-    for i in np.flatnonzero(~sym).tolist():
-        jj, a0, a1 = int(anchors[i]), int(lo[i]), int(hi[i])
-        v, slope = _local_poly(d.torsion, jj, max(a0, jj - _HALF), min(a1, jj + _HALF + 1))
-        mt[i] = v
-        w[i] = slope * d.fs / c1 if math.isfinite(slope) else float(d.chamber_speed[jj])
-        acc[i] = float(np.mean(d.accel[max(a0, jj - 2) : min(a1, jj + 3)]))
-    phi1 = mt / c1
-    q1 = -p[kn.P_K1] * w - c1 * phi1
-    q2 = (p[kn.P_I1] + p[kn.P_I2]) * acc - q1
-    s = np.zeros((m, kn.NS))
-    s[:, kn.S_PHI1] = phi1
-    s[:, kn.S_W1] = w
-    s[:, kn.S_PHI2] = -(q2 + p[kn.P_K2] * (w - w0)) / p[kn.P_C2]
-    s[:, kn.S_W2] = w
-    s[:, kn.S_STUCK] = 1.0
-    s[:, kn.S_DIR] = 1.0
-    s[:, kn.S_SENSOR] = math.nan
-    return s
-
-
-def _sliding_state(p: np.ndarray, d: BlockData, j: int, w0: float) -> FloatArray:
-    """Kernel state at sample j while sliding, past the slip-speed peak.
-
-    phi1 = M_t/C1 and w1 = phi1' from a local cubic through the torsion moment;
-    w2 and w2' from a local cubic through the tachometer signal; the shaft twist
-    from Equ. 2: ``C2*(phi2 - phi0) = -M - I2*w2' - K2*(w2 - w0)`` with M the
-    observer's friction moment (phi0 = 0 at the segment start). The phase is
-    taken as past its slip-speed peak (mu = mu_inf, deceleration rule); nodes
-    are placed accordingly (well after a breakaway).
-    """
-    n = len(d)
-    lo, hi = max(0, j - _HALF), min(n, j + _HALF + 1)
-    mt, dmt = _local_poly(d.torsion, j, lo, hi)
-    w2, dw2 = _local_poly(d.speed, j, lo, hi)
-    m, _ = _local_poly(d.moment, j, lo, hi)
-    w1 = dmt * d.fs / p[kn.P_C1] if math.isfinite(dmt) else float(d.chamber_speed[j])
-    w2d = dw2 * d.fs if math.isfinite(dw2) else 0.0
-    s = np.zeros(kn.NS)
-    s[kn.S_PHI1] = mt / p[kn.P_C1]
-    s[kn.S_W1] = w1
-    s[kn.S_W2] = w2
-    s[kn.S_PHI2] = -(m + p[kn.P_I2] * w2d + p[kn.P_K2] * (w2 - w0)) / p[kn.P_C2]
-    s[kn.S_STUCK] = 0.0
-    v = w2 - w1
-    s[kn.S_DIR] = 1.0 if v >= 0.0 else -1.0
-    s[kn.S_PEAK] = 1.0
-    s[kn.S_VMAX] = abs(v)
-    s[kn.S_SENSOR] = math.nan
-    return s
 
 
 def _sliding_nodes(
@@ -576,8 +459,8 @@ def _sliding_nodes(
     slide_starts = np.r_[0, stick_ends]
     slide_ends = np.r_[stick_starts, n]
     for a, b in zip(slide_starts, slide_ends, strict=True):
-        first = int(a) + (settle if a > 0 else _HALF)
-        last = int(b) - _HALF - 1
+        first = int(a) + (settle if a > 0 else CHAMBER_HALF)
+        last = int(b) - CHAMBER_HALF - 1
         for w in range(first, last - spacing // 2, spacing):
             hi = min(w + spacing, last)
             nodes.append(w + int(np.argmax(vabs[w:hi])))
@@ -594,7 +477,7 @@ def initial_estimate(d: BlockData, fnr: float, min_stick: int = 2) -> tuple[floa
     the median |M|/(F_N*R) of the block.
     """
     m = np.abs(d.moment)
-    starts, ends = stick_phases(d.stick)
+    starts, ends = runs(d.stick)
     keep = (ends - starts) >= min_stick
     starts, ends = starts[keep], ends[keep]
     n = len(d)
@@ -683,11 +566,10 @@ def _robust_se(
         Binv = np.linalg.inv(B)
     except np.linalg.LinAlgError:
         return np.full(n_par, math.nan)
-    inv = clusters
-    G = int(inv.max()) + 1 if inv.size else 0
+    G = int(clusters.max()) + 1 if clusters.size else 0
     if G >= 3:
         scores = np.zeros((G, n_par))
-        np.add.at(scores, inv, J * r[:, None])
+        np.add.at(scores, clusters, J * r[:, None])
         meat = scores.T @ scores
         cov = Binv @ meat @ Binv * (G / (G - 1))
     else:
@@ -701,6 +583,75 @@ def _robust_se(
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
+@dataclass(frozen=True)
+class _Nodes:
+    """Shooting segments of one block: start/end sample, start state, drive piece."""
+
+    start: npt.NDArray[np.int64]
+    end: npt.NDArray[np.int64]
+    states: FloatArray
+    drive: DriveKnots
+
+
+def _shooting_nodes(
+    p: FloatArray, d: BlockData, drive: DriveEstimate, speed_lag: float
+) -> tuple[_Nodes, bool]:
+    """Segment starts: late in every stick phase (the stuck motion does not depend
+    on the friction law until breakaway) and every 50 ms in long sliding
+    stretches; states from :mod:`.shooting`. Returns the nodes and whether the
+    block has stick phases."""
+    n = len(d)
+    starts_s, ends_s = runs(d.stick)
+    keep = (ends_s - starts_s) >= _MIN_NODE
+    starts_s, ends_s = starts_s[keep], ends_s[keep]
+    c1 = float(p[kn.P_C1])
+    t_of = d.t0 + np.arange(n) / d.fs
+    dk = DriveKnots.from_estimate(drive)
+    node_idx: list[npt.NDArray[np.int64]] = []
+    node_states: list[FloatArray] = []
+    if starts_s.size:
+        anchors = np.maximum(
+            starts_s + np.minimum(CHAMBER_HALF, (ends_s - starts_s - 1) // 2), ends_s - _LEAD
+        )
+        mt, slope = local_cubic(d.torsion, anchors, starts_s, ends_s)
+        w = np.where(np.isfinite(slope), slope * d.fs / c1, d.chamber_speed[anchors])
+        acc = window_mean(d.accel, anchors, 2, starts_s, ends_s)
+        ts = t_of[anchors]
+        node_idx.append(anchors)
+        node_states.append(stuck_states(p, ts, mt, w, acc, np.zeros(ts.size), dk.time, dk.speed))
+    slide = _sliding_nodes(np.abs(d.speed - d.chamber_speed), starts_s, ends_s, d.fs)
+    if slide.size == 0 and starts_s.size == 0:
+        slide = np.zeros(1, dtype=np.int64)  # short block: start at its first sample
+    if slide.size:
+        mt, dmt = local_cubic(d.torsion, slide)
+        y, dy = local_cubic(d.speed, slide)
+        mom, _ = local_cubic(d.moment, slide)
+        w1 = np.where(np.isfinite(dmt), dmt * d.fs / c1, d.chamber_speed[slide])
+        w2d = np.where(np.isfinite(dy), dy * d.fs, 0.0)
+        w2 = y + speed_lag * w2d  # first-order sensor lag inverted: w2 = y + tau*y'
+        ts = t_of[slide]
+        node_idx.append(slide)
+        node_states.append(sliding_states(p, ts, mt, w1, w2, w2d, mom, dk.time, dk.speed))
+    idx = np.concatenate(node_idx)
+    states = np.vstack(node_states)
+    order = np.argsort(idx, kind='stable')
+    idx, states = idx[order], states[order]
+    idx, first = np.unique(idx, return_index=True)
+    states = states[first]
+    end = np.r_[idx[1:], n].astype(np.int64)
+    ts = t_of[idx]
+    return _Nodes(idx, end, states, dk), bool(starts_s.size)
+
+
+def _noise_weights(cfg: BlockConfig, d: BlockData, fallback_torque: float) -> tuple[float, float]:
+    """Noise levels of the torsion moment [N m] and the acceleration [rad/s^2]."""
+    sig_m = cfg.noise_torque if cfg.noise_torque is not None else noise_level(d.torsion)
+    sig_a = cfg.noise_accel if cfg.noise_accel is not None else noise_level(d.accel)
+    sig_m = sig_m if math.isfinite(sig_m) and sig_m > 0.0 else fallback_torque
+    sig_a = sig_a if math.isfinite(sig_a) and sig_a > 0.0 else 1.0
+    return sig_m, sig_a
+
+
 def fit_block(
     rig: RigParams,
     d: BlockData,
@@ -708,19 +659,21 @@ def fit_block(
     k: float,
     cfg: BlockConfig,
     init: tuple[float, float] | None = None,
+    drive: DriveEstimate | None = None,
 ) -> FitOutcome:
     """Fit mu0, mu_inf (and k if ``cfg.fit_k``) of Equ. 8 to one block (see module doc).
 
     Args:
         rig: rig parameters (Tab. 1, F_N [N], R [m]).
         d: measured and observed block signals.
-        w0: constant nominal drive speed [rad/s].
+        w0: drive speed [rad/s] when ``drive`` is not given (constant).
         k: Stribeck constant [s/rad] (start value when fitted).
         cfg: fit settings.
         init: start values (mu0, mu_inf); default the equation-error estimate.
+        drive: measured drive profile (:func:`drive.estimate_drive`).
 
     Raises:
-        FitError: too few samples or no usable start value.
+        FitError: too few samples, no usable start value or non-finite residuals.
     """
     n = len(d)
     if n < 20:
@@ -730,191 +683,109 @@ def fit_block(
         raise FitError('F_N*R is zero: no contact, no friction to fit')
     mu0_i, muinf_i = initial_estimate(d, fnr, _MIN_NODE)
     if init is not None:
-        if math.isfinite(init[0]):
-            mu0_i = init[0]
-        if math.isfinite(init[1]):
-            muinf_i = init[1]
-    if not math.isfinite(muinf_i):
-        raise FitError('no start value for mu_inf (observer moment not finite)')
-    # noise levels for the weights
-    sig_m = cfg.noise_torque if cfg.noise_torque is not None else noise_level(d.torsion)
-    sig_a = cfg.noise_accel if cfg.noise_accel is not None else noise_level(d.accel)
-    sig_m = sig_m if math.isfinite(sig_m) and sig_m > 0.0 else 1e-3 * max(1.0, fnr * muinf_i)
-    sig_a = sig_a if math.isfinite(sig_a) and sig_a > 0.0 else 1.0
-
-    p = pack_params(
-        rig,
-        FrictionLaw(max(mu0_i, 0.0) if math.isfinite(mu0_i) else muinf_i, max(muinf_i, 0.0), k),
-        DriveProfile(w0),
-    )
-    dt = 1.0 / d.fs
-    n_sub = kn.substeps_for(p, dt)
-
-    # shooting nodes
-    starts_s, ends_s = stick_phases(d.stick)
-    keep = (ends_s - starts_s) >= _MIN_NODE
-    starts_s, ends_s = starts_s[keep], ends_s[keep]
-    sticky = starts_s.size > 0
-    slide_nodes = _sliding_nodes(np.abs(d.speed - d.chamber_speed), starts_s, ends_s, d.fs)
-    node_list: list[tuple[int, FloatArray]] = []
-    if sticky:
-        # the stuck motion does not depend on the friction law until breakaway: start
-        # each segment late in its stick phase (fewer samples to simulate)
-        anchors = np.maximum(
-            starts_s + np.minimum(_HALF, (ends_s - starts_s - 1) // 2), ends_s - _LEAD
-        )
-        st_states = _stuck_states(p, d, anchors, starts_s, ends_s, w0)
-        node_list.extend((int(j), st_states[i]) for i, j in enumerate(anchors))
-        names = ['mu0', 'mu_inf'] + (['k'] if cfg.fit_k else [])
-    else:
-        # slip-slip: mu0 acts only where a sliding phase restarts on the curve of
-        # Equ. 8 (slip speed back to zero without sticking); the fit finds out
-        names = ['mu0', 'mu_inf']
-        if not math.isfinite(mu0_i):
-            mu0_i = float(np.max(np.abs(d.moment))) / fnr
-    node_list.extend((int(j), _sliding_state(p, d, int(j), w0)) for j in slide_nodes)
-    if not node_list:  # short block without a usable node: start at its first sample
-        node_list.append((0, _sliding_state(p, d, 0, w0)))
-    node_list.sort(key=lambda x: x[0])
-    seg_start = np.array([j for j, _ in node_list], dtype=np.int64)
-    seg_end = np.r_[seg_start[1:], n].astype(np.int64)
-    states = np.vstack([st for _, st in node_list])
-    used_mask = np.zeros(n, dtype=bool)
-    for a, b in zip(seg_start, seg_end, strict=True):
-        used_mask[a:b] = True
-    used = np.flatnonzero(used_mask)
-    n_used = int(used.shape[0])
-    sim_t = np.full(n, np.nan)
-    sim_a = np.full(n, np.nan)
-    scratch = np.empty((kn.N_CH, int(np.max(seg_end - seg_start)) + 1))
-    meas_t = d.torsion[used]
-    meas_a = d.accel[used]
-
-    idx = {'mu0': kn.P_MU0, 'mu_inf': kn.P_MUINF, 'k': kn.P_K}
-
-    def set_theta(th: FloatArray) -> None:
-        for name, v in zip(names, th, strict=True):
-            p[idx[name]] = v
-
-    n_eval = [0]
-
-    def residual(th: FloatArray) -> FloatArray:
-        n_eval[0] += 1
-        set_theta(th)
-        _shoot(p, states, seg_start, seg_end, dt, n_sub, sim_t, sim_a, scratch)
-        out = np.empty(2 * n_used)
-        np.subtract(sim_t[used], meas_t, out=out[:n_used])
-        out[:n_used] *= 1.0 / sig_m
-        np.subtract(sim_a[used], meas_a, out=out[n_used:])
-        out[n_used:] *= w_acc
-        return out
-
-    def jacobian(th: FloatArray, r0: FloatArray) -> FloatArray:
-        """Forward-difference sensitivities (event-accurate kernel: smooth in theta)."""
-        out = np.empty((r0.shape[0], th.shape[0]))
-        for j, nm in enumerate(names):
-            h = 1e-4 * max(abs(th[j]), 0.05 if nm != 'k' else 1.0)
-            tj = th.copy()
-            tj[j] += h
-            out[:, j] = (residual(tj) - r0) / h
-        return out
-
+        mu0_i = init[0] if math.isfinite(init[0]) else mu0_i
+        muinf_i = init[1] if math.isfinite(init[1]) else muinf_i
+    if not (math.isfinite(muinf_i) and abs(muinf_i) < 10.0):
+        raise FitError('no usable start value for mu_inf (observer moment not plausible)')
+    if drive is None:
+        drive = DriveEstimate(np.array([d.t0, d.t0 + n / d.fs]), np.array([w0, w0]), w0, w0, 0.0)
+    sig_m, sig_a = _noise_weights(cfg, d, 1e-3 * max(1.0, fnr * muinf_i))
+    p0 = pack_params(rig, FrictionLaw(0.1, 0.1, k), DriveProfile(w0))
+    nodes, sticky = _shooting_nodes(p0, d, drive, cfg.speed_lag)
+    names = ['mu0', 'mu_inf'] + (['k'] if cfg.fit_k and sticky else [])
+    if not math.isfinite(mu0_i):
+        # slip-slip: mu0 acts only where a sliding phase restarts on the curve of Equ. 8
+        mu0_i = float(np.max(np.abs(d.moment))) / fnr
     k_i = k
-    if cfg.fit_k and sticky:
+    if 'k' in names:
         k_eq = initial_k(d, fnr, mu0_i, muinf_i)
         k_i = k_eq if math.isfinite(k_eq) else k
-    start = {'mu0': mu0_i, 'mu_inf': muinf_i, 'k': k_i}
-    theta = np.array([max(start[nm], 0.0) for nm in names], dtype=float)
-    lower = np.zeros(len(names))
-    # clusters for the standard errors: the shooting segments (nearly independent)
-    seg_id = np.full(n, -1, dtype=np.int64)
-    for i, (a, b) in enumerate(zip(seg_start, seg_end, strict=True)):
-        seg_id[a:b] = i
-    _, cl = np.unique(seg_id[used], return_inverse=True)
-    clusters = np.concatenate((cl, cl)).astype(np.int64)
+    theta0 = np.array([max(v, 0.0) for v in (mu0_i, muinf_i, k_i)[: len(names)]])
+    if not np.all(np.isfinite(theta0)) or theta0[0] > 10.0:
+        raise FitError('start values of the block fit are not plausible')
+    index = [kn.P_MU0, kn.P_MUINF, kn.P_K][: len(names)]
+    dt = 1.0 / d.fs
+    n_sub = kn.substeps_for(p0, dt)
+    used = np.arange(int(nodes.start[0]), n)
+    meas_t, meas_a = d.torsion[used], d.accel[used]
+    dk = nodes.drive
 
-    # The acceleration jumps at switching events (stick onset, breakaway, slip-speed
-    # peak); a sample next to an event changes discontinuously when the event time
-    # crosses the sample instant. Those samples (found in the simulation at the start
-    # values, +-_JUMP_GUARD) are left out of the acceleration residual; the torsion
-    # moment (continuous in the parameters) keeps every sample.
-    w_acc = np.full(n_used, 1.0 / sig_a)
-    r = residual(theta)
-    w_acc = np.where(_jump_guard(sim_a, 10.0 * sig_a)[used], 0.0, 1.0 / sig_a)
-    r[n_used:] = (sim_a[used] - meas_a) * w_acc
-    cost = float(np.dot(r, r))
-    J = jacobian(theta, r)
-    se = _robust_se(J, r, clusters, len(names))
-    lam = 1e-4
-    converged = False
-    at_theta = False  # the simulated arrays hold the evaluation at theta
-    it = 0
-    for it in range(1, cfg.max_iter + 1):  # noqa: B007
-        g = J.T @ r
-        A = J.T @ J
-        accepted = False
-        good_model = False
-        step = np.zeros_like(theta)
-        for _ in range(5):
-            step = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
-            th_new = np.maximum(theta + step, lower)
-            r_new = residual(th_new)
-            c_new = float(np.dot(r_new, r_new))
-            if c_new <= cost:
-                step = th_new - theta
-                pred = cost - float(np.sum((r + J @ step) ** 2))
-                good_model = pred > 0.0 and (cost - c_new) >= 0.5 * pred
-                theta, r, cost = th_new, r_new, c_new
-                lam = max(lam / 10.0, 1e-9)
-                accepted = True
-                break
-            lam *= 10.0
-        at_theta = accepted
-        # a step far below the statistical uncertainty (or 1e-4 relative) ends the iteration
-        tol = np.maximum(np.where(np.isfinite(se), 0.1 * se, 0.0), 1e-4 * np.abs(theta)) + 1e-12
-        if not accepted or np.all(np.abs(step) <= tol):
-            converged = True
-            break
-        if not good_model:
-            # the linear model predicted the step poorly: new sensitivities
-            # (else keep J: a chord step costs one simulation instead of 1 + n_par)
-            J = jacobian(theta, r)
-            at_theta = False
-        se = _robust_se(J, r, clusters, len(names))
-    if not at_theta:
-        r = residual(theta)  # leave the simulated arrays at the estimate
-    val = dict(zip(names, theta, strict=True))
+    recent: dict[bytes, FloatArray] = {}  # the last simulations, by theta
+
+    def simulate(th: FloatArray) -> FloatArray:
+        """Kernel output channels of the block at theta (new arrays, never mutated)."""
+        key = np.asarray(th, dtype=np.float64).tobytes()
+        if key in recent:
+            return recent[key]
+        p = p0.copy()
+        p[index] = th
+        out = np.full((kn.N_CH, n), np.nan)
+        shoot(p, nodes.states, nodes.start, nodes.end, dk.time, dk.speed, dt, n_sub, out)
+        if len(recent) >= 4:
+            recent.pop(next(iter(recent)))
+        recent[key] = out
+        return out
+
+    # Acceleration samples next to a switching event (found in the simulation at
+    # the start values, +-_JUMP_GUARD) jump when the event crosses the sample instant:
+    # they are left out; the torsion moment (continuous in theta) keeps every sample.
+    sim0 = simulate(theta0)
+    w_acc = np.where(_jump_guard(sim0[kn.OUT_ACCEL], 10.0 * sig_a)[used], 0.0, 1.0 / sig_a)
+
+    def residual(th: FloatArray) -> FloatArray:
+        out = simulate(th)
+        return np.concatenate(
+            (
+                (out[kn.OUT_TORSION, used] - meas_t) / sig_m,
+                (out[kn.OUT_ACCEL, used] - meas_a) * w_acc,
+            )
+        )
+
+    # clusters for the standard errors: the shooting segments (nearly independent)
+    seg_id = np.searchsorted(nodes.start, used, side='right') - 1
+    clusters = np.concatenate((seg_id, seg_id)).astype(np.int64)
+
+    def xtol(x: FloatArray, J: FloatArray, r: FloatArray) -> FloatArray:
+        # a step far below the statistical uncertainty (or 1e-4 relative) ends the fit
+        se = _robust_se(J, r, clusters, x.size)
+        return np.maximum(np.where(np.isfinite(se), 0.1 * se, 0.0), 1e-4 * np.abs(x)) + 1e-12
+
+    steps = np.array([0.05, 0.05, 1.0])[: len(names)] * 1e-4
+    upper = np.array([10.0, 10.0, 1e3])[: len(names)]
+    sol = levenberg_marquardt(
+        residual,
+        theta0,
+        np.zeros(len(names)),
+        upper,
+        max_iter=cfg.max_iter,
+        max_nfev=4 * cfg.max_iter * (1 + len(names)),
+        abs_step=steps,
+        xtol=xtol,
+        reuse_jacobian=True,
+        lam0=1e-4,
+    )
+    se = _robust_se(sol.jac, sol.fun, clusters, len(names))
+    final = simulate(sol.x)
+    sim_t = final[kn.OUT_TORSION]
+    val = dict(zip(names, sol.x, strict=True))
     err = dict(zip(names, se, strict=True))
-    rms = float(np.sqrt(np.mean((sim_t[used] - meas_t) ** 2)))
     return FitOutcome(
-        mu0=float(val.get('mu0', math.nan)),
+        mu0=float(val['mu0']),
         mu_inf=float(val['mu_inf']),
         k=float(val.get('k', k)),
-        mu0_se=float(err.get('mu0', math.nan)),
+        mu0_se=float(err['mu0']),
         mu_inf_se=float(err['mu_inf']),
         k_se=float(err.get('k', 0.0)),
-        rms_residual=rms,
-        simulated=sim_t.copy(),
-        n_iter=it,
-        n_eval=n_eval[0],
-        converged=converged,
-        w0=w0,
+        rms_residual=float(np.sqrt(np.mean((sim_t[used] - meas_t) ** 2))),
+        simulated=sim_t,
+        n_iter=sol.n_iter,
+        n_eval=sol.nfev + 1,
+        converged=sol.converged,
+        w0=drive.mean_speed(d.t0, d.t0 + n / d.fs),
     )
 
 
 # ============================================================ per-block evaluation
-def chamber_speed(torsion: FloatArray, fs: float, c1: float) -> FloatArray:
-    """Chamber speed w1 = phi1' = (dM_t/dt)/C1 [rad/s] from the torsion moment
-    (local cubic, 2*7+1 samples; one-sided at the ends)."""
-    from scipy.signal import savgol_filter
-
-    n = torsion.shape[0]
-    win = min(2 * _HALF + 1, n - (1 - n % 2))
-    if win < 5:
-        return np.zeros(n)
-    return np.asarray(savgol_filter(torsion, win, 3, deriv=1, delta=1.0 / fs)) / c1
-
-
 @dataclass
 class PendingBlock:
     """Samples of one block, collected by :class:`BlockEstimator`, ready to evaluate.
@@ -949,14 +820,6 @@ class BlockDetail:
     simulated: FloatArray
 
 
-def _longest_run(valid: BoolArray) -> tuple[int, int]:
-    st, en = stick_phases(valid)
-    if st.size == 0:
-        return 0, 0
-    i = int(np.argmax(en - st))
-    return int(st[i]), int(en[i])
-
-
 def evaluate_block(
     rig: RigParams,
     friction: FrictionLaw,
@@ -972,7 +835,7 @@ def evaluate_block(
     error that would spoil every block).
     """
     flags = set(blk.flags)
-    a, b = _longest_run(blk.valid)
+    a, b = longest_run(blk.valid)
     n_block = blk.torsion.shape[0]
     nan = math.nan
     if b - a < n_block:
@@ -1014,12 +877,14 @@ def evaluate_block(
             w0=w0,
             n_samples=n,
             n_iter=out.n_iter if out else 0,
+            drive_mismatch=mismatch,
         )
         empty = np.empty(0)
         dd = data or BlockData(t0, blk.fs, tq, ac, sp, empty, empty, np.zeros(0, bool))
         sim = out.simulated if out else np.full(n, nan)
         return BlockDetail(res, dd, sim)
 
+    mismatch = nan
     if n < max(20, cfg.min_fraction * n_block):
         flags.add('short')
         return finish(None, np.zeros(n, bool), 'steady', 0, nan, None)
@@ -1036,21 +901,30 @@ def evaluate_block(
                 f'speed mean {w_mean:.4g} is {ratio:.3g} x the nominal speed '
                 f'{cfg.nominal_speed:.4g} rad/s: the speed looks like rpm, expected rad/s'
             )
-        w0 = cfg.nominal_speed
-    else:
-        if abs(w_mean) > 20.0:
-            raise UnitError(
-                f'speed mean {w_mean:.4g} is beyond the rig (about 10 rad/s at 100 rpm): '
-                'the speed looks like rpm, expected rad/s'
-            )
-        w0 = w_mean
+    elif abs(w_mean) > 20.0:
+        raise UnitError(
+            f'speed mean {w_mean:.4g} is beyond the rig (about 10 rad/s at 100 rpm): '
+            'the speed looks like rpm, expected rad/s'
+        )
+    time = t0 + np.arange(n) / blk.fs
+    tau_t = _torsion_lag(cfg, rig, tq, ac, blk.fs)
+    if tau_t > 0.0:  # the torsion amplifier's lag taken out (the mean kept)
+        dt = 1.0 / blk.fs
+        comp = torsion_lag_compensated(tq, chamber_speed_integral(ac, dt), dt, tau_t, rig.C1)
+        tq = comp - (float(np.mean(comp)) - float(np.mean(tq)))
+    # the drive speed is measured (the shaft speed over several stick-slip periods);
+    # the nominal speed is only a check (drive_mismatch)
+    drive = estimate_drive(time, sp, cfg.nominal_speed)
+    w0 = drive.mean_speed(float(time[0]), float(time[-1]))
+    mismatch = (
+        (w0 - cfg.nominal_speed) / cfg.nominal_speed if cfg.nominal_speed is not None else nan
+    )
     c1 = rig.C1
     w1 = chamber_speed(tq, blk.fs, c1)
-    if blk.moment is not None and np.all(np.isfinite(blk.moment[a:b])):
+    if tau_t == 0.0 and blk.moment is not None and np.all(np.isfinite(blk.moment[a:b])):
         moment = blk.moment[a:b]
     else:  # one-shot observer (Equ. 1 solved for M) started at the measured speed
         moment, _ = friction_moment(rig, tq, ac, blk.fs, initial_speed=float(w1[0]))
-    time = t0 + np.arange(n) / blk.fs
     try:
         phases = detect_sticks(time, tq, ac, sp, rig, min_duration=cfg.min_stick_duration)
     except EstimationError:
@@ -1074,7 +948,7 @@ def evaluate_block(
         data = replace(data, stick=stick)
         return finish(None, stick, motion, n_sticks, w0, data)
     try:
-        out = fit_block(rig, data, w0, friction.k, cfg, init=init)
+        out = fit_block(rig, data, w0, friction.k, cfg, init=init, drive=drive)
     except FitError:
         flags.add('fit_failed')
         return finish(None, stick, motion, n_sticks, w0, data)
@@ -1099,6 +973,20 @@ def evaluate_block(
     ):
         flags.add('fit_failed')
     return finish(out, stick, motion, n_sticks, w0, data)
+
+
+def _torsion_lag(
+    cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
+) -> float:
+    """The torsion amplifier's lag [s]: configured, else estimated from the block
+    (below 0.1 ms taken as none)."""
+    if cfg.torsion_lag is not None:
+        return cfg.torsion_lag
+    try:
+        tau = float(estimate_torsion_lag(torsion, accel, fs, rig.C1))
+    except (EstimationError, ValueError, np.linalg.LinAlgError):
+        return 0.0
+    return tau if math.isfinite(tau) and 1e-4 <= tau <= 0.01 else 0.0
 
 
 class BlockEstimator:
@@ -1175,7 +1063,9 @@ class BlockEstimator:
             self._epoch_first = ch.first_index
             self._epoch_t0 = ch.t0
         if self._observer is None:
-            w_start = float(chamber_speed(ch.torsion[: 4 * _HALF], ch.sample_rate, self.rig.C1)[0])
+            w_start = float(
+                chamber_speed(ch.torsion[: 4 * CHAMBER_HALF], ch.sample_rate, self.rig.C1)[0]
+            )
             self._observer = FrictionObserver(self.rig, ch.sample_rate, initial_speed=w_start)
         moment = self._observer.update(ch.torsion, ch.accel)
         self.last_moment = moment
@@ -1344,6 +1234,7 @@ class StreamingPipeline:
 
 __all__ = [
     'CSV_COLUMNS',
+    'FILE_COLUMNS',
     'FLAGS',
     'MOTIONS',
     'BlockConfig',

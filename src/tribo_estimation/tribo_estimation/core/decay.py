@@ -24,9 +24,9 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.signal import hilbert
 
+from tribo_estimation.core.lsq import LsqResult, forward_jacobian, levenberg_marquardt
 from tribo_estimation.errors import (
     InvalidDataError,
     NonMonotonicTimeError,
@@ -209,22 +209,33 @@ def identify_free_decay(
         return np.concatenate([(mt - m) / wm, (ac_ - a) / wa])
 
     q = q0 / scale
-    sol = None
+    q_lo = np.full(q.size, -np.inf)
+    q_hi = np.full(q.size, np.inf)
+
+    def solve(qq: np.ndarray, wm: float, wa: float) -> LsqResult:
+        return levenberg_marquardt(
+            lambda x: resid(x, wm, wa), qq, q_lo, q_hi, max_iter=200, max_nfev=2000, ftol=1e-12
+        )
+
     for _ in range(2):
-        sol = least_squares(resid, q, args=(sm, sa), method='lm', x_scale=1.0, max_nfev=2000)
-        q = sol.x
+        q = solve(q, sm, sa).x
         mt, am = _model(q * scale, tau)
         sm = float(np.std(mt - m)) or sm
         sa = float(np.std(am - a)) or sa
-    assert sol is not None
-    sol = least_squares(resid, q, args=(sm, sa), method='lm', x_scale=1.0, max_nfev=2000)
+    sol = solve(q, sm, sa)
     qs = sol.x
     qv = qs * scale
     _, _, sigma, wd, m0, inv_c1, a0 = (float(x) for x in qv)
     wd = abs(wd)
     if inv_c1 <= 0.0:
         raise InvalidDataError('fit gave a non-positive stiffness: check signal signs and units')
-    jac = sol.jac
+    jac = (
+        sol.jac
+        if sol.jac_current
+        else forward_jacobian(
+            lambda x: resid(x, sm, sa), qs, sol.fun, q_hi, np.maximum(1e-4 * np.abs(qs), 1e-4)
+        )
+    )
     n_res = jac.shape[0]
     chi2 = float(np.sum(sol.fun**2)) / max(n_res - qs.size, 1)
     try:

@@ -70,7 +70,9 @@ P_RIP_FREQ = 20  # drive speed ripple frequency [Hz]
 P_RIP_PHASE = 21  # drive speed ripple phase [rad]
 P_BEARING = 22  # bearing Coulomb moment on the chamber [N m]
 P_BEARING_REG = 23  # regularisation speed of the bearing moment [rad/s]
-NP = 24
+P_W0_RATE = 24  # drive acceleration of a linear drive piece [rad/s^2] (ramp time 0 only)
+P_T_DRIVE = 25  # reference time of the linear drive piece [s]: w0(t) = w0 + rate*(t - t_ref)
+NP = 26
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``
@@ -122,12 +124,16 @@ EV_BREAKAWAY = 3
     inline='always',
 )
 def drive_speed(p: np.ndarray, t: float) -> float:
-    """Drive speed w0(t) [rad/s]: linear start-up ramp to the nominal speed plus ripple."""
+    """Drive speed w0(t) [rad/s]: linear start-up ramp to the nominal speed (``P_RAMP`` > 0),
+    else one linear piece ``w0 + rate*(t - t_ref)`` of a measured drive profile; plus ripple."""
     w0n = p[P_W0]
     tr = p[P_RAMP]
-    w = w0n * (t / tr if (tr > 0.0 and t < tr) else 1.0)
-    if tr > 0.0 and t < 0.0:
-        w = 0.0
+    if tr > 0.0:
+        w = w0n * (t / tr if t < tr else 1.0)
+        if t < 0.0:
+            w = 0.0
+    else:  # one linear piece of a measured drive profile (rate 0: constant)
+        w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
     amp = p[P_RIP_AMP]
     if amp != 0.0:
         w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
@@ -152,7 +158,9 @@ def drive_angle(p: np.ndarray, t: float) -> float:
         else:
             a = w0n * (t - 0.5 * tr)
     else:
-        a = w0n * t
+        rate = p[P_W0_RATE]
+        tref = p[P_T_DRIVE]
+        a = w0n * t + 0.5 * rate * ((t - tref) * (t - tref) - tref * tref)
     amp = p[P_RIP_AMP]
     f = p[P_RIP_FREQ]
     if amp != 0.0 and f > 0.0:
@@ -265,8 +273,10 @@ def shaft_moment(p: np.ndarray, t: float, phi2: float, w2: float) -> float:
                 w0 = 0.0
                 phi0 = 0.0
         else:
-            w0 = w0n
-            phi0 = w0n * t
+            rate = p[P_W0_RATE]
+            dtr = t - p[P_T_DRIVE]
+            w0 = w0n + rate * dtr
+            phi0 = w0n * t + 0.5 * rate * (dtr * dtr - p[P_T_DRIVE] * p[P_T_DRIVE])
     return -p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0)
 
 

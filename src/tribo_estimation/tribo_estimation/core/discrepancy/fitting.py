@@ -19,15 +19,15 @@ moment (N m), the angular acceleration (rad/s^2) and the shaft speed (rad/s).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, fields, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
-from scipy.signal import savgol_filter
 
 from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.drive import DriveEstimate, estimate_drive, refine_with_angles
+from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.model import (
     DriveProfile,
     Extensions,
@@ -35,8 +35,23 @@ from tribo_estimation.core.model import (
     RigParams,
     pack_params,
 )
+from tribo_estimation.core.shooting import (
+    DriveKnots,
+    lag_segments,
+    local_cubic,
+    shoot,
+    stuck_states,
+    window_mean,
+)
+from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
 from tribo_estimation.core.simulate import sensor_lag, sensor_offset
-from tribo_estimation.errors import InvalidDataError, InvalidParameterError, TooShortError
+from tribo_estimation.core.sticks import detect_sticks
+from tribo_estimation.errors import (
+    EstimationError,
+    InvalidDataError,
+    InvalidParameterError,
+    TooShortError,
+)
 
 from .candidates import ParamSpec
 from .stats import FloatArray, IntArray
@@ -61,6 +76,16 @@ _EXT_FIELDS: frozenset[str] = frozenset(f.name for f in fields(Extensions))
 #: Friction parameters of the baseline (Equ. 8), fitted in every model.
 MU0 = ParamSpec('mu0', '-', 0.0, 2.0, 0.01, 0.1)
 MU_INF = ParamSpec('mu_inf', '-', 0.0, 2.0, 0.01, 0.1)
+
+#: Instrument model of the shaft-speed channel, fitted with the baseline:
+#: first-order sensor lag [s] and zero offset [rad/s]. The simulated shaft speed
+#: passes through them before it is compared; the state at segment starts does
+#: not use the speed channel (the common speed comes from dM_t/dt), so the
+#: other channels are insensitive to both.
+SPEED_LAG = ParamSpec('speed_lag_tau', 's', 0.0, 0.02, 1e-3, 0.0)
+SPEED_OFFSET = ParamSpec('speed_offset', 'rad/s', -1.0, 1.0, 0.01, 0.0)
+INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET)
+INSTRUMENT_FIELDS: frozenset[str] = frozenset(p.name for p in INSTRUMENT)
 
 
 @dataclass(frozen=True)
@@ -122,12 +147,15 @@ class Record:
 class Segments:
     """Simulation segments: ``start``/``stop`` sample indices (stop exclusive),
     ``stick_time`` the time already spent sticking at the start [s], ``block``
-    the time block each segment belongs to (unit of cross validation)."""
+    the time block each segment belongs to (unit of cross validation),
+    ``run_start``/``run_stop`` the stick phase holding each start [samples]."""
 
     start: IntArray
     stop: IntArray
     stick_time: FloatArray
     block: IntArray
+    run_start: IntArray | None = None
+    run_stop: IntArray | None = None
 
     @property
     def n(self) -> int:
@@ -154,94 +182,68 @@ class Segments:
         return m
 
 
-def detect_stick_runs(
-    record: Record,
-    C1: float,
-    *,
-    speed_threshold: float | None = None,
-    min_duration: float = 2e-3,
-) -> tuple[IntArray, IntArray]:
-    """Stick phases in measured data: runs where the chamber moves with the shaft.
-
-    The torsion element gives the chamber speed, ``w1 = phi1' = (dM_t/dt)/C1``
-    (M_t = C1*phi1, physics notes section 1); while the discs stick it equals
-    the measured shaft speed w2. ``dM_t/dt`` is a 2 ms Savitzky-Golay derivative.
-    A run counts if ``|w1 - w2|`` stays below ``speed_threshold`` (rad/s;
-    default: 20 % of the median |w2|, at least 5 x the derivative's noise; the
-    stuck system's ringing seen through a lagging torque amplifier makes the
-    two estimates differ by ~10 % of w2 while sticking) for
-    ``min_duration`` s. ``C1`` in N m/rad. Returns start and stop (exclusive)
-    sample indices.
-    """
-    fs = record.fs
-    half = max(2, round(1e-3 * fs))
-    w1 = savgol_filter(record.torsion_moment, 2 * half + 1, 2, deriv=1, delta=record.dt) / C1
-    w2 = savgol_filter(record.speed, 2 * half + 1, 2)
-    diff = w1 - w2
-    if speed_threshold is None:
-        d2 = np.diff(record.torsion_moment, 2)
-        noise = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / math.sqrt(6.0)
-        # std of a quadratic SG slope over 2*half+1 points ~ noise*sqrt(12/n^3)/dt
-        n = 2 * half + 1
-        slope_noise = noise * math.sqrt(12.0 / n**3) / record.dt / C1
-        speed_threshold = max(0.2 * float(np.median(np.abs(record.speed))), 5.0 * slope_noise)
-    low = np.abs(diff) < speed_threshold
-    d = np.diff(np.concatenate(([0], low.astype(np.int8), [0])))
-    starts = np.flatnonzero(d == 1)
-    stops = np.flatnonzero(d == -1)
-    keep = (stops - starts) >= max(3, round(min_duration * fs))
-    return starts[keep].astype(np.int64), stops[keep].astype(np.int64)
-
-
-def refine_onsets(accel: FloatArray, starts: IntArray, *, search: int = 20) -> FloatArray:
-    """Sub-sample stick onsets from the acceleration jump where the discs lock.
-
-    When sliding ends the chamber acceleration jumps from its sliding value to
-    that of the stuck system. Within ``search`` samples before/after each
-    detected start, the jump is the largest first difference that stands out
-    of its neighbours' trend, ``e[j] = d[j] - (d[j-1] + d[j+1])/2``; the onset
-    is then half a sample before the first stuck sample. Starts without a
-    clear jump (below 8 x the noise of e) stay as they are. Returns onsets in
-    (fractional) samples.
-    """
-    a = np.asarray(accel, dtype=np.float64)
-    d = np.diff(a)
-    e = np.zeros_like(d)
-    e[1:-1] = d[1:-1] - 0.5 * (d[:-2] + d[2:])
-    noise = 1.4826 * float(np.median(np.abs(e - np.median(e))))
-    out = starts.astype(np.float64).copy()
-    for k, s in enumerate(starts):
-        lo = max(1, int(s) - search)
-        hi = min(e.size - 1, int(s) + search // 2)
-        if hi <= lo:
-            continue
-        j = lo + int(np.argmax(np.abs(e[lo:hi])))
-        if abs(e[j]) > 8.0 * noise:
-            out[k] = j + 1 - 0.5
-    return out
+def stick_runs(
+    record: Record, rig: RigParams, *, min_duration: float = 2e-3
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Stick phases of a record from the package's one stick detector
+    (:func:`tribo_estimation.core.sticks.detect_sticks`): first and stop
+    (exclusive) sample of each phase and its start time [s]."""
+    try:
+        phases = detect_sticks(
+            record.time,
+            record.torsion_moment,
+            record.angular_acceleration,
+            record.speed,
+            rig,
+            min_duration=min_duration,
+        )
+    except EstimationError:
+        phases = []
+    fs, t0, n = record.fs, float(record.time[0]), record.time.size
+    a = np.array([min(n, max(0, math.ceil((p.start - t0) * fs - 1e-9))) for p in phases], np.int64)
+    b = np.array([min(n, max(0, math.ceil((p.end - t0) * fs - 1e-9))) for p in phases], np.int64)
+    onset = np.array([p.start for p in phases], dtype=np.float64)
+    keep = b > a
+    a, b, onset = a[keep], b[keep], onset[keep]
+    # overlapping phases (if a detector reports any) are merged
+    order = np.argsort(a, kind='stable')
+    ma: list[int] = []
+    mb: list[int] = []
+    mo: list[float] = []
+    for i in order.tolist():
+        if ma and a[i] < mb[-1]:
+            mb[-1] = max(mb[-1], int(b[i]))
+            mo[-1] = min(mo[-1], float(onset[i]))
+        else:
+            ma.append(int(a[i]))
+            mb.append(int(b[i]))
+            mo.append(float(onset[i]))
+    return np.array(ma, np.int64), np.array(mb, np.int64), np.array(mo, np.float64)
 
 
 def make_segments(
     record: Record,
-    C1: float,
+    rig: RigParams,
     *,
     min_length: float = 0.03,
     block_time: float = 0.25,
     start_delay: float = 3e-3,
-    runs: tuple[IntArray, IntArray] | None = None,
+    runs: tuple[IntArray, IntArray, FloatArray] | None = None,
 ) -> Segments:
     """Cut the record into segments that start ``start_delay`` s into a stick phase.
 
     Each segment runs to the next segment start (at least ``min_length`` s
     later); segments are numbered into time blocks of about ``block_time`` s.
-    Raises :class:`TooShortError` when the record has fewer than 3 stick
-    phases (the workflow needs stick-slip; slip-slip records are not supported).
+    ``runs`` (first, stop sample, start time [s] of each stick phase) default to
+    :func:`stick_runs`. Raises :class:`TooShortError` when the record has fewer
+    than 3 stick phases (the workflow needs stick-slip).
     """
-    s_start, s_stop = runs if runs is not None else detect_stick_runs(record, C1)
+    s_start, s_stop, onset = runs if runs is not None else stick_runs(record, rig)
     fs = record.fs
     delay = round(start_delay * fs)
     cand = [
-        (int(a) + min(delay, (int(b) - int(a)) // 2)) for a, b in zip(s_start, s_stop, strict=True)
+        (int(a) + min(delay, (int(b) - int(a)) // 2), k)
+        for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
     ]
     if len(cand) < 3:
         raise TooShortError(
@@ -249,112 +251,120 @@ def make_segments(
             'needs a stick-slip record with at least 3'
         )
     min_len = round(min_length * fs)
-    starts = [cand[0]]
+    chosen = [cand[0]]
     for c in cand[1:]:
-        if c - starts[-1] >= min_len:
-            starts.append(c)
+        if c[0] - chosen[-1][0] >= min_len:
+            chosen.append(c)
+    starts = [c[0] for c in chosen]
     stops = [*starts[1:], record.time.size]
-    # the last segment only if it reaches the next stick phase... keep it if long enough
     if stops[-1] - starts[-1] < min_len:
-        starts, stops = starts[:-1], stops[:-1]
+        chosen, starts, stops = chosen[:-1], starts[:-1], stops[:-1]
     start_arr = np.asarray(starts, dtype=np.int64)
     stop_arr = np.asarray(stops, dtype=np.int64)
-    onsets = refine_onsets(record.angular_acceleration, s_start)
-    run_start_of = {
-        int(a) + min(delay, (int(b) - int(a)) // 2): float(o)
-        for a, b, o in zip(s_start, s_stop, onsets, strict=True)
-    }
-    stick_time = np.asarray(
-        [max((s - run_start_of[int(s)]) / fs, 0.0) for s in start_arr], dtype=np.float64
-    )
+    run_k = np.asarray([c[1] for c in chosen], dtype=np.int64)
+    stick_time = np.maximum(record.time[start_arr] - onset[run_k], 0.0)
     t_rel = (start_arr - start_arr[0]) / fs
     n_blocks = max(2, round((stop_arr[-1] - start_arr[0]) / fs / block_time))
     block = np.minimum((t_rel / block_time).astype(np.int64), n_blocks - 1)
     # renumber so that block ids are 0..B-1 without gaps
     _, block = np.unique(block, return_inverse=True)
-    return Segments(start_arr, stop_arr, stick_time, block.astype(np.int64))
+    return Segments(
+        start_arr,
+        stop_arr,
+        stick_time.astype(np.float64),
+        block.astype(np.int64),
+        np.asarray(s_start, dtype=np.int64)[run_k],
+        np.asarray(s_stop, dtype=np.int64)[run_k],
+    )
 
 
-@njit(cache=True)
-def _run_segments(
-    p: np.ndarray,
-    states: np.ndarray,
-    starts: np.ndarray,
-    stops: np.ndarray,
-    dt: float,
-    n_sub: int,
-    out: np.ndarray,
-) -> int:
-    """Integrate every segment from its state with the kernel; write into ``out``."""
-    max_len = 0
-    for k in range(starts.shape[0]):
-        max_len = max(max_len, stops[k] - starts[k])
-    buf = np.empty((kn.N_CH, max_len))
-    n_ev = 0
-    for k in range(starts.shape[0]):
-        s = states[k].copy()
-        n = stops[k] - starts[k]
-        n_ev += kn.integrate(p, s, n, dt, n_sub, buf)
-        for c in range(kn.N_CH):
-            for i in range(n):
-                out[c, starts[k] + i] = buf[c, i]
-    return n_ev
+def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
+    """Slope y' [rad/s^2] of the speed channel (local cubic over 4*7+1 samples): with
+    a first-order sensor lag tau the shaft speed is ``w = y + tau*y'``."""
+    from scipy.signal import savgol_filter
+
+    win = 4 * CHAMBER_HALF + 1
+    if speed.size < win:
+        return np.zeros(speed.size)
+    return np.asarray(savgol_filter(speed, win, 3, deriv=1, delta=dt), dtype=np.float64)
 
 
-@njit(cache=True)
-def _stick_states(
-    p: np.ndarray,
-    t: np.ndarray,
-    torque: np.ndarray,
-    speed: np.ndarray,
-    accel: np.ndarray,
-    stick_time: np.ndarray,
-) -> np.ndarray:
-    """Kernel states (``kernel.S_*``) of stuck discs from measured quantities.
+@dataclass(frozen=True)
+class SpeedSensor:
+    """Identified speed-sensor model: first-order lag ``tau`` [s] and zero offset
+    ``offset`` [rad/s] with standard errors; ``n`` stick samples used."""
 
-    ``torque`` is the true torsion moment C1*phi1 [N m]; the belt deflection
-    phi2 - phi0 follows from the stuck system's moment balance
-    ``(I1 + I2)*w' = Q1 + Q2`` using the kernel's own Q1, Q2 (Q2 is affine in phi2).
+    tau: float
+    tau_se: float
+    offset: float
+    offset_se: float
+    n: int
+
+    def values(self) -> dict[str, float]:
+        """As model values (:data:`INSTRUMENT_FIELDS`); a value within 3 standard
+        errors of zero is not used (0): the model is very sensitive to a wrong speed
+        offset (it shifts the drive speed), so noise must not enter it."""
+
+        def significant(v: float, se: float) -> float:
+            return v if math.isfinite(se) and abs(v) > 3.0 * se else 0.0
+
+        return {
+            'speed_lag_tau': significant(self.tau, self.tau_se),
+            'speed_offset': significant(self.offset, self.offset_se),
+        }
+
+
+def identify_speed_sensor(
+    record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
+) -> SpeedSensor:
+    """Speed-sensor lag and offset from the stick phases, independent of friction.
+
+    While the discs stick, the shaft speed equals the chamber speed
+    ``w = (dM_t/dt)/C1`` (Equ. 4; from the torsion moment, which carries neither
+    of the speed sensor's errors). A first-order sensor shows ``y`` with
+    ``w = y + tau*y'`` (``y'`` from a local cubic through the speed channel), so
+    ``y - w = offset - tau*y'``: a linear regression over the stick samples
+    (10 samples from each end of a phase left out) gives both; standard errors
+    are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
     """
-    n = t.shape[0]
-    states = np.zeros((n, kn.NS))
-    for k in range(n):
-        phi1 = torque[k] / p[kn.P_C1]
-        w = speed[k]
-        q1 = kn.chamber_moment(p, phi1, w)
-        phi0 = kn.drive_angle(p, t[k])
-        qa = kn.shaft_moment(p, t[k], phi0, w)
-        qb = kn.shaft_moment(p, t[k], phi0 + 1e-3, w)
-        slope = (qb - qa) / 1e-3
-        target = (p[kn.P_I1] + p[kn.P_I2]) * accel[k] - q1
-        phi2 = phi0 + (target - qa) / slope
-        states[k, kn.S_T] = t[k]
-        states[k, kn.S_PHI1] = phi1
-        states[k, kn.S_W1] = w
-        states[k, kn.S_PHI2] = phi2
-        states[k, kn.S_W2] = w
-        states[k, kn.S_LAG] = p[kn.P_MU0]
-        states[k, kn.S_STUCK] = 1.0
-        states[k, kn.S_DIR] = 1.0
-        states[k, kn.S_TSTICK] = stick_time[k]
-    return states
+    from tribo_estimation.core.signal import chamber_speed
 
-
-def _local_fit(y: FloatArray, idx: IntArray, half: int, dt: float) -> tuple[FloatArray, FloatArray]:
-    """Value and slope at i of a least-squares parabola through y[i-half : i+half+1]."""
-    n = y.size
-    vals = np.empty(idx.size)
-    slopes = np.empty(idx.size)
-    for j, i in enumerate(idx):
-        a = max(0, int(i) - half)
-        b = min(n, int(i) + half + 1)
-        x = (np.arange(a, b) - int(i)) * dt
-        if b - a < 3:
-            vals[j], slopes[j] = y[int(i)], 0.0
-            continue
-        c = np.polyfit(x, y[a:b], 2)
-        vals[j], slopes[j] = c[2], c[1]
-    return vals, slopes
+    if runs is None:
+        a0, b0, _ = stick_runs(record, rig)
+    else:
+        a0, b0 = runs
+    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    # y' from the speed channel itself (during a stick it follows w' through the lag,
+    # and before it the shaft's own acceleration)
+    acc = speed_slope(record.speed, record.dt)
+    guard = CHAMBER_HALF + 3
+    idx_l: list[IntArray] = []
+    cl_l: list[IntArray] = []
+    for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
+        if b - a > 2 * guard + 2:
+            ii = np.arange(int(a) + guard, int(b) - guard, dtype=np.int64)
+            idx_l.append(ii)
+            cl_l.append(np.full(ii.size, k, dtype=np.int64))
+    if not idx_l:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, 0)
+    idx = np.concatenate(idx_l)
+    cl = np.concatenate(cl_l)
+    d = record.speed[idx] - w[idx]
+    X = np.column_stack((np.ones(idx.size), -acc[idx]))
+    try:
+        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
+        binv = np.linalg.inv(X.T @ X)
+    except np.linalg.LinAlgError:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
+    r = d - X @ coef
+    _, g = np.unique(cl, return_inverse=True)
+    G = int(g.max()) + 1
+    scores = np.zeros((G, 2))
+    np.add.at(scores, g, X * r[:, None])
+    cov = binv @ (scores.T @ scores) @ binv * (G / max(G - 1, 1))
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
+    return SpeedSensor(tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size))
 
 
 @dataclass(frozen=True)
@@ -391,6 +401,7 @@ class FitOutcome:
     cost: float
     nfev: int
     converged: bool
+    se: dict[str, float] = field(default_factory=dict)
 
 
 class Problem:
@@ -415,27 +426,53 @@ class Problem:
         self.rig = rig
         self.drive = drive
         self.k = float(k)
-        self.segments = segments if segments is not None else make_segments(record, rig.C1)
+        #: drive speed measured from the record (the nominal speed only a check)
+        self.drive_estimate: DriveEstimate = estimate_drive(
+            record.time, record.speed, drive.nominal_speed
+        )
+        self.segments = segments if segments is not None else make_segments(record, rig)
         self.n_evals = 0
-        i = self.segments.start
-        half = max(2, round(1e-3 * record.fs))
-        self._t0 = record.time[i].astype(np.float64)
-        self._m_val, self._m_slope = _local_fit(record.torsion_moment, i, half, record.dt)
-        self._a0, _ = _local_fit(record.angular_acceleration, i, half, record.dt)
-        self._w0, _ = _local_fit(record.speed, i, half, record.dt)
-        # measured chamber speed: w1 = w(start) + integral of w1' (trapezoid) per segment
         seg = self.segments
-        w1 = np.full(record.time.size, np.nan)
-        acc = record.angular_acceleration
-        for k, (a, b) in enumerate(zip(seg.start, seg.stop, strict=True)):
-            inc = 0.5 * (acc[a + 1 : b] + acc[a : b - 1]) * record.dt
-            w1[a] = self._w0[k]
-            w1[a + 1 : b] = self._w0[k] + np.cumsum(inc)
+        i = seg.start
+        fs = record.fs
+        self._t0 = record.time[i].astype(np.float64)
+        self._drive_speed0 = self.drive_estimate
+        sp = record.speed
+        self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+        # state at the segment starts: the torsion moment (local cubic) and the
+        # acceleration; the common speed of the stuck discs from the speed channel
+        # with its sensor model inverted (:meth:`_set_instrument`)
+        self._m_val, slope = local_cubic(record.torsion_moment, i, seg.run_start, seg.run_stop)
+        self._m_slope = np.where(np.isfinite(slope), slope * fs, 0.0)
+        self._a0 = window_mean(record.angular_acceleration, i, 2, seg.run_start, seg.run_stop)
+        self._speed_start = window_mean(record.speed, i, 5, seg.run_start, seg.run_stop)
+        # stick samples (every 4th, away from the phase ends) and smoothed channels
+        # for the drive angle (:meth:`_set_instrument`)
+        width = 2 * CHAMBER_HALF + 1
+        self._smooth_speed = moving_average(record.speed, width)
+        self._speed_slope = speed_slope(record.speed, record.dt)
+        self._smooth_accel = moving_average(record.angular_acceleration, width)
+        self._smooth_torque = moving_average(record.torsion_moment, width)
+        guard = CHAMBER_HALF + 1
+        ra = seg.run_start if seg.run_start is not None else seg.start
+        rb = seg.run_stop if seg.run_stop is not None else seg.start + 1
+        idx = [
+            np.arange(int(a) + guard, int(b) - guard, 4, dtype=np.int64)
+            for a, b in zip(ra, rb, strict=True)
+            if b - a > 2 * guard
+        ]
+        self._stick_samples = (
+            np.unique(np.concatenate(idx)) if idx else np.asarray(seg.start, dtype=np.int64)
+        )
         self._meas: dict[str, FloatArray] = {
             'torsion_moment': record.torsion_moment,
-            'chamber_speed': w1,
+            'chamber_speed': np.full(record.time.size, np.nan),
             'speed': record.speed,
         }
+        self._w_start = self._speed_start.copy()
+        self._instrument: tuple[float, ...] = (math.nan,) * 7
+        self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
     # ------------------------------------------------------------------ weights
@@ -460,7 +497,11 @@ class Problem:
     # --------------------------------------------------------------- simulation
     def model_objects(self, values: Mapping[str, float]) -> tuple[FrictionLaw, Extensions]:
         """FrictionLaw and Extensions of a value mapping (unknown names rejected)."""
-        ext_vals = {k: float(v) for k, v in values.items() if k not in ('mu0', 'mu_inf')}
+        ext_vals = {
+            k: float(v)
+            for k, v in values.items()
+            if k not in ('mu0', 'mu_inf') and k not in INSTRUMENT_FIELDS
+        }
         unknown = set(ext_vals) - _EXT_FIELDS
         if unknown:
             raise InvalidParameterError(f'unknown model parameter(s) {sorted(unknown)}')
@@ -492,12 +533,22 @@ class Problem:
             a_l = math.exp(-rec.dt / ext.torque_lag_tau)
             lag_eff = rec.dt * a_l / (1.0 - a_l)
         m_true = m_lagged + lag_eff * (self._m_slope[sel] - ext.torque_offset_drift)
-        states = _stick_states(p, t0, m_true, self._w0[sel], self._a0[sel], seg.stick_time[sel])
+        self._set_instrument(
+            float(values.get('speed_lag_tau', 0.0)),
+            float(values.get('speed_offset', 0.0)),
+            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase),
+            (ext.torque_offset, ext.torque_offset_drift),
+        )
+        dk = self._knots
+        states = stuck_states(
+            p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time, dk.speed
+        )
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
-        _run_segments(p, states, seg.start[sel], seg.stop[sel], rec.dt, n_sub, out)
+        shoot(p, states, seg.start[sel], seg.stop[sel], dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1
+        speed = self._speed_sensor(out[kn.OUT_SPEED], values, sel)
         torsion = out[kn.OUT_TORSION].copy()
         if ext.torque_lag_tau > 0.0:
             # the sensor model of simulate.simulate, per segment
@@ -512,13 +563,108 @@ class Problem:
         return SimulatedRecord(
             torsion_moment=torsion,
             angular_acceleration=out[kn.OUT_ACCEL],
-            speed=out[kn.OUT_SPEED],
+            speed=speed,
             friction_moment=out[kn.OUT_FRICTION],
             slip_speed=out[kn.OUT_SLIP],
             stick=out[kn.OUT_STICK],
             chamber_speed=out[kn.OUT_W1],
             covered=covered,
         )
+
+    def _set_instrument(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        torque: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment
+        starts: while stuck the discs share one speed w with w' = the measured
+        acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
+        ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
+        chamber speed channel is ``w(start) + integral of a`` per segment."""
+        key = (tau, offset, *ripple, *torque)
+        if self._instrument == key:
+            return
+        same_sensor = self._instrument[:2] == (tau, offset)
+        self._instrument = key
+        if same_sensor:  # only the model's drive ripple or torque offset changed
+            self._fit_drive(tau, offset, ripple, torque)
+            return
+        rec = self.record
+        self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
+        w1 = np.full(rec.time.size, np.nan)
+        acc = rec.angular_acceleration
+        for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
+            inc = 0.5 * (acc[a + 1 : b] + acc[a : b - 1]) * rec.dt
+            w1[a] = self._w_start[k]
+            w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
+        self._meas['chamber_speed'] = w1
+        self._fit_drive(tau, offset, ripple, torque)
+
+    def _fit_drive(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float],
+        torque: tuple[float, float],
+    ) -> None:
+        """The drive profile from the drive angles at the stick samples, with the
+        speed sensor inverted, the model's torque offset and drift [N m, N m/s] taken
+        off the torsion moment and the model's drive-speed ripple (its angle) taken out."""
+        rec = self.record
+        # drive angle while stuck = shaft angle (integral of the speed channel, less
+        # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
+        # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
+        rig = self.rig
+        j = self._stick_samples
+        y = self._smooth_speed[j]
+        w = y - offset + tau * self._speed_slope[j]
+        t = rec.time[j]
+        q1 = -rig.K1 * w - (self._smooth_torque[j] - torque[0] - torque[1] * t)
+        q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
+        phi2 = (
+            self._shaft_angle[j]
+            - offset * (t - rec.time[0])
+            + tau * (y - float(self._smooth_speed[0]))
+        )
+        amp, freq, phase = ripple
+        ripple_angle = np.zeros_like(t)
+        if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
+            om = 2.0 * math.pi * freq
+            ripple_angle = amp / om * (math.cos(phase) - np.cos(om * t + phase))
+        hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
+        # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
+        # more with the profile from the angles
+        drive = self._drive_speed0
+        for _ in range(2):
+            defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
+            drive = refine_with_angles(self._drive_speed0, t, phi2 - defl - ripple_angle, hints)
+        self.drive_estimate = drive
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def _speed_sensor(
+        self, w2: FloatArray, values: Mapping[str, float], sel: npt.NDArray[np.bool_]
+    ) -> FloatArray:
+        """The simulated shaft speed w2 [rad/s] as the speed sensor shows it: first-order
+        lag ``speed_lag_tau`` [s] (its state at each segment start = the measured
+        speed there, less the offset) and zero offset ``speed_offset`` [rad/s]."""
+        tau = float(values.get('speed_lag_tau', 0.0))
+        off = float(values.get('speed_offset', 0.0))
+        if tau <= 0.0 and off == 0.0:
+            return w2
+        out = w2.copy()
+        if tau > 0.0:
+            seg = self.segments
+            lag_segments(
+                w2,
+                seg.start[sel],
+                seg.stop[sel],
+                self._speed_start[sel] - off,
+                math.exp(-self.record.dt / tau),
+                out,
+            )
+        return out + off
 
     def measured(self, name: str) -> FloatArray:
         """A compared measured channel (:data:`CHANNELS`; chamber speed NaN off-segment)."""
@@ -565,8 +711,10 @@ class Problem:
         constant. Uses :func:`levenberg_marquardt` on value/scale coordinates
         (log for time constants); ``max_nfev`` counts every simulation.
         """
-        fixed_vals = dict(fixed or {})
         names = [p.name for p in free]
+        # values in ``start`` that are not free (e.g. the instrument model) stay fixed
+        fixed_vals = {k: float(v) for k, v in start.items() if k not in names}
+        fixed_vals.update(fixed or {})
 
         def to_x(vals: Mapping[str, float]) -> FloatArray:
             return np.asarray(
@@ -594,95 +742,18 @@ class Problem:
         if not names:
             sim = self.simulate(fixed_vals, seg_mask)
             return FitOutcome(dict(fixed_vals), self.cost(sim), 1, True)
-        x, sq, nfev, conv = levenberg_marquardt(fun, x0, lo, hi, max_nfev=max_nfev)
+        sol = levenberg_marquardt(
+            fun, x0, lo, hi, max_nfev=max_nfev, max_iter=max_nfev, ftol=1e-6, lam0=1e-3
+        )
         n = int(np.count_nonzero(self.segments.sample_mask(self.record.time.size, seg_mask)))
-        return FitOutcome(from_x(x), sq / max(n, 1), nfev, conv)
-
-
-@njit(cache=True)
-def _normal_equations(J_rows: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """J^T J and J^T r from the Jacobian's columns stored as rows (p x m).
-
-    Compiled loops instead of BLAS: on a busy shared machine multi-threaded
-    BLAS on these tall, thin products spins far longer than it computes.
-    """
-    p, m = J_rows.shape
-    A = np.zeros((p, p))
-    g = np.zeros(p)
-    for i in range(p):
-        acc = 0.0
-        for k in range(m):
-            acc += J_rows[i, k] * r[k]
-        g[i] = acc
-        for j in range(i, p):
-            acc = 0.0
-            for k in range(m):
-                acc += J_rows[i, k] * J_rows[j, k]
-            A[i, j] = acc
-            A[j, i] = acc
-    return A, g
-
-
-def levenberg_marquardt(
-    fun: Callable[[FloatArray], FloatArray],
-    x0: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    *,
-    max_nfev: int = 60,
-    rel_step: float = 1e-4,
-    ftol: float = 1e-6,
-) -> tuple[FloatArray, float, int, bool]:
-    """Bounded Levenberg-Marquardt on ``sum(fun(x)**2)`` with forward differences.
-
-    Steps are projected onto the bounds ``[lo, hi]``; every function call
-    (Jacobian columns included) counts against ``max_nfev``. Returns
-    ``(x, sum of squares, nfev, converged)``; converged means the relative
-    decrease of the sum of squares fell below ``ftol``.
-    """
-    x = np.clip(np.asarray(x0, dtype=np.float64), lo, hi)
-    r = fun(x)
-    sq = float(np.sum(r * r))
-    nfev = 1
-    lam = 1e-3
-    p = x.size
-    while nfev + p + 1 <= max_nfev:
-        cols: list[FloatArray] = []
-        for j in range(p):
-            h = rel_step * max(1.0, abs(x[j]))
-            if x[j] + h > hi[j]:
-                h = -h
-            xs = x.copy()
-            xs[j] += h
-            cols.append((fun(xs) - r) / h)
-            nfev += 1
-        A, g = _normal_equations(np.ascontiguousarray(np.vstack(cols)), r)
-        dA = np.diag(A).copy()
-        dA[dA <= 0] = 1.0
-        improved = False
-        while nfev < max_nfev:
-            try:
-                d = np.linalg.solve(A + lam * np.diag(dA), -g)
-            except np.linalg.LinAlgError:
-                lam *= 10.0
-                continue
-            xn = np.clip(x + d, lo, hi)
-            if np.allclose(xn, x, rtol=0.0, atol=1e-12):
-                break
-            rn = fun(xn)
-            nfev += 1
-            sqn = float(np.sum(rn * rn))
-            if sqn < sq:
-                rel = (sq - sqn) / max(sq, 1e-300)
-                x, r, sq = xn, rn, sqn
-                lam = max(lam / 5.0, 1e-9)
-                improved = True
-                if rel < ftol:
-                    return x, sq, nfev, True
-                break
-            lam *= 4.0
-            if lam > 1e8:
-                break
-        if not improved:
-            return x, sq, nfev, True
-    return x, sq, nfev, False
+        # standard errors from the (last) Jacobian: s^2 (J^T J)^-1, in value units
+        se: dict[str, float] = {}
+        dof = max(1, sol.fun.size - len(names))
+        try:
+            cov = np.linalg.inv(sol.jac.T @ sol.jac) * (sol.cost / dof)
+            sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        except np.linalg.LinAlgError:
+            sd = np.full(len(names), math.nan)
+        for p, xi, si in zip(free, sol.x, sd, strict=True):
+            se[p.name] = float(math.exp(float(xi)) * si if p.log else si * p.scale)
+        return FitOutcome(from_x(sol.x), sol.cost / max(n, 1), sol.nfev, sol.converged, se)

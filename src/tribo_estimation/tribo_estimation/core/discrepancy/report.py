@@ -11,7 +11,15 @@ Layout (rms values are of the torsion-moment residual, measured - simulated, N m
 
 Further keys: ``noise_floor`` (N m), ``rounds`` (every candidate's score per
 selection round), ``proposed_terms`` (sparse regression on the final residual),
-``localisation`` (baseline and final residual statistics), ``settings``.
+``localisation`` (baseline and final residual statistics), ``settings``,
+``instrument`` (the speed-sensor model fitted with the baseline:
+``{"speed_lag_tau": {"value": s, "se": s, "unit": "s", "used": s}, "speed_offset":
+{...}, "stick_samples": n}``; ``used`` is the value the models use: 0 unless the
+estimate is beyond 3 standard errors)
+and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
+[rad/s], ``mismatch`` [-], ``mismatched`` (> 5 %), ``warning``, the profile's
+``knot_time`` [s] / ``knot_speed`` [rad/s] and per time block ``blocks``:
+``[{"block", "t_start", "t_end", "w0"}]``).
 """
 
 from __future__ import annotations
@@ -76,6 +84,8 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
             'final': result.localisation_after,
         },
         'settings': dict(result.settings),
+        'instrument': dict(result.instrument),
+        'drive': dict(result.drive),
     }
     return _clean(d)
 

@@ -42,7 +42,16 @@ from tribo_estimation.errors import InvalidParameterError
 
 from . import candidates as cand_lib
 from .candidates import Candidate, ParamSpec, StartContext
-from .fitting import CHANNELS, MU0, MU_INF, Problem, Record, SimulatedRecord, make_segments
+from .fitting import (
+    CHANNELS,
+    MU0,
+    MU_INF,
+    Problem,
+    Record,
+    SimulatedRecord,
+    identify_speed_sensor,
+    make_segments,
+)
 from .localise import localise, shaft_angle, torque_residual, variable
 from .sparse import SparseTerm, feature_library, stlsq
 from .stats import (
@@ -205,6 +214,8 @@ class DiscrepancyResult:
     localisation_after: dict[str, Any]
     settings: dict[str, Any]
     traces: Traces
+    instrument: dict[str, Any] = field(default_factory=dict)
+    drive: dict[str, Any] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -317,7 +328,7 @@ def _start_context(problem: Problem, sim: SimulatedRecord) -> StartContext:
         fs=rec.fs,
         torque=(rec.torsion_moment - sim.torsion_moment)[cov],
         speed=(rec.speed - sim.speed)[cov],
-        nominal_speed=problem.drive.nominal_speed,
+        nominal_speed=problem.drive_estimate.level,
         stick_durations=stick_durations(stick[cov], rec.fs),
         friction_moment_scale=float(np.median(np.abs(rec.torsion_moment))),
     )
@@ -470,20 +481,54 @@ def run_discrepancy(
     say: Progress = progress or (lambda _msg: None)
     t_start = _time.perf_counter()
     pb = Problem(
-        record, rig, drive, k=k, segments=make_segments(record, rig.C1, block_time=st.block_time)
+        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
     )
     sel = _Selector(pb, st, say)
+    # the instrument model (speed-sensor lag and offset) is identified from the stick
+    # phases before any fit (friction-free) and held fixed by every model
+    seg = pb.segments
+    sensor = identify_speed_sensor(
+        record,
+        rig,
+        (seg.run_start, seg.run_stop)
+        if seg.run_start is not None and seg.run_stop is not None
+        else None,
+    )
+    used = sensor.values()
+    instrument = {
+        'speed_lag_tau': {
+            'value': sensor.tau,
+            'se': sensor.tau_se,
+            'unit': 's',
+            'used': used['speed_lag_tau'],
+        },
+        'speed_offset': {
+            'value': sensor.offset,
+            'se': sensor.offset_se,
+            'unit': 'rad/s',
+            'used': used['speed_offset'],
+        },
+        'stick_samples': sensor.n,
+    }
+    say(
+        f'speed sensor: lag {1e3 * sensor.tau:.3g} +- {1e3 * sensor.tau_se:.2g} ms, offset '
+        f'{sensor.offset:.3g} +- {sensor.offset_se:.2g} rad/s'
+    )
     say(
         f'{pb.segments.n} segments in {pb.segments.n_blocks} blocks; fitting the baseline '
         '(paper model: mu0, mu_inf)'
     )
-    base_vals = sel.fit_best([MU0, MU_INF], _baseline_starts(pb))
+    base_vals = sel.fit_best(
+        [MU0, MU_INF], [{**sensor.values(), **st0} for st0 in _baseline_starts(pb)]
+    )
     base_sim = pb.simulate(base_vals)
     floors: dict[str, float] = {}
     for ch in CHANNELS:
         m = pb.measured(ch)[base_sim.covered]
         floors[ch] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
     pb.set_residual_weights(base_sim, floors)
+    # the instrument model (speed-sensor lag and offset) joins the baseline before
+    # any effect is tried; the effects' fits hold it fixed
     base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
     base_sim = pb.simulate(base_vals)
     current = sel.score((), base_vals)
@@ -603,7 +648,35 @@ def run_discrepancy(
             'simulations': pb.n_evals,
         },
         traces=Traces(pb, base_sim, final_sim),
+        instrument=instrument,
+        drive=drive_report(pb),
     )
+
+
+def drive_report(pb: Problem) -> dict[str, Any]:
+    """The measured drive profile for ``discrepancy.json``: level and nominal speed
+    [rad/s], relative mismatch [-] and its warning, the knots of the piecewise-linear
+    profile [s, rad/s] and the mean drive speed used per time block [rad/s]."""
+    de = pb.drive_estimate
+    seg = pb.segments
+    t = pb.record.time
+    blocks = []
+    for b in range(seg.n_blocks):
+        m = seg.block == b
+        t0 = float(t[seg.start[m][0]])
+        t1 = float(t[min(int(seg.stop[m][-1]), t.size - 1)])
+        blocks.append({'block': b, 't_start': t0, 't_end': t1, 'w0': de.mean_speed(t0, t1)})
+    return {
+        'level': de.level,
+        'nominal': de.nominal,
+        'mismatch': de.mismatch,
+        'mismatched': de.mismatched,
+        'warning': de.warning() or '',
+        'from_record': de.from_record,
+        'knot_time': [float(x) for x in de.knot_time],
+        'knot_speed': [float(x) for x in de.knot_speed],
+        'blocks': blocks,
+    }
 
 
 __all__ = [

@@ -18,6 +18,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy import signal
 
+from tribo_estimation.core.signal import noise_level, runs
+
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
@@ -27,15 +29,6 @@ STICK = 0
 SLIP_ACCEL = 1
 SLIP_DECEL = 2
 PHASE_NAMES: tuple[str, str, str] = ('stick', 'slip_accelerating', 'slip_decelerating')
-
-
-def _runs(mask: BoolArray) -> tuple[IntArray, IntArray]:
-    """Start and stop (exclusive) indices of the runs of True in ``mask``."""
-    m = np.asarray(mask, dtype=np.int8)
-    d = np.diff(np.concatenate(([0], m, [0])))
-    starts = np.flatnonzero(d == 1).astype(np.int64)
-    stops = np.flatnonzero(d == -1).astype(np.int64)
-    return starts, stops
 
 
 def phase_labels(slip_speed: FloatArray, stick: BoolArray) -> IntArray:
@@ -50,7 +43,7 @@ def phase_labels(slip_speed: FloatArray, stick: BoolArray) -> IntArray:
     if v.shape != st.shape:
         raise ValueError(f'slip_speed {v.shape} and stick {st.shape} differ in shape')
     labels = np.zeros(v.size, dtype=np.int64)
-    starts, stops = _runs(~st)
+    starts, stops = runs(~st)
     for a, b in zip(starts, stops, strict=True):
         k = a + int(np.argmax(v[a:b]))
         labels[a : k + 1] = SLIP_ACCEL
@@ -66,8 +59,8 @@ def preceding_stick_duration(stick: BoolArray, fs: float) -> FloatArray:
     """
     st = np.asarray(stick, dtype=bool)
     out = np.full(st.size, np.nan)
-    s_starts, s_stops = _runs(st)
-    slip_starts, slip_stops = _runs(~st)
+    s_starts, s_stops = runs(st)
+    slip_starts, slip_stops = runs(~st)
     for a, b in zip(slip_starts, slip_stops, strict=True):
         j = np.searchsorted(s_stops, a, side='right') - 1
         if j >= 0 and s_stops[j] == a and s_starts[j] > 0:
@@ -78,7 +71,7 @@ def preceding_stick_duration(stick: BoolArray, fs: float) -> FloatArray:
 def stick_durations(stick: BoolArray, fs: float) -> FloatArray:
     """Durations (s) of the complete stick phases (not touching the record ends)."""
     st = np.asarray(stick, dtype=bool)
-    a, b = _runs(st)
+    a, b = runs(st)
     keep = (a > 0) & (b < st.size)
     return ((b[keep] - a[keep]) / fs).astype(np.float64)
 
@@ -89,7 +82,7 @@ def time_since_breakaway(stick: BoolArray, fs: float) -> FloatArray:
     Negative before the breakaway, positive after; NaN if the record has none.
     """
     st = np.asarray(stick, dtype=bool)
-    _, stops = _runs(st)
+    _, stops = runs(st)
     breaks = stops[(stops > 0) & (stops < st.size)]
     if breaks.size == 0:
         return np.full(st.size, np.nan)
@@ -113,9 +106,7 @@ def noise_floor(residual: FloatArray) -> float:
     r = np.asarray(residual, dtype=np.float64)
     if r.size < 8:
         return float(np.std(r))
-    d2 = np.diff(r, 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / math.sqrt(6.0)
+    return noise_level(r)
 
 
 def rms(x: FloatArray) -> float:

@@ -1,0 +1,271 @@
+"""The drive speed profile w0(t) measured in a record (not assumed).
+
+A real record starts at the drive's start-up, anywhere in a test, or holds
+speed steps and ramps (a Stribeck sweep). Over a time much longer than the
+stick-slip period the shaft follows the drive (the belt deflection of Equ. 2
+stays bounded), so the shaft speed channel w2, averaged over
+:data:`SMOOTH_TIME`, is the drive speed w0. The profile is a continuous
+piecewise-linear function of time: its knots are placed top-down (split where
+the smoothed speed departs most from the chord, while that departure exceeds
+:func:`tolerance`), and the knot speeds are then a least-squares fit to the
+speed averaged in short bins. A speed-sensor lag (ms) or offset-free gain
+error moves this by far less than the tolerance; a sensor offset moves it by
+the offset.
+
+The model is driven with one linear piece per shooting segment (kernel
+``P_W0``, ``P_W0_RATE``, ``P_T_DRIVE``); the drive *angle* at a segment start
+never comes from ``w0*t`` but from the measured state (Equ. 2, see
+:mod:`.shooting`). RIG.yaml's ``nominal_speed`` is only a default (a record
+without a usable speed channel) and a check: :attr:`DriveEstimate.mismatch`.
+
+Units: time s, speed rad/s, rate rad/s^2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from .signal import moving_average
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Averaging time of the shaft speed for the drive level (several stick-slip periods) [s].
+SMOOTH_TIME = 0.1
+
+#: Relative disagreement with the nominal speed that is reported [-].
+MISMATCH_LIMIT = 0.05
+
+#: Bin width of the knot least-squares fit [s].
+_BIN_TIME = 0.005
+
+#: Most knots of one profile [-].
+_MAX_KNOTS = 64
+
+
+@dataclass(frozen=True)
+class DriveEstimate:
+    """Piecewise-linear drive speed measured from a record.
+
+    Attributes:
+        knot_time: knot instants [s] (first = record start, last = record end).
+        knot_speed: drive speed at the knots [rad/s].
+        nominal: RIG.yaml nominal speed [rad/s] (NaN: none given).
+        level: time-weighted median drive speed of the record [rad/s].
+        mismatch: relative deviation ``(level - nominal)/nominal`` [-] (NaN: no nominal).
+        from_record: False when the speed channel was unusable and the nominal is used.
+    """
+
+    knot_time: FloatArray
+    knot_speed: FloatArray
+    nominal: float
+    level: float
+    mismatch: float
+    from_record: bool = True
+
+    @property
+    def mismatched(self) -> bool:
+        """True when the record disagrees with the nominal speed by more than 5 %."""
+        return math.isfinite(self.mismatch) and abs(self.mismatch) > MISMATCH_LIMIT
+
+    @property
+    def n_pieces(self) -> int:
+        """Number of linear pieces [-]."""
+        return int(self.knot_time.size) - 1
+
+    def speed(self, t: npt.ArrayLike) -> FloatArray:
+        """w0(t) [rad/s] (held constant beyond the ends)."""
+        return np.interp(np.asarray(t, dtype=np.float64), self.knot_time, self.knot_speed)
+
+    def rate(self, t: npt.ArrayLike) -> FloatArray:
+        """dw0/dt [rad/s^2] of the piece holding t (the later piece at a knot)."""
+        tt = np.asarray(t, dtype=np.float64)
+        if self.knot_time.size < 2:
+            return np.zeros_like(tt)
+        slopes = np.diff(self.knot_speed) / np.maximum(np.diff(self.knot_time), 1e-12)
+        i = np.clip(np.searchsorted(self.knot_time, tt, side='right') - 1, 0, slopes.size - 1)
+        inside = (tt >= self.knot_time[0]) & (tt <= self.knot_time[-1])
+        return np.where(inside, slopes[i], 0.0)
+
+    def mean_speed(self, t0: float, t1: float) -> float:
+        """Mean drive speed over ``[t0, t1]`` [rad/s]."""
+        if not t1 > t0:
+            return float(self.speed(t0))
+        tt = np.linspace(t0, t1, 65)
+        return float(np.mean(self.speed(tt)))
+
+    def warning(self) -> str | None:
+        """One line for the user when the record disagrees with the nominal speed."""
+        if not self.mismatched:
+            return None
+        return (
+            f'drive speed of the record {self.level:.4g} rad/s differs from the RIG.yaml '
+            f'nominal_speed {self.nominal:.4g} rad/s by {100.0 * self.mismatch:+.1f} %: '
+            'the measured drive speed is used'
+        )
+
+
+def tolerance(level: float, noise: float) -> float:
+    """Departure of the smoothed speed from a linear piece that starts a new knot
+    [rad/s]: 3 % of the drive level, at least 0.03 rad/s and 5 x the residual
+    scatter ``noise`` of the smoothed speed."""
+    return max(0.03 * abs(level), 0.03, 5.0 * noise)
+
+
+def _split(t: FloatArray, y: FloatArray, tol: float) -> list[int]:
+    """Top-down piecewise-linear segmentation: knot indices into t."""
+    knots = [0, t.size - 1]
+    stack = [(0, t.size - 1)]
+    while stack and len(knots) < _MAX_KNOTS:
+        a, b = stack.pop()
+        if b - a < 3:
+            continue
+        chord = y[a] + (y[b] - y[a]) * (t[a : b + 1] - t[a]) / (t[b] - t[a])
+        dev = np.abs(y[a : b + 1] - chord)
+        j = int(np.argmax(dev))
+        if dev[j] > tol and 0 < j < b - a:
+            m = a + j
+            knots.append(m)
+            stack.extend(((a, m), (m, b)))
+    return sorted(set(knots))
+
+
+def _fit_knots(tk: FloatArray, tb: FloatArray, yb: FloatArray) -> FloatArray:
+    """Least-squares knot speeds of the continuous piecewise-linear function through
+    the bin means ``(tb, yb)`` (hat-function basis)."""
+    k = tk.size
+    basis = np.zeros((tb.size, k))
+    i = np.clip(np.searchsorted(tk, tb, side='right') - 1, 0, k - 2)
+    w = (tb - tk[i]) / np.maximum(tk[i + 1] - tk[i], 1e-12)
+    w = np.clip(w, 0.0, 1.0)
+    rows = np.arange(tb.size)
+    basis[rows, i] = 1.0 - w
+    basis[rows, i + 1] += w
+    sol, *_ = np.linalg.lstsq(basis, yb, rcond=None)
+    return np.asarray(sol, dtype=np.float64)
+
+
+def estimate_drive(
+    time: FloatArray, speed: FloatArray, nominal: float | None = None
+) -> DriveEstimate:
+    """Drive speed profile of a record from its shaft speed channel (module doc).
+
+    Args:
+        time: sample times [s], uniform.
+        speed: shaft speed w2 [rad/s].
+        nominal: RIG.yaml nominal drive speed [rad/s] (default and check only).
+    """
+    t = np.asarray(time, dtype=np.float64)
+    w = np.asarray(speed, dtype=np.float64)
+    nom = float(nominal) if nominal is not None and math.isfinite(nominal) else math.nan
+    ok = np.isfinite(w)
+    if t.size < 2 or int(ok.sum()) < max(10, t.size // 2):
+        c = nom if math.isfinite(nom) else 0.0
+        t0, t1 = (float(t[0]), float(t[-1])) if t.size else (0.0, 0.0)
+        return DriveEstimate(np.array([t0, max(t1, t0)]), np.array([c, c]), nom, c, 0.0, False)
+    if not ok.all():
+        w = np.interp(t, t[ok], w[ok])
+    dt = float((t[-1] - t[0]) / (t.size - 1))
+    span = float(t[-1] - t[0])
+    width = max(1, round(min(SMOOTH_TIME, 0.5 * span) / dt))
+    ws = moving_average(w, width)
+    # decimate to bins (the knot search and the least squares work on the bins)
+    nb = max(1, round(_BIN_TIME / dt))
+    m = (t.size // nb) * nb
+    if m < 2 * nb:
+        tb, yb, ysb = t, w, ws
+    else:
+        tb = t[:m].reshape(-1, nb).mean(axis=1)
+        yb = w[:m].reshape(-1, nb).mean(axis=1)
+        ysb = ws[:m].reshape(-1, nb).mean(axis=1)
+    level_guess = float(np.median(ysb))
+    scatter = float(np.median(np.abs(np.diff(ysb)))) * 1.4826 if ysb.size > 2 else 0.0
+    tol = tolerance(level_guess, scatter)
+    idx = _split(tb, ysb, tol)
+    tk = tb[idx].copy()
+    tk[0], tk[-1] = float(t[0]), float(t[-1])
+    if tk.size >= 2 and tk[-1] > tk[0]:
+        vk = _fit_knots(tk, tb, yb)
+    else:
+        tk = np.array([float(t[0]), float(t[-1])])
+        vk = np.full(2, level_guess)
+    # time-weighted median of the profile
+    grid = np.linspace(tk[0], tk[-1], 512)
+    level = float(np.median(np.interp(grid, tk, vk)))
+    mismatch = (level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan
+    return DriveEstimate(tk, vk, nom, level, mismatch, True)
+
+
+__all__ = ['MISMATCH_LIMIT', 'SMOOTH_TIME', 'DriveEstimate', 'estimate_drive', 'tolerance']
+
+
+#: Weight of the knot-speed smoothness penalty of :func:`refine_with_angles` [s].
+_KNOT_SMOOTH = 1e-4
+
+
+def refine_with_angles(
+    drive: DriveEstimate, t: FloatArray, phi0: FloatArray, hint_knots: FloatArray | None = None
+) -> DriveEstimate:
+    """The knot speeds of ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
+    at times ``t`` [s] (least squares of ``c + integral of w0``; the knot times
+    stay). The drive angle at a stick follows from the shaft angle (integral of
+    w2) and the belt deflection of Equ. 2, which is known while the discs stick;
+    the angle pins the mean drive speed between sticks to the noise of that
+    deflection (~1e-3 rad/s), far better than the smoothed shaft speed.
+    ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up ramp end); a
+    detected knot within :data:`SMOOTH_TIME` of one moves onto it."""
+    # the smoothing blurs a corner over +-SMOOTH_TIME/2: extra knots around each
+    # interior knot let the angles place it
+    # interior knots next to a hinted corner (e.g. the end of RIG.yaml's start-up ramp)
+    # move onto it; the others get the extra knots
+    inner = drive.knot_time[1:-1]
+    t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
+    hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
+    hints = hints[(hints > t_lo + 0.01) & (hints < t_hi - 0.01)]
+    if hints.size and inner.size:
+        dist = np.abs(inner[:, None] - hints[None, :])
+        hinted = (dist <= SMOOTH_TIME).any(axis=1)
+        moved = hints[np.argmin(dist, axis=1)][hinted]
+        inner = inner[~hinted]
+    else:
+        moved = np.zeros(0)
+    extra = (inner[:, None] + SMOOTH_TIME * np.array([-0.5, -0.25, 0.25, 0.5])[None, :]).ravel()
+    extra = extra[(extra > t_lo + 0.01) & (extra < t_hi - 0.01)]
+    tk = np.unique(np.concatenate(([t_lo, t_hi], inner, moved, extra)))
+    tt = np.asarray(t, dtype=np.float64)
+    ph = np.asarray(phi0, dtype=np.float64)
+    ok = np.isfinite(tt) & np.isfinite(ph)
+    tt, ph = tt[ok], ph[ok]
+    if tt.size < tk.size + 2 or tk.size < 2:
+        return drive
+    # integral from tk[0] of each hat function, on a fine grid, interpolated at tt
+    grid = np.unique(np.concatenate((np.linspace(tk[0], tk[-1], 4096), tk)))
+    cols = [np.ones_like(tt)]
+    for j in range(tk.size):
+        e = np.zeros(tk.size)
+        e[j] = 1.0
+        hat = np.interp(grid, tk, e)
+        cum = np.concatenate(([0.0], np.cumsum(0.5 * (hat[1:] + hat[:-1]) * np.diff(grid))))
+        cols.append(np.interp(tt, grid, cum))
+    basis = np.column_stack(cols)
+    # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
+    # closely spaced knots with few samples between them from oscillating
+    k = tk.size
+    if k >= 3:
+        d2 = np.zeros((k - 2, k + 1))
+        for i in range(k - 2):
+            d2[i, 1 + i : 4 + i] = (_KNOT_SMOOTH, -2.0 * _KNOT_SMOOTH, _KNOT_SMOOTH)
+        basis = np.vstack((basis, d2))
+        ph = np.concatenate((ph, np.zeros(k - 2)))
+    sol, *_ = np.linalg.lstsq(basis, ph, rcond=None)
+    vk = np.asarray(sol[1:], dtype=np.float64)
+    if not np.all(np.isfinite(vk)):
+        return drive
+    grid2 = np.linspace(tk[0], tk[-1], 512)
+    level = float(np.median(np.interp(grid2, tk, vk)))
+    nom = drive.nominal
+    mismatch = (level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan
+    return DriveEstimate(tk.copy(), vk, nom, level, mismatch, drive.from_record)

@@ -1,0 +1,318 @@
+"""The one multiple-shooting engine: states at segment starts from the measured
+signals, and the integration of every segment with the compiled kernel.
+
+Used by the block fit (:mod:`.blockfit`) and the discrepancy fit
+(:mod:`.discrepancy.fitting`).
+
+**Drive.** The model is driven by the measured piecewise-linear drive profile
+(:mod:`.drive`): each piece ``w0(t) = w_j + rate_j*(t - t_j)`` goes to the kernel
+as ``P_W0``, ``P_W0_RATE``, ``P_T_DRIVE`` (the start-up ramp parameter is
+switched off); a segment crossing a knot changes piece there.
+The drive *angle* never comes from ``w0*t``: only the belt deflection
+``phi2 - phi0`` enters Equ. 2, and it is reconstructed from the measured
+state at the segment start.
+
+**Stuck state** (Equ. 4, 6): ``w1 = w2 = w``; ``phi1 = M_t/C1`` and
+``w = phi1' = (dM_t/dt)/C1`` from a local cubic through the torsion moment
+``M_t`` (so neither the speed channel's lag nor its offset enters); the belt
+deflection from the stuck system's moment balance with the measured
+acceleration ``a``: ``Q1 = chamber moment (Equ. 1)``, ``Q2 = (I1 + I2)*a - Q1``,
+``phi2 - phi0 = -(Q2 + K2*(w - w0))/C2`` (Equ. 2).
+
+**Sliding state** (past the slip-speed peak): ``phi1``, ``w1`` as above;
+``w2``, ``w2'`` from a local cubic through the shaft speed (corrected for the
+speed sensor's first-order lag ``tau``: ``w2 = y + tau*y'``) and
+``C2*(phi2 - phi0) = -M - I2*w2' - K2*(w2 - w0)`` (Equ. 2) with the friction
+moment ``M`` of the observer.
+
+Units: SI (N m, rad, rad/s, rad/s^2, s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from . import kernel as kn
+from .drive import DriveEstimate
+from .signal import CHAMBER_HALF
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class DriveKnots:
+    """Continuous piecewise-linear drive speed: ``speed`` [rad/s] at the knots
+    ``time`` [s] (constant beyond the ends); see :mod:`.drive`."""
+
+    time: FloatArray
+    speed: FloatArray
+
+    @staticmethod
+    def from_estimate(drive: DriveEstimate) -> DriveKnots:
+        """The knots of a measured drive profile."""
+        return DriveKnots(
+            np.ascontiguousarray(drive.knot_time, dtype=np.float64),
+            np.ascontiguousarray(drive.knot_speed, dtype=np.float64),
+        )
+
+    @staticmethod
+    def constant(w0: float, t0: float = 0.0, t1: float = 1.0) -> DriveKnots:
+        """A constant drive speed ``w0`` [rad/s]."""
+        return DriveKnots(np.array([t0, max(t1, t0 + 1e-9)]), np.array([w0, w0], dtype=float))
+
+
+@njit(cache=True, nogil=True)
+def _piece(tk: np.ndarray, vk: np.ndarray, t: float) -> int:
+    """Index j of the drive piece [tk[j], tk[j+1]) holding t (-1 before, K-1 after)."""
+    k = tk.shape[0]
+    if t < tk[0]:
+        return -1
+    j = 0
+    while j < k - 1 and t >= tk[j + 1]:
+        j += 1
+    return j
+
+
+@njit(cache=True, nogil=True)
+def _piece_params(p: np.ndarray, tk: np.ndarray, vk: np.ndarray, j: int) -> np.ndarray:
+    """Kernel parameters driven by piece j: ``w0 = vk[j] + rate*(t - tk[j])``."""
+    q = p.copy()
+    q[kn.P_RAMP] = 0.0
+    k = tk.shape[0]
+    if j < 0:
+        q[kn.P_W0] = vk[0]
+        q[kn.P_W0_RATE] = 0.0
+        q[kn.P_T_DRIVE] = tk[0]
+    elif j >= k - 1:
+        q[kn.P_W0] = vk[k - 1]
+        q[kn.P_W0_RATE] = 0.0
+        q[kn.P_T_DRIVE] = tk[k - 1]
+    else:
+        q[kn.P_W0] = vk[j]
+        q[kn.P_W0_RATE] = (vk[j + 1] - vk[j]) / max(tk[j + 1] - tk[j], 1e-12)
+        q[kn.P_T_DRIVE] = tk[j]
+    return q
+
+
+@njit(cache=True, nogil=True)
+def shoot(
+    p: np.ndarray,
+    states: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
+    dt: float,
+    n_sub: int,
+    out: np.ndarray,
+) -> int:
+    """Integrate every segment ``[starts[k], stops[k])`` from ``states[k]`` with the
+    kernel (:func:`kernel.integrate`), driven by the piecewise-linear drive (knots
+    ``tk`` [s], ``vk`` [rad/s]); at a knot inside a segment the drive piece changes
+    at the next sample and the shaft angle is shifted so that the belt deflection
+    ``phi2 - phi0`` stays continuous. Writes the kernel's output channels into
+    ``out`` (``kernel.N_CH`` x record length); ``states`` are not modified.
+    Returns the number of switching events."""
+    max_len = 1
+    for k in range(starts.shape[0]):
+        max_len = max(max_len, stops[k] - starts[k])
+    buf = np.empty((kn.N_CH, max_len))
+    n_ev = 0
+    nk = tk.shape[0]
+    for k in range(starts.shape[0]):
+        n_left = stops[k] - starts[k]
+        if n_left <= 0:
+            continue
+        s = states[k].copy()
+        pos = starts[k]
+        j = _piece(tk, vk, s[kn.S_T])
+        while n_left > 0:
+            q = _piece_params(p, tk, vk, j)
+            # samples until the next knot (the piece changes at the first sample after it)
+            n = n_left
+            if j < nk - 1:
+                t_next = tk[j + 1] if j >= 0 else tk[0]
+                m = math.ceil((t_next - s[kn.S_T]) / dt - 1e-9)
+                if 1 <= m < n:
+                    n = m
+            n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
+            for c in range(kn.N_CH):
+                for i in range(n):
+                    out[c, pos + i] = buf[c, i]
+            pos += n
+            n_left -= n
+            if n_left > 0:
+                j_new = _piece(tk, vk, s[kn.S_T])
+                if j_new != j:
+                    q_new = _piece_params(p, tk, vk, j_new)
+                    t = s[kn.S_T]
+                    s[kn.S_PHI2] += kn.drive_angle(q_new, t) - kn.drive_angle(q, t)
+                    j = j_new
+    return n_ev
+
+
+@njit(cache=True, nogil=True)
+def stuck_states(
+    p: np.ndarray,
+    t: np.ndarray,
+    torsion: np.ndarray,
+    w: np.ndarray,
+    accel: np.ndarray,
+    t_stick: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
+) -> np.ndarray:
+    """Kernel states (``kernel.S_*``) of stuck discs at times ``t`` [s] from the true
+    torsion moment C1*phi1 [N m], the common speed ``w`` [rad/s], the acceleration
+    [rad/s^2] and the time already stuck [s] (module doc; the kernel's own Q1, Q2),
+    for the drive with knots ``tk`` [s], ``vk`` [rad/s]."""
+    m = t.shape[0]
+    out = np.zeros((m, kn.NS))
+    for k in range(m):
+        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
+        phi1 = torsion[k] / q[kn.P_C1]
+        q1 = kn.chamber_moment(q, phi1, w[k])
+        phi0 = kn.drive_angle(q, t[k])
+        qa = kn.shaft_moment(q, t[k], phi0, w[k])
+        target = (q[kn.P_I1] + q[kn.P_I2]) * accel[k] - q1
+        # Q2 is affine in phi2 with slope -C2
+        phi2 = phi0 - (target - qa) / q[kn.P_C2]
+        out[k, kn.S_T] = t[k]
+        out[k, kn.S_PHI1] = phi1
+        out[k, kn.S_W1] = w[k]
+        out[k, kn.S_PHI2] = phi2
+        out[k, kn.S_W2] = w[k]
+        out[k, kn.S_LAG] = q[kn.P_MU0]
+        out[k, kn.S_STUCK] = 1.0
+        out[k, kn.S_DIR] = 1.0
+        out[k, kn.S_TSTICK] = t_stick[k]
+        out[k, kn.S_SENSOR] = math.nan
+    return out
+
+
+@njit(cache=True, nogil=True)
+def sliding_states(
+    p: np.ndarray,
+    t: np.ndarray,
+    torsion: np.ndarray,
+    w1: np.ndarray,
+    w2: np.ndarray,
+    w2_dot: np.ndarray,
+    moment: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
+) -> np.ndarray:
+    """Kernel states while sliding past the slip-speed peak (module doc): torsion
+    moment [N m], chamber speed w1, shaft speed w2 [rad/s], w2' [rad/s^2] and the
+    friction moment M [N m] at times ``t`` [s]; drive knots ``tk`` [s], ``vk`` [rad/s]."""
+    m = t.shape[0]
+    out = np.zeros((m, kn.NS))
+    for k in range(m):
+        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
+        phi0 = kn.drive_angle(q, t[k])
+        w0t = kn.drive_speed(q, t[k])
+        out[k, kn.S_T] = t[k]
+        out[k, kn.S_PHI1] = torsion[k] / q[kn.P_C1]
+        out[k, kn.S_W1] = w1[k]
+        out[k, kn.S_W2] = w2[k]
+        out[k, kn.S_PHI2] = (
+            phi0 - (moment[k] + q[kn.P_I2] * w2_dot[k] + q[kn.P_K2] * (w2[k] - w0t)) / q[kn.P_C2]
+        )
+        v = w2[k] - w1[k]
+        out[k, kn.S_DIR] = 1.0 if v >= 0.0 else -1.0
+        out[k, kn.S_PEAK] = 1.0
+        out[k, kn.S_VMAX] = abs(v)
+        out[k, kn.S_LAG] = q[kn.P_MUINF]
+        out[k, kn.S_SENSOR] = math.nan
+    return out
+
+
+@njit(cache=True, nogil=True)
+def lag_segments(
+    x: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    y_prev: np.ndarray,
+    a: float,
+    out: np.ndarray,
+) -> None:
+    """First-order sensor lag ``y[n] = a*y[n-1] + (1 - a)*x[n]`` (``a = exp(-dt/tau)``)
+    per segment, each started from its filter state ``y_prev``; written into ``out``."""
+    for k in range(starts.shape[0]):
+        y = y_prev[k]
+        for i in range(starts[k], stops[k]):
+            y = a * y + (1.0 - a) * x[i]
+            out[i] = y
+
+
+# ------------------------------------------------------------- local polynomials
+def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
+    """Rows (value, slope per sample) of the least-squares cubic through the
+    offsets lo_off..hi_off-1."""
+    x = np.arange(lo_off, hi_off, dtype=float)
+    A = np.vstack((np.ones_like(x), x, x * x, x * x * x)).T
+    return np.asarray(np.linalg.pinv(A)[:2], dtype=np.float64)
+
+
+_SYM_ROWS = _cubic_rows(-CHAMBER_HALF, CHAMBER_HALF + 1)
+
+
+def local_cubic(
+    y: FloatArray, idx: IntArray, lo: IntArray | None = None, hi: IntArray | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Value and slope per sample at the samples ``idx`` of a local cubic through
+    ``y`` over +-7 samples, limited to ``[lo, hi)`` per index (e.g. one stick phase).
+    Windows of fewer than 6 samples give the sample value and a NaN slope."""
+    n = y.shape[0]
+    j = np.asarray(idx, dtype=np.int64)
+    lo_a = np.zeros(j.size, np.int64) if lo is None else np.asarray(lo, dtype=np.int64)
+    hi_a = np.full(j.size, n, np.int64) if hi is None else np.asarray(hi, dtype=np.int64)
+    a = np.maximum(lo_a, j - CHAMBER_HALF)
+    b = np.minimum(hi_a, j + CHAMBER_HALF + 1)
+    val = np.empty(j.size)
+    slope = np.empty(j.size)
+    sym = (a == j - CHAMBER_HALF) & (b == j + CHAMBER_HALF + 1)
+    if sym.any():
+        win = j[sym][:, None] + np.arange(-CHAMBER_HALF, CHAMBER_HALF + 1)[None, :]
+        seg = y[win]
+        val[sym] = seg @ _SYM_ROWS[0]
+        slope[sym] = seg @ _SYM_ROWS[1]
+    for i in np.flatnonzero(~sym).tolist():
+        jj, aa, bb = int(j[i]), int(a[i]), int(b[i])
+        if bb - aa < 6:
+            val[i], slope[i] = float(y[jj]), math.nan
+            continue
+        c = _cubic_rows(aa - jj, bb - jj) @ y[aa:bb]
+        val[i], slope[i] = float(c[0]), float(c[1])
+    return val, slope
+
+
+def window_mean(
+    y: FloatArray, idx: IntArray, half: int, lo: IntArray | None = None, hi: IntArray | None = None
+) -> FloatArray:
+    """Mean of ``y`` over +-``half`` samples around ``idx``, limited to ``[lo, hi)``."""
+    n = y.shape[0]
+    j = np.asarray(idx, dtype=np.int64)
+    lo_a = np.zeros(j.size, np.int64) if lo is None else np.asarray(lo, dtype=np.int64)
+    hi_a = np.full(j.size, n, np.int64) if hi is None else np.asarray(hi, dtype=np.int64)
+    c = np.concatenate(([0.0], np.cumsum(y)))
+    a = np.maximum(lo_a, j - half)
+    b = np.maximum(np.minimum(hi_a, j + half + 1), a + 1)
+    return np.asarray((c[b] - c[a]) / (b - a), dtype=np.float64)
+
+
+__all__ = [
+    'DriveKnots',
+    'lag_segments',
+    'local_cubic',
+    'shoot',
+    'sliding_states',
+    'stuck_states',
+    'window_mean',
+]
