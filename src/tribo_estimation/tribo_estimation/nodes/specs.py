@@ -25,7 +25,7 @@ def _estimating(name: str) -> ParamSpec:
         return dataclasses.replace(s, description=f'start value of the {s.description}')
     if name == 'nominal_speed':
         return dataclasses.replace(
-            s, description=f'{s.description}; 0 = measured mean speed (tachometer) per block'
+            s, description=f'{s.description}; 0 = the measured mean speed (tachometer)'
         )
     return s
 
