@@ -11,15 +11,28 @@ from __future__ import annotations
 
 from tribo_bringup.nodes.specs import LIVE_BRIDGE_PARAMS
 from tribo_common.paramspec import ParamSpec, markdown_table
-from tribo_drivers.nodes.specs import SIM_RIG_PARAMS
+from tribo_drivers.nodes.specs import (
+    CAN_PARAMS,
+    COUNTER_PARAMS,
+    DAQ_PARAMS,
+    DRIVER_PARAMS,
+    SIM_DETECTOR_PARAMS,
+    SIM_RIG_PARAMS,
+)
 from tribo_estimation.core.rigspec import RIG_OPTIONAL, RIG_REQUIRED, RIG_SPEC
 from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS, MODEL_MONITOR_PARAMS
+from tribo_nvct.nodes.specs import WEAR_MONITOR_PARAMS
 
 #: Node name -> the parameters it declares from a spec.
 NODE_PARAMS: dict[str, tuple[ParamSpec, ...]] = {
     'sim_rig': SIM_RIG_PARAMS,
     'friction_estimator': FRICTION_ESTIMATOR_PARAMS,
     'model_monitor': MODEL_MONITOR_PARAMS,
+    'wear_monitor': WEAR_MONITOR_PARAMS,
+    'sim_detector': SIM_DETECTOR_PARAMS,
+    'daq_driver': (*DRIVER_PARAMS, *DAQ_PARAMS),
+    'can_driver': (*DRIVER_PARAMS, *CAN_PARAMS),
+    'counter_driver': (*DRIVER_PARAMS, *COUNTER_PARAMS),
     'live_bridge': LIVE_BRIDGE_PARAMS,
 }
 
