@@ -138,6 +138,8 @@ def test_param_files_validate_against_the_spec(
         assert key in specs, f'{file}: {key!r} is not a parameter of {node}'
         problem = specs[key].violation(value)
         assert problem is None, f'{file}: {key} {problem}'
+        if key in RIG_SPEC:  # the shipped files repeat Tab. 1: they must not drift from it
+            assert value == RIG_SPEC[key].default, f'{file}: {key} = {value} is not Tab. 1'
 
 
 def test_param_files_cover_every_spec_node_but_the_bridge() -> None:
