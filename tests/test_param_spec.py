@@ -247,3 +247,27 @@ def test_specs_import_no_rclpy() -> None:
     )
     run = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, check=False)
     assert run.returncode == 0, run.stderr or 'rclpy imported by the specs or the RIG.yaml loader'
+
+
+@requires_ros
+@pytest.mark.ros
+@pytest.mark.parametrize(
+    ('name', 'value', 'word'),
+    [('F_N', 0.0, 'F_N'), ('F_N', 2e6, 'F_N'), ('nominal_speed', -1.0, 'nominal_speed')],
+)
+def test_estimator_refuses_values_it_cannot_fit(name: str, value: float, word: str) -> None:
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from tribo_common.params import ParameterError
+    from tribo_estimation.nodes.friction_estimator import FrictionEstimatorNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        with pytest.raises(ParameterError, match=word):
+            FrictionEstimatorNode(
+                parameter_overrides=[Parameter(name, value=value)], context=context
+            )
+    finally:
+        rclpy.try_shutdown(context=context)
