@@ -62,7 +62,7 @@ def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
         sim[f'effects.{f.name}'] = float(getattr(cfg.extensions, f.name))
     return {
         'sim_rig': sim,
-        'friction_estimator': common,
+        'friction_estimator': {**common, 'ramp_time': cfg.drive.ramp_time},
         'model_monitor': {**common, 'ramp_time': cfg.drive.ramp_time},
         'live_bridge': {'C1': common['C1']},
     }

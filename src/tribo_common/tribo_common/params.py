@@ -4,17 +4,24 @@ rclpy checks integer/float ranges itself but its message does not say what
 the parameter means; :func:`declare` adds a unit-bearing description, also
 checks exclusive bounds (e.g. an inertia must be > 0) and raises
 :class:`ParameterError` naming the parameter, the value and the allowed range.
+
+:func:`declare_spec` / :func:`declare_specs` declare parameters from their
+:class:`~tribo_common.paramspec.ParamSpec` (the one table of name, unit,
+default, bounds, description): every node declares its parameters that way.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
+
+from tribo_common.paramspec import ParamSpec
 
 
 class ParameterError(ValueError):
@@ -87,3 +94,36 @@ def declare(
                 f'parameter {name!r} ({description}) must be <= {high}, got {value}'
             )
     return value
+
+
+def declare_spec(node: Node, spec: ParamSpec) -> Any:
+    """Declare the parameter ``spec`` describes and return its checked value.
+
+    The descriptor carries ``spec.label`` (description with the unit), the
+    inclusive range (``FloatingPointRange``/``IntegerRange``) and ``read_only``;
+    a string list is returned as a list.
+    """
+    if spec.type == 'float':
+        default: Any = float(spec.default)  # type: ignore[arg-type]
+    elif spec.type == 'str_list':
+        default = list(spec.default)  # type: ignore[arg-type]
+    else:
+        default = spec.default
+    value = declare(
+        node,
+        spec.name,
+        default,
+        spec.label,
+        low=spec.lower,
+        high=spec.upper,
+        read_only=spec.read_only,
+    )
+    problem = spec.violation(value)
+    if problem:
+        raise ParameterError(f'parameter {spec.name!r} ({spec.label}) {problem}')
+    return value
+
+
+def declare_specs(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
+    """Declare every parameter of ``specs``; name -> checked value."""
+    return {s.name: declare_spec(node, s) for s in specs}

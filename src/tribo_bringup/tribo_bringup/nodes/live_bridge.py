@@ -38,11 +38,15 @@ import foxglove
 from rclpy.node import Node
 
 from tribo_bringup import bridge_core as bc
+from tribo_bringup.nodes.specs import LIVE_BRIDGE_PARAMS
 from tribo_common import topics
 from tribo_common.msgconv import block_from_msg
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos
+
+#: Declared parameters (``C1`` from the one rig table): :mod:`tribo_bringup.nodes.specs`.
+PARAMS = LIVE_BRIDGE_PARAMS
 
 
 def _json_channel(
@@ -64,57 +68,19 @@ class LiveBridgeNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('live_bridge', **kwargs)
-        host = str(declare(self, 'host', '127.0.0.1', 'address to bind (127.0.0.1: local only)'))
-        port = int(
-            declare(self, 'port', 8765, 'WebSocket TCP port (0: any free port)', low=0, high=65535)
-        )
-        rate = float(
-            declare(
-                self,
-                'downsample_rate',
-                200.0,
-                'output rate of the down-sampled 10 kHz streams [Hz]',
-                low=1.0,
-                high=100_000.0,
-            )
-        )
-        self.mode = str(
-            declare(self, 'downsample_mode', 'minmax', 'minmax (bin mean + envelope) or decimate')
-        )
+        v = declare_specs(self, PARAMS)
+        host = str(v['host'])
+        port = int(v['port'])
+        rate = float(v['downsample_rate'])
+        self.mode = str(v['downsample_mode'])
         if self.mode not in bc.MODES:
             raise ParameterError(
                 f"parameter 'downsample_mode' must be one of {', '.join(bc.MODES)}, "
                 f'got {self.mode!r}'
             )
-        c1 = float(
-            declare(
-                self,
-                'C1',
-                2338.6,
-                'torsion element stiffness C1 [N m/rad] for the stick flag',
-                low=0.0,
-                low_exclusive=True,
-            )
-        )
-        tol = float(
-            declare(
-                self,
-                'stick_tolerance',
-                0.05,
-                'largest |w2 - w1| counted as sticking [rad/s]',
-                low=0.0,
-            )
-        )
-        backlog = int(
-            declare(
-                self,
-                'message_backlog',
-                4096,
-                'messages buffered per client before the oldest is dropped',
-                low=16,
-                high=1_000_000,
-            )
-        )
+        c1 = float(v['C1'])
+        tol = float(v['stick_tolerance'])
+        backlog = int(v['message_backlog'])
         self.ctx = foxglove.Context()
         try:
             server = foxglove.start_server(

@@ -14,24 +14,16 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tribo_common import topics
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.can_protocol import CanCodec
 from tribo_drivers.core.streams import CanStream, DeviceStream
 from tribo_drivers.core.transports import CanTransport
 from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.driver_base import SampleBlockDriver
+from tribo_drivers.nodes.specs import CAN_CHANNEL_TOPICS, CAN_PARAMS
 
-CHANNEL_TOPICS = {
-    t.channel: t.name
-    for t in (
-        topics.ANGULAR_ACCELERATION,
-        topics.SPEED,
-        topics.NORMAL_FORCE,
-        topics.OIL_TEMPERATURE,
-    )
-}
+CHANNEL_TOPICS = CAN_CHANNEL_TOPICS
 
 
 def default_dbc() -> str:
@@ -50,22 +42,13 @@ class CanDriver(SampleBlockDriver):
         super().__init__('can_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
-        self.interface = declare(
-            self, 'interface', 'socketcan', 'python-can interface (socketcan, slcan, virtual, ...)'
-        )
-        self.channel = declare(self, 'channel', 'can0', 'python-can channel (can0, /dev/ttyACM0)')
-        self.bitrate = declare(
-            self, 'bitrate', 500_000, 'CAN bit rate [bit/s]', low=10_000, high=8_000_000
-        )
-        self.dbc = declare(self, 'dbc', '', 'DBC file (empty: config/tribo.dbc)') or default_dbc()
-        self.blocks_per_second = declare(
-            self, 'blocks_per_second', 100.0, 'target blocks per s per channel [1/s]', low=1.0,
-            high=10_000.0,
-        )  # fmt: skip
-        self.topics = {
-            ch: declare(self, f'{ch}_topic', topic, f'SampleBlock topic of {ch}')
-            for ch, topic in CHANNEL_TOPICS.items()
-        }
+        v = declare_specs(self, CAN_PARAMS)
+        self.interface = v['interface']
+        self.channel = v['channel']
+        self.bitrate = v['bitrate']
+        self.dbc = v['dbc'] or default_dbc()
+        self.blocks_per_second = v['blocks_per_second']
+        self.topics = {ch: v[f'{ch}_topic'] for ch in CHANNEL_TOPICS}
         try:
             self.codec = CanCodec(self.dbc)
         except DriverError as exc:

@@ -14,11 +14,12 @@ from typing import Any
 from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
-from tribo_common.params import declare
+from tribo_common.params import declare_specs
 from tribo_common.qos import profile
 from tribo_drivers.core.streams import CounterStream, CountMessage, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.nodes.driver_base import DriverNode
+from tribo_drivers.nodes.specs import COUNTER_PARAMS
 
 
 class CounterDriver(DriverNode):
@@ -26,20 +27,13 @@ class CounterDriver(DriverNode):
         super().__init__('counter_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
-        self.port = declare(self, 'port', '/dev/ttyUSB1', 'serial device of the counter')
-        self.baudrate = declare(
-            self, 'baudrate', 115_200, 'serial baud rate [bit/s]', low=300, high=4_000_000
-        )
-        self.dwell = declare(
-            self, 'dwell', 60.0, 'dwell time per count reading [s]', low=0.001, high=86_400.0
-        )
-        self.ack_timeout = declare(
-            self, 'ack_timeout', 1.0, 'wait for $ACK after $DWELL [s]', low=0.01, high=60.0
-        )
-        self.ack_retries = declare(
-            self, 'ack_retries', 3, 'DWELL commands sent before giving up [-]', low=1, high=100
-        )
-        self.topic = declare(self, 'topic', topics.NVCT_COUNTS.name, 'DetectorCounts topic')
+        v = declare_specs(self, COUNTER_PARAMS)
+        self.port = v['port']
+        self.baudrate = v['baudrate']
+        self.dwell = v['dwell']
+        self.ack_timeout = v['ack_timeout']
+        self.ack_retries = v['ack_retries']
+        self.topic = v['topic']
         self._pub: Any = None
 
     def build_stream(self) -> DeviceStream[Any]:

@@ -15,19 +15,16 @@ from typing import Any
 
 from tribo_common import topics
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.daq_protocol import DaqScaling
 from tribo_drivers.core.streams import DaqStream, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.driver_base import SampleBlockDriver
+from tribo_drivers.nodes.specs import DAQ_PARAMS, DAQ_SCALING
 
 TOPICS = {t.channel: t.name for t in topics.RIG_STREAMS}
-SCALING = (
-    ('torque', 'torsion moment', 'N m', 1e-6),
-    ('accel', 'angular acceleration', 'rad/s^2', 1e-3),
-    ('speed', 'shaft speed', 'rad/s', 1e-4),
-)
+SCALING = DAQ_SCALING
 
 
 class DaqDriver(SampleBlockDriver):
@@ -35,24 +32,13 @@ class DaqDriver(SampleBlockDriver):
         super().__init__('daq_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
-        self.port = declare(self, 'port', '/dev/ttyUSB0', 'serial device of the DAQ')
-        self.baudrate = declare(
-            self, 'baudrate', 2_000_000, 'serial baud rate [bit/s]', low=1200, high=20_000_000
-        )
-        self.sample_rate = declare(
-            self, 'sample_rate', 10_000.0, 'DAQ sample rate [Hz]', low=1.0, high=1e6
-        )
-        self.block_size = declare(
-            self, 'block_size', 50, 'samples per published block [-]', low=1, high=1_000_000
-        )
-        offsets, gains = [], []
-        for key, what, unit, gain in SCALING:
-            offsets.append(
-                declare(
-                    self, f'{key}_offset', 0.0, f'{what} offset [counts]', low=-(2**31), high=2**31
-                )
-            )
-            gains.append(declare(self, f'{key}_gain', gain, f'{what} gain [{unit}/count]'))
+        v = declare_specs(self, DAQ_PARAMS)
+        self.port = v['port']
+        self.baudrate = v['baudrate']
+        self.sample_rate = v['sample_rate']
+        self.block_size = v['block_size']
+        offsets = [v[f'{key}_offset'] for key, *_ in SCALING]
+        gains = [v[f'{key}_gain'] for key, *_ in SCALING]
         try:
             self.scaling = DaqScaling(tuple(offsets), tuple(gains))  # type: ignore[arg-type]
         except DriverError as exc:

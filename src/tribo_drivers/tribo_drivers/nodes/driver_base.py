@@ -21,12 +21,13 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DeviceStream
 from tribo_drivers.errors import DriverError
+from tribo_drivers.nodes.specs import DRIVER_PARAMS
 
 
 class DriverNode(LifecycleNode):
@@ -34,22 +35,13 @@ class DriverNode(LifecycleNode):
 
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.autostart = declare(
-            self, 'autostart', True, 'configure and activate at start (no lifecycle manager)'
-        )
-        self.poll_timeout = declare(
-            self, 'poll_timeout', 0.02, 'read timeout of one poll [s]', low=0.001, high=1.0
-        )
-        self.diagnostic_period = declare(
-            self, 'diagnostic_period', 1.0, 'period of /diagnostics [s]', low=0.05, high=60.0
-        )
-        self.backoff_initial = declare(
-            self, 'backoff_initial', 0.1, 'first reconnect delay [s]', low=0.001, high=60.0
-        )
-        self.backoff_max = declare(
-            self, 'backoff_max', 5.0, 'largest reconnect delay [s]', low=0.001, high=600.0
-        )
-        self.hardware_id = declare(self, 'hardware_id', '', 'hardware id shown in /diagnostics')
+        v = declare_specs(self, DRIVER_PARAMS)
+        self.autostart = v['autostart']
+        self.poll_timeout = v['poll_timeout']
+        self.diagnostic_period = v['diagnostic_period']
+        self.backoff_initial = v['backoff_initial']
+        self.backoff_max = v['backoff_max']
+        self.hardware_id = v['hardware_id']
         self.declare_driver_parameters()
         try:
             self.backoff = Backoff(

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 
-from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos
+from tribo_drivers.nodes.specs import SIM_DETECTOR_PARAMS
 from tribo_nvct.core.simulate import ForwardSimulator, load_sim_config
 from tribo_nvct.errors import NvctError
 
@@ -35,28 +35,13 @@ class SimDetector(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('sim_detector', **kwargs)
-        sim_path = declare(self, 'sim_config', '', 'path of sim_detector.yaml (required)')
-        nvct_path = declare(self, 'nvct_config', '', 'NVCT.yaml override (empty: from sim_config)')
-        scale = declare(
-            self,
-            'time_scale',
-            0.0,
-            'test seconds per wall-clock second (0: from the YAML)',
-            low=0.0,
-            high=1e6,
-        )
-        seed = declare(self, 'seed', -1, 'random seed (-1: from the YAML)', low=-1, high=2**31 - 1)
-        topic = declare(self, 'topic', topics.NVCT_COUNTS.name, 'DetectorCounts topic')
-        self.wait_subscribers = float(
-            declare(
-                self,
-                'wait_subscribers',
-                0.0,
-                'seconds to wait for a subscriber before the test clock starts [s]',
-                low=0.0,
-                high=600.0,
-            )
-        )
+        v = declare_specs(self, SIM_DETECTOR_PARAMS)
+        sim_path = v['sim_config']
+        nvct_path = v['nvct_config']
+        scale = v['time_scale']
+        seed = v['seed']
+        topic = v['topic']
+        self.wait_subscribers = float(v['wait_subscribers'])
         if not sim_path:
             raise ParameterError("parameter 'sim_config' (path of sim_detector.yaml) is required")
         try:

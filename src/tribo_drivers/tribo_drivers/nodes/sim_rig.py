@@ -15,7 +15,7 @@ logged.
 Parameters are the RIG.yaml names (``I1, K1, C1, I2, K2, C2, F_N, R, mu0,
 mu_inf, k, nominal_speed, ramp_time``), the measurement noise
 (``noise_torque, noise_accel, noise_speed``), ``seed``, ``sample_rate``,
-``block_size``, ``duration`` and, for hidden model extensions,
+``block_size``, ``duration`` (specs: :data:`PARAMS`) and, for hidden model extensions,
 ``effects.<name>`` for every field of
 :class:`tribo_estimation.core.model.Extensions`.
 """
@@ -33,8 +33,9 @@ from rclpy.node import Node
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare, declare_specs
 from tribo_common.qos import data_qos
+from tribo_drivers.nodes.specs import SIM_RIG_PARAMS
 from tribo_estimation.core.model import (
     DriveProfile,
     Extensions,
@@ -47,33 +48,16 @@ from tribo_estimation.core.simulate import NoiseSpec, simulate
 #: (topic, channel, unit, SimResult field) of the published channels.
 CHANNELS = tuple((t.name, t.channel, t.unit, t.channel) for t in topics.RIG_STREAMS)
 
+#: Declared parameters (the rig's from the one rig table): :mod:`tribo_drivers.nodes.specs`.
+PARAMS = {p.name: p for p in SIM_RIG_PARAMS}
+
 #: Default sample rate [Hz] and samples per published block.
-RIG_SAMPLE_RATE = 10000.0
-RIG_BLOCK_SIZE = 100
+RIG_SAMPLE_RATE = float(PARAMS['sample_rate'].default)  # type: ignore[arg-type]
+RIG_BLOCK_SIZE = int(PARAMS['block_size'].default)  # type: ignore[arg-type]
 
 #: Wait after the subscriptions have matched, before the first sample [s] (discovery is
 #: two-sided: the subscriber may match the publisher a little after the publisher did).
 SUBSCRIBER_SETTLE_S = 0.3
-
-#: Rig parameters: name -> (default, description, low, low_exclusive, high).
-RIG_PARAMETERS: dict[str, tuple[float, str, float, bool, float | None]] = {
-    'I1': (0.0109, 'chamber inertia I1 [kg m^2] (Tab. 1)', 0.0, True, None),
-    'K1': (0.04034, 'chamber viscous damping K1 [N m s/rad] (Tab. 1)', 0.0, False, None),
-    'C1': (2338.6, 'torsion element stiffness C1 [N m/rad] (Tab. 1)', 0.0, True, None),
-    'I2': (0.0315, 'drive shaft inertia I2 [kg m^2] (Tab. 1)', 0.0, True, None),
-    'K2': (4.0, 'drive viscous damping K2 [N m s/rad] (Tab. 1)', 0.0, False, None),
-    'C2': (5975.0, 'drive stiffness C2 [N m/rad] (Tab. 1)', 0.0, True, None),
-    'F_N': (8000.0, 'total normal force over all friction pairs F_N [N]', 0.0, False, 1e6),
-    'R': (0.08, 'effective friction radius R [m]', 0.0, True, 10.0),
-    'mu0': (0.13, 'static friction coefficient mu0 [-] (Equ. 8)', 0.0, False, 2.0),
-    'mu_inf': (0.10, 'asymptotic friction coefficient mu_inf [-] (Equ. 8)', 0.0, False, 2.0),
-    'k': (2.0, 'Stribeck decay constant k [s/rad] (Equ. 8)', 0.0, False, 1000.0),
-    'nominal_speed': (3.1416, 'nominal drive speed w0 [rad/s]', 0.0, False, 20.0),
-    'ramp_time': (0.5, 'start-up ramp of the drive speed [s]', 0.0, False, 3600.0),
-    'noise_torque': (0.05, 'torsion moment noise, std per sample [N m]', 0.0, False, None),
-    'noise_accel': (2.0, 'angular acceleration noise, std per sample [rad/s^2]', 0.0, False, None),
-    'noise_speed': (0.01, 'shaft speed noise, std per sample [rad/s]', 0.0, False, None),
-}
 
 
 class SimRigNode(Node):
@@ -81,50 +65,13 @@ class SimRigNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('sim_rig', **kwargs)
-        values = {
-            name: declare(self, name, default, desc, low=low, low_exclusive=excl, high=high)
-            for name, (default, desc, low, excl, high) in RIG_PARAMETERS.items()
-        }
-        self.fs = float(
-            declare(
-                self, 'sample_rate', RIG_SAMPLE_RATE, 'sample rate [Hz]', low=100.0, high=100000.0
-            )
-        )
-        self.block = int(
-            declare(
-                self,
-                'block_size',
-                RIG_BLOCK_SIZE,
-                'samples per published block',
-                low=10,
-                high=10000,
-            )
-        )
-        self.duration = float(
-            declare(self, 'duration', 0.0, 'simulated time to run [s] (0: until stopped)', low=0.0)
-        )
-        seed = int(declare(self, 'seed', 0, 'seed of the measurement noise', low=0))
-        self.min_subscribers = int(
-            declare(
-                self,
-                'min_subscribers',
-                0,
-                'subscriptions each rig topic must have before the stream starts (e.g. 2: '
-                'estimator and recorder, so that a recording holds the first sample)',
-                low=0,
-                high=100,
-            )
-        )
-        self.wait_subscribers = float(
-            declare(
-                self,
-                'wait_subscribers',
-                30.0,
-                'longest wait for min_subscribers before streaming anyway [s]',
-                low=0.0,
-                high=3600.0,
-            )
-        )
+        values = declare_specs(self, SIM_RIG_PARAMS)
+        self.fs = float(values['sample_rate'])
+        self.block = int(values['block_size'])
+        self.duration = float(values['duration'])
+        seed = int(values['seed'])
+        self.min_subscribers = int(values['min_subscribers'])
+        self.wait_subscribers = float(values['wait_subscribers'])
         eff: dict[str, float] = {}
         for field in dataclasses.fields(Extensions):
             default = float(field.default)  # type: ignore[arg-type]

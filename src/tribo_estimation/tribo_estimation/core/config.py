@@ -3,7 +3,8 @@
 Top-level keys (SI): ``I1, K1, C1, I2, K2, C2, F_N, R, mu0, mu_inf, k, nominal_speed``
 (kg m^2, N m s/rad, N m/rad, kg m^2, N m s/rad, N m/rad, N, m, -, -, s/rad, rad/s).
 Optional: ``ramp_time`` [s], ``noise_torque`` [N m], ``noise_accel`` [rad/s^2],
-``noise_speed`` [rad/s], ``effects`` (mapping of :class:`model.Extensions` fields).
+``noise_speed`` [rad/s] (absent: 0), ``effects`` (mapping of :class:`model.Extensions`
+fields). Units, bounds and Tab. 1 defaults: :data:`tribo_estimation.core.rigspec.RIG_SPEC`.
 A missing or unknown key, a non-numeric or out-of-range value raises an
 :class:`EstimationError` naming the key and the file.
 """
@@ -20,6 +21,7 @@ from typing import Any
 import yaml
 
 from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
+from tribo_estimation.core.rigspec import RIG_OPTIONAL, RIG_REQUIRED, RIG_SPEC
 from tribo_estimation.core.simulate import NoiseSpec
 from tribo_estimation.errors import (
     ConfigFileError,
@@ -27,46 +29,15 @@ from tribo_estimation.errors import (
     MissingKeyError,
 )
 
-REQUIRED_KEYS: tuple[str, ...] = (
-    'I1',
-    'K1',
-    'C1',
-    'I2',
-    'K2',
-    'C2',
-    'F_N',
-    'R',
-    'mu0',
-    'mu_inf',
-    'k',
-    'nominal_speed',
-)
-OPTIONAL_KEYS: tuple[str, ...] = (
-    'ramp_time',
-    'noise_torque',
-    'noise_accel',
-    'noise_speed',
-    'effects',
-)
+#: Keys, units and plausible ranges: the one rig spec (:mod:`tribo_estimation.core.rigspec`).
+REQUIRED_KEYS: tuple[str, ...] = RIG_REQUIRED
+OPTIONAL_KEYS: tuple[str, ...] = (*RIG_OPTIONAL, 'effects')
 
 #: Plausibility ranges (inclusive) that catch unit mistakes: key -> (low, high, unit).
 RANGES: dict[str, tuple[float, float, str]] = {
-    'I1': (1e-6, 100.0, 'kg m^2'),
-    'K1': (0.0, 1e4, 'N m s/rad'),
-    'C1': (1e-3, 1e8, 'N m/rad'),
-    'I2': (1e-6, 100.0, 'kg m^2'),
-    'K2': (0.0, 1e4, 'N m s/rad'),
-    'C2': (1e-3, 1e8, 'N m/rad'),
-    'F_N': (0.0, 1e7, 'N'),
-    'R': (1e-4, 10.0, 'm'),
-    'mu0': (0.0, 2.0, '-'),
-    'mu_inf': (0.0, 2.0, '-'),
-    'k': (0.0, 1e3, 's/rad'),
-    'nominal_speed': (-1000.0, 1000.0, 'rad/s (not rpm)'),
-    'ramp_time': (0.0, 1e5, 's'),
-    'noise_torque': (0.0, 1e4, 'N m'),
-    'noise_accel': (0.0, 1e7, 'rad/s^2'),
-    'noise_speed': (0.0, 1e3, 'rad/s'),
+    s.name: (float(s.lower), float(s.upper), s.unit)
+    for s in RIG_SPEC.values()
+    if s.lower is not None and s.upper is not None
 }
 
 
@@ -89,12 +60,10 @@ def _number(data: Mapping[str, Any], key: str, source: str) -> float:
     x = float(val)
     if not math.isfinite(x):
         raise InvalidParameterError(f'{source}: key {key!r} must be finite, got {val!r}')
-    if key in RANGES:
-        lo, hi, unit = RANGES[key]
-        if not lo <= x <= hi:
-            raise InvalidParameterError(
-                f'{source}: key {key!r} = {x} outside the plausible range [{lo}, {hi}] {unit}'
-            )
+    spec = RIG_SPEC.get(key)
+    problem = spec.violation(x) if spec is not None else None
+    if spec is not None and problem:
+        raise InvalidParameterError(f'{source}: key {key!r} {problem} ({spec.description})')
     return x
 
 

@@ -73,9 +73,14 @@ class RigParams:
         return cls(**{f.name: float(values[f.name]) for f in fields(cls)})
 
     @classmethod
-    def tab1(cls, F_N: float = 8000.0, R: float = 0.08) -> RigParams:
-        """The paper's Tab. 1 rig with the given contact load [N] and radius [m]."""
-        return cls(I1=0.0109, K1=0.04034, C1=2338.6, I2=0.0315, K2=4.0, C2=5975.0, F_N=F_N, R=R)
+    def tab1(cls, F_N: float | None = None, R: float | None = None) -> RigParams:
+        """The paper's Tab. 1 rig with the given contact load [N] and radius [m]
+        (default: those of :data:`tribo_estimation.core.rigspec.RIG_SPEC`, 8 kN, 80 mm)."""
+        from tribo_estimation.core.rigspec import RIG_FIELDS, tab1_value
+
+        v = {name: tab1_value(name) for name in RIG_FIELDS}
+        v.update({k: x for k, x in (('F_N', F_N), ('R', R)) if x is not None})
+        return cls(**v)
 
     @property
     def natural_frequency_hz(self) -> float:

@@ -10,7 +10,8 @@ from :mod:`tribo_common.topics`).
 Thin shell: the work is :class:`tribo_estimation.core.blockfit.StreamingPipeline`.
 The subscriptions only align and run the observer; the fits run on a worker
 thread, so input is never held up by a fit. Parameters are the RIG.yaml names
-(SI units) plus ``block_length`` [s] and ``fit_k``; they are read-only after start.
+(SI units) plus ``block_length`` [s] and ``fit_k``, declared from their specs
+(:data:`PARAMS`); they are read-only after start.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from rclpy.node import Node
 from tribo_common import topics
 from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_estimation.core.blockfit import (
     BlockConfig,
@@ -37,42 +38,14 @@ from tribo_estimation.core.blockfit import (
 )
 from tribo_estimation.core.model import FrictionLaw, RigParams
 from tribo_estimation.errors import EstimationError
+from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS
 from tribo_msgs.msg import FrictionEstimate, SampleBlock
 
 #: Input topics and their channel names.
 TOPICS: dict[str, str] = {t.name: t.channel for t in topics.RIG_STREAMS}
 
-#: (name, default, description with unit, low, high, low exclusive) of the float parameters.
-FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
-    ('I1', 0.0109, 'chamber inertia I1 [kg m^2]', 0.0, 100.0, True),
-    ('K1', 0.04034, 'chamber viscous damping K1 [N m s/rad]', 0.0, 1e4, False),
-    ('C1', 2338.6, 'torsion element stiffness C1 [N m/rad]', 0.0, 1e8, True),
-    ('I2', 0.0315, 'drive shaft inertia I2 [kg m^2]', 0.0, 100.0, True),
-    ('K2', 4.0, 'drive damping K2 [N m s/rad]', 0.0, 1e4, False),
-    ('C2', 5975.0, 'drive stiffness C2 [N m/rad]', 0.0, 1e8, True),
-    ('F_N', 8000.0, 'total normal force over all friction pairs F_N [N]', 0.0, 1e7, True),
-    ('R', 0.08, 'effective friction radius R [m]', 0.0, 10.0, True),
-    ('mu0', 0.13, 'start value of the static coefficient mu0 (Equ. 8) [-]', 0.0, 2.0, False),
-    ('mu_inf', 0.10, 'start value of the coefficient mu_inf (Equ. 8) [-]', 0.0, 2.0, False),
-    ('k', 2.0, 'Stribeck decay constant k (Equ. 8) [s/rad]', 0.0, 1e3, False),
-    (
-        'nominal_speed',
-        3.14159,
-        'nominal drive speed w0 [rad/s] (not rpm); 0 = tachometer mean per block',
-        0.0,
-        1000.0,
-        False,
-    ),
-    (
-        'ramp_time',
-        0.0,
-        'start-up ramp of the drive [s] (blocks in it are flagged)',
-        0.0,
-        1e5,
-        False,
-    ),
-    ('block_length', 1.0, 'block length of the fit [s] (paper: 1 s)', 0.01, 600.0, False),
-)
+#: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
+PARAMS = FRICTION_ESTIMATOR_PARAMS
 
 
 class FrictionEstimatorNode(Node):
@@ -80,28 +53,16 @@ class FrictionEstimatorNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('friction_estimator', **kwargs)
-        v: dict[str, Any] = {}
-        for name, default, desc, low, high, excl in FLOAT_PARAMS:
-            v[name] = float(
-                declare(
-                    self,
-                    name,
-                    default,
-                    desc,
-                    low=low,
-                    high=high,
-                    low_exclusive=excl,
-                    read_only=True,
-                )
-            )
-        fit_k = bool(declare(self, 'fit_k', False, 'also fit k [s/rad] per block', read_only=True))
+        v = declare_specs(self, PARAMS)
+        if v['F_N'] <= 0.0:
+            raise ParameterError("parameter 'F_N' must be > 0 N: no contact, no friction to fit")
         try:
             rig = RigParams.from_mapping(v)
             friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
             cfg = BlockConfig(
                 block_length=v['block_length'],
-                fit_k=fit_k,
-                nominal_speed=v['nominal_speed'] if v['nominal_speed'] > 0.0 else None,
+                fit_k=bool(v['fit_k']),
+                nominal_speed=v['nominal_speed'] if v['nominal_speed'] != 0.0 else None,
                 ramp_time=v['ramp_time'],
             )
         except EstimationError as exc:

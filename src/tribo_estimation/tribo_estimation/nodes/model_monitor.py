@@ -14,8 +14,8 @@ Thin shell: the work is
 subscriptions only align and buffer; the windows are evaluated on a worker
 thread (always the newest due window: if one evaluation overruns the hop, the
 windows it missed are skipped, never queued). Parameters: the RIG.yaml names
-(SI units, as the friction estimator) plus the monitor settings; read-only
-after start.
+(SI units, as the friction estimator) plus the monitor settings, declared from
+their specs (:data:`PARAMS`); read-only after start.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from rclpy.node import Node
 from tribo_common import topics
 from tribo_common.msgconv import block_from_msg, float64_array, time_from_ns
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_estimation.core.align import AlignedChunk, ChannelAligner
 from tribo_estimation.core.discrepancy.monitor import (
@@ -43,63 +43,17 @@ from tribo_estimation.core.discrepancy.monitor import (
 )
 from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.errors import EstimationError
-from tribo_estimation.nodes.friction_estimator import FLOAT_PARAMS as ESTIMATOR_PARAMS
-from tribo_estimation.nodes.friction_estimator import TOPICS
+from tribo_estimation.nodes.specs import MODEL_MONITOR_PARAMS
 from tribo_msgs.msg import ModelDiscrepancy, SampleBlock
 
 #: Output topic.
 OUTPUT_TOPIC = topics.MODEL_DISCREPANCY.name
 
-_DEFAULTS = MonitorConfig()
+#: Input topics and their channel names.
+TOPICS: dict[str, str] = {t.name: t.channel for t in topics.RIG_STREAMS}
 
-#: Rig parameters (those of the friction estimator, without its block length).
-RIG_PARAMS = tuple(p for p in ESTIMATOR_PARAMS if p[0] != 'block_length')
-
-#: (name, default, description with unit, low, high, low exclusive) of the monitor's floats.
-MONITOR_FLOAT_PARAMS: tuple[tuple[str, float, str, float, float, bool], ...] = (
-    ('window', _DEFAULTS.window, 'length of the evaluated window [s]', 0.0, 3600.0, True),
-    ('hop', _DEFAULTS.hop, 'time between two evaluations [s]', 0.0, 3600.0, True),
-    (
-        'time_budget',
-        _DEFAULTS.time_budget,
-        'wall time per window after which no further candidate is refitted [s]',
-        0.0,
-        3600.0,
-        True,
-    ),
-    (
-        'ratio_threshold',
-        _DEFAULTS.ratio_threshold,
-        'try candidates only when the residual rms exceeds this many noise floors [-]',
-        0.0,
-        1e6,
-        False,
-    ),
-    (
-        'min_gain',
-        _DEFAULTS.min_gain,
-        'name a candidate only if it lowers the residual rms by this fraction [-]',
-        0.0,
-        0.99,
-        False,
-    ),
-    (
-        'max_rel_se',
-        _DEFAULTS.max_rel_se,
-        'identifiable only if every candidate parameter has a relative standard error below [-]',
-        0.0,
-        1e6,
-        True,
-    ),
-    (
-        'max_correlation',
-        _DEFAULTS.max_correlation,
-        'identifiable only if no candidate parameter correlates more with mu0/mu_inf [-]',
-        0.0,
-        1.0,
-        True,
-    ),
-)
+#: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
+PARAMS = MODEL_MONITOR_PARAMS
 
 
 class ModelMonitorNode(Node):
@@ -107,48 +61,17 @@ class ModelMonitorNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('model_monitor', **kwargs)
-        v: dict[str, Any] = {}
-        for name, default, desc, low, high, excl in (*RIG_PARAMS, *MONITOR_FLOAT_PARAMS):
-            v[name] = float(
-                declare(
-                    self,
-                    name,
-                    default,
-                    desc,
-                    low=low,
-                    high=high,
-                    low_exclusive=excl,
-                    read_only=True,
-                )
-            )
-        max_cand = int(
-            declare(
-                self,
-                'max_candidates',
-                _DEFAULTS.max_candidates,
-                'candidate effects refitted per window, best ranked first [-]',
-                low=0,
-                high=20,
-                read_only=True,
-            )
-        )
-        cands = list(
-            declare(
-                self,
-                'candidates',
-                list(_DEFAULTS.candidates),
-                'candidate effects that may be tried (names of the discrepancy library)',
-                read_only=True,
-            )
-        )
+        v = declare_specs(self, PARAMS)
+        if v['F_N'] <= 0.0:
+            raise ParameterError("parameter 'F_N' must be > 0 N: no contact, no friction to fit")
         try:
             rig = RigParams.from_mapping(v)
             drive = DriveProfile(v['nominal_speed'], v['ramp_time'])
             cfg = MonitorConfig(
                 window=v['window'],
                 hop=v['hop'],
-                candidates=tuple(str(c) for c in cands if str(c)),
-                max_candidates=max_cand,
+                candidates=tuple(str(c) for c in v['candidates'] if str(c)),
+                max_candidates=int(v['max_candidates']),
                 time_budget=v['time_budget'],
                 ratio_threshold=v['ratio_threshold'],
                 min_gain=v['min_gain'],

@@ -33,20 +33,24 @@ from typing import Any
 
 from rclpy.node import Node
 
-from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
 from tribo_common.node_main import run_node
-from tribo_common.params import ParameterError, declare
+from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_common.rosenv import default_state_file
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
 from tribo_nvct.errors import NvctError, StateError
+from tribo_nvct.nodes.specs import WEAR_MONITOR_PARAMS
 
 
 def _nan_if_none(x: float | None) -> float:
     return math.nan if x is None else float(x)
+
+
+#: Declared parameters: :mod:`tribo_nvct.nodes.specs`.
+PARAMS = WEAR_MONITOR_PARAMS
 
 
 class WearMonitor(Node):
@@ -54,38 +58,18 @@ class WearMonitor(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('wear_monitor', **kwargs)
-        cfg_path = declare(self, 'nvct_config', '', 'path of NVCT.yaml (nVCT configuration)')
         default_state = str(default_state_file('tribo_nvct', 'wear_state.json'))
-        self.state_file = declare(
+        v = declare_specs(
             self,
-            'state_file',
-            default_state,
-            'evaluator state JSON (default $ROS_HOME/tribo_nvct/wear_state.json, ROS_HOME '
-            'defaulting to ~/.ros; empty: not persisted)',
+            (s.with_default(default_state) if s.name == 'state_file' else s for s in PARAMS),
         )
-        self.rate_window = declare(
-            self,
-            'rate_window_s',
-            600.0,
-            'span of the current wear-rate regression [s]',
-            low=60.0,
-            high=86_400.0,
-        )
-        self.save_interval = float(
-            declare(
-                self,
-                'save_interval_s',
-                1.0,
-                'least wall time between two writes of the state file [s]',
-                low=0.0,
-                high=60.0,
-            )
-        )
-        counts_topic = declare(
-            self, 'counts_topic', topics.NVCT_COUNTS.name, 'DetectorCounts input topic'
-        )
-        wear_topic = declare(self, 'wear_topic', topics.NVCT_WEAR.name, 'WearState output topic')
-        fresh = declare(self, 'fresh_start', False, 'back up any saved state and start anew')
+        cfg_path = v['nvct_config']
+        self.state_file = v['state_file']
+        self.rate_window = v['rate_window_s']
+        self.save_interval = float(v['save_interval_s'])
+        counts_topic = v['counts_topic']
+        wear_topic = v['wear_topic']
+        fresh = v['fresh_start']
         if not cfg_path:
             raise ParameterError("parameter 'nvct_config' (path of NVCT.yaml) is required")
         try:
