@@ -90,21 +90,45 @@ def test_messages_built() -> None:
         assert (share / f'{name}.msg').is_file(), f'{name}.msg not installed'
 
 
+#: Modules of tribo_common that import no rclpy: the cores may use them (one parameter
+#: spec, one YAML loader, one topic table, ROS_HOME); the rest of tribo_common is rclpy.
+RCLPY_FREE_COMMON = ('paramspec', 'yamlio', 'topics', 'rosenv')
+
+
+def _imports(py: Path) -> list[str]:
+    mods: list[str] = []
+    for node in ast.walk(ast.parse(py.read_text())):
+        if isinstance(node, ast.Import):
+            mods += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            mods += [node.module] + [f'{node.module}.{a.name}' for a in node.names]
+    return mods
+
+
+def _forbidden(mod: str) -> bool:
+    top, _, rest = mod.partition('.')
+    if top in ('rclpy', 'tribo_msgs'):
+        return True
+    if top == 'tribo_common':
+        return rest.split('.')[0] not in RCLPY_FREE_COMMON
+    return False
+
+
 def test_cores_never_import_rclpy() -> None:
-    """Core modules (physics, estimation, decoding) are plain Python."""
+    """Core modules (physics, estimation, decoding) are plain Python: no rclpy, no
+    messages, and of tribo_common only its rclpy-free modules, which in turn import
+    neither rclpy nor the rest of tribo_common."""
     offenders = []
     for core in ROOT.glob('src/*/*/core'):
         for py in core.rglob('*.py'):
-            tree = ast.parse(py.read_text())
-            for node in ast.walk(tree):
-                mods = []
-                if isinstance(node, ast.Import):
-                    mods = [a.name for a in node.names]
-                elif isinstance(node, ast.ImportFrom) and node.module:
-                    mods = [node.module]
-                if any(m.split('.')[0] in ('rclpy', 'tribo_msgs', 'tribo_common') for m in mods):
-                    offenders.append(str(py.relative_to(ROOT)))
+            mods = [m for m in _imports(py) if m != 'tribo_common']
+            if any(_forbidden(m) for m in mods):
+                offenders.append(str(py.relative_to(ROOT)))
     assert not offenders, f'core modules import rclpy/messages: {offenders}'
+    common = ROOT / 'src' / 'tribo_common' / 'tribo_common'
+    for name in RCLPY_FREE_COMMON:
+        mods = _imports(common / f'{name}.py')
+        assert not any(_forbidden(m) or m.startswith('rclpy') for m in mods), (name, mods)
 
 
 def test_config_and_launch_files_installed_into_share() -> None:
