@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
+from tribo_common.yamlio import load_yaml
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.profile import DepthProfile
@@ -179,12 +179,7 @@ def load_sim_config(path: str | Path, nvct_override: str | Path | None = None) -
     """Read sim_detector.yaml (``nvct_config`` relative to it unless overridden)."""
     p = Path(path)
     src = str(p)
-    try:
-        raw = yaml.safe_load(p.read_text(encoding='utf-8'))
-    except OSError as exc:
-        raise NvctConfigError(f'cannot read {p}: {exc.strerror}') from None
-    except yaml.YAMLError as exc:
-        raise NvctConfigError(f'{p}: not valid YAML ({exc})') from None
+    raw = load_yaml(p, NvctConfigError, 'simulated-detector config')
     if not isinstance(raw, dict):
         raise NvctConfigError(f'{src}: top level must be a mapping')
     if nvct_override is not None:
