@@ -11,6 +11,7 @@ the length of the session.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -69,45 +70,56 @@ def _is_bag(path: Path) -> bool:
     return path.is_dir() or path.suffix in ('.mcap', '.db3')
 
 
-def csv_events(path: Path) -> Iterator[Any]:
+def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
     """Aligner events (chunks and gaps) from a rig CSV read block by block.
 
-    The sample index is ``round((t - t_first)*fs)``; a time step that skips
-    samples becomes a :class:`GapEvent` (never bridged).
+    The rate comes from the first block (:func:`~tribo_estimation.core.rigio.estimate_rate`;
+    epoch or relative stamps); each sample's index from the grid through the previous
+    block's last sample, stamps that jitter are resampled onto the grid (largest jitter
+    in sample intervals appended to ``jitter``), a time step that skips samples
+    becomes a :class:`GapEvent` (never bridged), a sample off the grid is an error
+    naming its line.
     """
     from tribo_estimation.core.align import AlignedChunk, GapEvent
-    from tribo_estimation.core.rigio import iter_rig_csv
-    from tribo_estimation.errors import InvalidDataError
+    from tribo_estimation.core.rigio import (
+        estimate_rate,
+        grid_positions,
+        iter_rig_csv,
+        resample_on_grid,
+    )
 
     fs: float | None = None
     t_first = math.nan
+    t_ref = math.nan
+    idx_ref = 0
     next_index: int | None = None
     for rec in iter_rig_csv(path, 10_000):
         t = rec.time
         if fs is None:
-            if len(rec) < 2:
-                raise InvalidDataError(f'{path}: need at least two samples to find the rate')
-            fs = float(round(1.0 / float(np.median(np.diff(t[: min(len(t), 1000)]))), 6))
-            t_first = float(t[0])
-        idx = np.rint((t - t_first) * fs).astype(np.int64)
+            fs = estimate_rate(t, str(path))
+            t_first = t_ref = float(t[0])
+        lines = rec.first_line + np.arange(len(t))
+        idx, frac = grid_positions(t, fs, t_ref, idx_ref, str(path), lines)
+        if jitter is not None and frac.size:
+            jitter.append(float(np.max(np.abs(frac))))
+        t_ref, idx_ref = float(t[-1]), int(idx[-1])
+        chans = [
+            resample_on_grid(idx, frac, c)
+            for c in (rec.torsion_moment, rec.angular_acceleration, rec.speed)
+        ]
         cuts = np.flatnonzero(np.diff(idx) != 1) + 1
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(idx)], strict=True):
             a, b = int(a), int(b)
             first = int(idx[a])
             if next_index is not None and first != next_index:
-                if first < next_index:
-                    raise InvalidDataError(
-                        f'{path}: line {rec.first_line + a}: sample time {t[a]!r} s falls '
-                        'on an earlier sample instant (irregular sampling)'
-                    )
                 yield GapEvent(next_index, first, ('csv',), t_first + next_index / fs)
             yield AlignedChunk(
                 first,
-                float(t[a]),
+                t_first + first / fs,
                 fs,
-                rec.torsion_moment[a:b],
-                rec.angular_acceleration[a:b],
-                rec.speed[a:b],
+                chans[0][a:b],
+                chans[1][a:b],
+                chans[2][a:b],
             )
             next_index = int(idx[b - 1]) + 1
 
@@ -183,12 +195,19 @@ class _Collector:
 
 def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
-    from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
+    from tribo_bringup.outputs import atomic_output_dir
+    from tribo_estimation.core.blockfit import (
+        BlockConfig,
+        BlockCsvWriter,
+        BlockEstimator,
+        with_flags,
+    )
     from tribo_estimation.core.config import load_rig_config
+    from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
 
     src = Path(args.input)
     if not src.exists():
-        raise FileNotFoundError(f'{src}: no such file or bag')
+        raise BagError(f'{src}: no such file or bag')
     cfg_rig = load_rig_config(args.rig)
     nominal = cfg_rig.drive.nominal_speed
     cfg = BlockConfig(
@@ -198,18 +217,30 @@ def run(args: argparse.Namespace) -> int:
         ramp_time=cfg_rig.drive.ramp_time,
     )
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
-    events = bag_events(src) if _is_bag(src) else csv_events(src)
+    jitter: list[float] = []
+    raw_events = bag_events(src) if _is_bag(src) else csv_events(src, jitter)
+    scales = Scales.of(cfg_rig.rig, cfg_rig.friction, nominal)
+    spikes = SpikeLog()
+    warnings: list[str] = []
+    events = checked_chunks(raw_events, scales, str(src), spikes, warnings)
     fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
     coll = _Collector(fnr if fnr > 0 else 1.0)
     results = []
     t_wall = time.monotonic()
     last_report = t_wall
-    with BlockCsvWriter(out / 'blocks.csv') as writer:
+    with atomic_output_dir(out) as stage, BlockCsvWriter(stage / 'blocks.csv') as writer:
 
         def handle(det: Any) -> None:
             nonlocal last_report
+            while warnings:
+                print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)
+            r0 = det.result
+            n_spk = spikes.count(r0.first_index, r0.first_index + round(args.block * det.data.fs))
+            if n_spk:
+                det = dataclasses.replace(
+                    det, result=with_flags(dataclasses.replace(r0, spikes=n_spk), 'spikes')
+                )
             writer.write(det.result)
             results.append(det.result)
             coll.add(det)
@@ -229,12 +260,22 @@ def run(args: argparse.Namespace) -> int:
                 handle(det)
         for det in est.finish():
             handle(det)
-    if not results:
-        raise BagError(f'{src}: no complete block of data')
-    if not args.no_plots:
-        _plots(out, results, coll, cfg_rig.friction.k)
+        if not results:
+            raise BagError(f'{src}: no complete block of data')
+        if not args.no_plots:
+            _plots(stage, results, coll, cfg_rig.friction.k)
+    for w in warnings:
+        print(f'friction: warning: {w}', file=sys.stderr)
     n_ok = sum(r.ok for r in results)
     if not args.quiet:
+        if jitter and max(jitter) >= 0.01:
+            print(
+                f'friction: time stamps jitter up to {max(jitter):.1%} of the sample interval: '
+                'resampled onto the regular grid',
+                file=sys.stderr,
+            )
+        if spikes.total:
+            print(f'friction: {spikes.total} spike samples replaced', file=sys.stderr)
         print(
             f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '
             f'in {time.monotonic() - t_wall:.1f} s',

@@ -134,7 +134,7 @@ class BlockConfig:
 MOTIONS = ('stick-slip', 'slip-slip', 'steady')
 
 #: Quality flags; a block with any of them is not a good estimate.
-FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short')
+FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short', 'spikes')
 
 
 @dataclass(frozen=True)
@@ -157,6 +157,7 @@ class BlockResult:
         w0: drive speed the fit used [rad/s].
         n_samples: valid samples used [-].
         n_iter: Levenberg-Marquardt iterations [-].
+        spikes: samples replaced as spikes before the fit (core.plausibility) [-].
     """
 
     index: int
@@ -180,6 +181,7 @@ class BlockResult:
     w0: float = math.nan
     n_samples: int = 0
     n_iter: int = 0
+    spikes: int = 0
 
     @property
     def ok(self) -> bool:
@@ -207,12 +209,13 @@ CSV_COLUMNS: tuple[str, ...] = (
     'n_sticks',
     'stick_fraction',
     'rms_residual',
+    'spikes',
     'quality',
 )
 
 
 def _fmt(v: float) -> str:
-    return 'nan' if not math.isfinite(v) else f'{v:.9g}'
+    return 'nan' if not math.isfinite(v) else repr(float(v))  # round-trip: epoch stamps
 
 
 class BlockCsvWriter:
@@ -246,6 +249,7 @@ class BlockCsvWriter:
                 str(r.n_sticks),
                 _fmt(r.stick_fraction),
                 _fmt(r.rms_residual),
+                str(r.spikes),
                 r.quality_str,
             ]
         )
@@ -280,12 +284,12 @@ def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
         reader = csv.DictReader(fh)
         cols = reader.fieldnames or []
         for c in CSV_COLUMNS:
-            if c not in cols:
+            if c not in cols and c != 'spikes':  # spikes: added later, 0 if absent
                 raise MissingColumnError(f'{p}: missing column {c!r} in blocks table')
         rows = list(reader)
     out: dict[str, np.ndarray] = {}
     for c in CSV_COLUMNS:
-        vals = [r[c] for r in rows]
+        vals = [r.get(c) or '0' for r in rows] if c == 'spikes' else [r[c] for r in rows]
         if c in ('motion', 'quality'):
             out[c] = np.array(vals, dtype=object)
         else:
