@@ -30,9 +30,7 @@ def bounded_float(
         if not (math.isfinite(x) and low_ok and x <= hi):
             left = '(' if lo_open else '['
             extra = ' or 0' if zero_ok else ''
-            raise argparse.ArgumentTypeError(
-                f'{text} is outside {left}{lo:g}, {hi:g}]{u}{extra}'
-            )
+            raise argparse.ArgumentTypeError(f'{text} is outside {left}{lo:g}, {hi:g}]{u}{extra}')
         return x
 
     parse.__name__ = 'number'

@@ -235,7 +235,8 @@ def _check_block(
         if big.size:
             i = big[0]
             raise UnitError(
-                f"{path}: line {numbers[i]}, column 'speed': {float(sp[i])!r} exceeds the plausible "
+                f"{path}: line {numbers[i]}, column 'speed': {float(sp[i])!r} exceeds "
+                f'the plausible '
                 f'{max_speed} rad/s of the rig; the speed looks like rpm (convert: '
                 f'rad/s = rpm*pi/30)'
             )
