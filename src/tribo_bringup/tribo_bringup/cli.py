@@ -19,6 +19,7 @@ import importlib
 import sys
 import traceback
 from collections.abc import Sequence
+from typing import NoReturn
 
 #: Subcommand modules in the order ``tribo --help`` lists them. A module that
 #: is missing (work in progress) is skipped, never a crash of the whole CLI.
@@ -60,9 +61,17 @@ def _error_types() -> tuple[type[BaseException], ...]:
     return tuple(types)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (no usage block), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        first = message.strip().splitlines()[0] if message.strip() else 'bad arguments'
+        self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {first} (see {self.prog} --help)\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser with every available subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog='tribo',
         description='Model-assisted tribometry on a ROS 2 graph: stick-slip friction '
         'estimation and nVCT wear measurement.',

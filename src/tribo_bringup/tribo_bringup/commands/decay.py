@@ -33,17 +33,32 @@ def register(sub: Any) -> None:
     )
     p.add_argument('input', metavar='INPUT.csv', help='rig CSV of a free decay')
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
-    p.add_argument('--t-start', type=float, default=None, metavar='S', help='use t >= S [s]')
-    p.add_argument('--t-end', type=float, default=None, metavar='S', help='use t <= S [s]')
+    p.add_argument(
+        '--t-start',
+        type=float,
+        default=None,
+        metavar='S',
+        help='use t >= S [s] after the first sample',
+    )
+    p.add_argument(
+        '--t-end',
+        type=float,
+        default=None,
+        metavar='S',
+        help='use t <= S [s] after the first sample',
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the identification; returns the exit code."""
+    from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.decay import identify_free_decay
-    from tribo_estimation.core.rigio import read_rig_csv
+    from tribo_estimation.core.plausibility import check_time_base
+    from tribo_estimation.core.rigio import read_rig_csv, regularise
 
-    rec = read_rig_csv(args.input)
+    rec, grid = regularise(read_rig_csv(args.input), str(args.input))
+    check_time_base(grid.fs, str(args.input))
     res = identify_free_decay(
         rec.time,
         rec.torsion_moment,
@@ -52,7 +67,6 @@ def run(args: argparse.Namespace) -> int:
         t_end=args.t_end,
     )
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     data: dict[str, object] = {
         **res.to_dict(),
         'units': {
@@ -65,8 +79,10 @@ def run(args: argparse.Namespace) -> int:
             'accel_offset': 'rad/s^2',
         },
         'input': str(args.input),
+        'time_origin_s': grid.t0,
     }
-    (out / 'decay.json').write_text(json.dumps(data, indent=2) + '\n')
+    with atomic_output_dir(out) as stage:
+        (stage / 'decay.json').write_text(json.dumps(data, indent=2) + '\n')
     print(
         f'I1 = {res.I1:.6g} +- {res.I1_se:.2g} kg m^2, K1 = {res.K1:.5g} +- {res.K1_se:.2g} '
         f'N m s/rad, C1 = {res.C1:.6g} +- {res.C1_se:.2g} N m/rad, f_n = {res.f_n_hz:.4f} Hz, '

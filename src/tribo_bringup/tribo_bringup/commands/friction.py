@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from tribo_bringup.errors import BagError
+from tribo_bringup.errors import BagError, BagTruncatedError
 
 #: Topics of the rig streams and their aligner channel names.
 RIG_CHANNELS: dict[str, str] = {
@@ -195,7 +195,7 @@ class _Collector:
 
 def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
-    from tribo_bringup.outputs import atomic_output_dir
+    from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
     from tribo_estimation.core.blockfit import (
         BlockConfig,
         BlockCsvWriter,
@@ -255,15 +255,25 @@ def run(args: argparse.Namespace) -> int:
                 )
                 last_report = now
 
-        for ev in events:
-            for det in est.feed(ev):
+        truncated: BagTruncatedError | None = None
+        try:
+            for ev in events:
+                for det in est.feed(ev):
+                    handle(det)
+        except BagTruncatedError as exc:
+            truncated = exc  # the blocks before the damage are kept in OUT/partial/
+        if truncated is None:
+            for det in est.finish():
                 handle(det)
-        for det in est.finish():
-            handle(det)
         if not results:
-            raise BagError(f'{src}: no complete block of data')
+            raise truncated or BagError(f'{src}: no complete block of data')
         if not args.no_plots:
             _plots(stage, results, coll, cfg_rig.friction.k)
+        if truncated is not None:
+            writer.close()
+            keep_as_partial(stage)
+    if truncated is not None:
+        raise BagTruncatedError(f'{truncated} (blocks before it in {out / PARTIAL_DIR})')
     for w in warnings:
         print(f'friction: warning: {w}', file=sys.stderr)
     n_ok = sum(r.ok for r in results)

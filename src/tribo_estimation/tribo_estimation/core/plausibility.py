@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
+from tribo_estimation.core.align import AlignedChunk, AlignEvent
 from tribo_estimation.core.model import FrictionLaw, RigParams
 from tribo_estimation.errors import TimeBaseError, UnitError
 
@@ -292,13 +293,10 @@ class _Despiker:
     def __init__(self, scales: Scales, log: SpikeLog) -> None:
         self.scales = scales
         self.log = log
-        self.hold: object | None = None  # raw tail not yet emitted (an AlignedChunk)
+        self.hold: AlignedChunk | None = None  # raw tail not yet emitted
         self.ctx: tuple[int, FloatArray, FloatArray, FloatArray] | None = None  # emitted tail
 
-    def _run(self, ch: object, keep: int) -> list[object]:
-        from tribo_estimation.core.align import AlignedChunk
-
-        assert isinstance(ch, AlignedChunk)
+    def _run(self, ch: AlignedChunk, keep: int) -> list[AlignEvent]:
         c = 0
         arrs = [np.asarray(x, dtype=np.float64) for x in (ch.torsion, ch.accel, ch.speed)]
         if self.ctx is not None and self.ctx[0] == ch.first_index:
@@ -327,13 +325,10 @@ class _Despiker:
         self.ctx = (ch.first_index + m, t[c + k : c + m], a[c + k : c + m], v[c + k : c + m])
         return [out]
 
-    def push(self, ch: object) -> list[object]:
-        from tribo_estimation.core.align import AlignedChunk
-
-        assert isinstance(ch, AlignedChunk)
-        out: list[object] = []
+    def push(self, ch: AlignedChunk) -> list[AlignEvent]:
+        out: list[AlignEvent] = []
         held = self.hold
-        if isinstance(held, AlignedChunk):
+        if held is not None:
             if held.end_index == ch.first_index and held.sample_rate == ch.sample_rate:
                 ch = replace(
                     held,
@@ -347,7 +342,7 @@ class _Despiker:
         out.extend(self._run(ch, MEDIAN_WIDTH))
         return out
 
-    def flush(self) -> list[object]:
+    def flush(self) -> list[AlignEvent]:
         held, self.hold = self.hold, None
         if held is None:
             return []
@@ -357,21 +352,19 @@ class _Despiker:
 
 
 def checked_chunks(
-    events: Iterable[object],
+    events: Iterable[AlignEvent],
     scales: Scales,
     source: str,
     log: SpikeLog,
     warn: list[str],
     check_samples: int = 20_000,
-) -> Iterator[object]:
+) -> Iterator[AlignEvent]:
     """Pass aligner events through: the first ``check_samples`` samples are checked
     (time base and channels; warnings appended to ``warn``) before anything is
     yielded, spikes of every :class:`~tribo_estimation.core.align.AlignedChunk`
     are repaired (:func:`find_spikes`, judged across chunk boundaries) and logged
     in ``log``."""
-    from tribo_estimation.core.align import AlignedChunk
-
-    held: list[object] = []
+    held: list[AlignEvent] = []
     n_held = 0
     checked = False
     desp = _Despiker(scales, log)
@@ -391,7 +384,7 @@ def checked_chunks(
             )
         )
 
-    def stream() -> Iterator[object]:
+    def stream() -> Iterator[AlignEvent]:
         for ev in events:
             if isinstance(ev, AlignedChunk):
                 yield from desp.push(ev)
