@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
+
+from tribo_bringup.argtypes import bounded_float
 
 
 def register(sub: Any) -> None:
@@ -35,14 +38,14 @@ def register(sub: Any) -> None:
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     p.add_argument(
         '--t-start',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=None,
         metavar='S',
         help='use t >= S [s] after the first sample',
     )
     p.add_argument(
         '--t-end',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=None,
         metavar='S',
         help='use t <= S [s] after the first sample',
@@ -54,15 +57,23 @@ def run(args: argparse.Namespace) -> int:
     """Run the identification; returns the exit code."""
     from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.decay import identify_free_decay
-    from tribo_estimation.core.plausibility import check_time_base
+    from tribo_estimation.core.plausibility import Scales, check_time_base, despike_chunk
     from tribo_estimation.core.rigio import read_rig_csv, regularise
 
     rec, grid = regularise(read_rig_csv(args.input), str(args.input))
     check_time_base(grid.fs, str(args.input))
-    res = identify_free_decay(
-        rec.time,
+    torque, accel, _, spikes = despike_chunk(
         rec.torsion_moment,
         rec.angular_acceleration,
+        rec.speed,
+        Scales.from_data(rec.torsion_moment, rec.angular_acceleration, rec.speed),
+    )
+    if spikes.any():
+        print(f'decay: {int(spikes.sum())} spike samples replaced', file=sys.stderr)
+    res = identify_free_decay(
+        rec.time,
+        torque,
+        accel,
         t_start=args.t_start,
         t_end=args.t_end,
     )

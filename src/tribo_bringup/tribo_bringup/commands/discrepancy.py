@@ -19,6 +19,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.argtypes import bounded_float, bounded_int
+
 TOPICS: dict[str, str] = {
     '/rig/torsion_moment': 'torsion_moment',
     '/rig/angular_acceleration': 'angular_acceleration',
@@ -54,14 +56,14 @@ def register(sub: Any) -> None:
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     p.add_argument(
         '--start',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=0.0,
         metavar='S',
         help='analyse from this time after the first sample [s] (0)',
     )
     p.add_argument(
         '--duration',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=0.0,
         metavar='S',
         help='analyse this many seconds (0: to the end) [s]',
@@ -73,11 +75,15 @@ def register(sub: Any) -> None:
         help='comma-separated candidate effects to try (default: the whole library)',
     )
     p.add_argument(
-        '--max-effects', type=int, default=3, metavar='N', help='most effects to add (3)'
+        '--max-effects',
+        type=bounded_int(0, 20),
+        default=3,
+        metavar='N',
+        help='most effects to add (3)',
     )
     p.add_argument(
         '--min-gain',
-        type=float,
+        type=bounded_float(0.0, 100.0),
         default=0.25,
         metavar='F',
         help='relative held-out improvement needed to add an effect (0.25)',

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from tribo_bringup.argtypes import bounded_float
 from tribo_bringup.errors import BagError, BagTruncatedError
 
 #: Topics of the rig streams and their aligner channel names.
@@ -53,7 +54,11 @@ def register(sub: Any) -> None:
     p.add_argument('--rig', required=True, help='RIG.yaml with the rig parameters (SI)')
     p.add_argument('--out', required=True, help='output directory (created if needed)')
     p.add_argument(
-        '--block', type=float, default=1.0, metavar='S', help='block length [s] (default 1.0)'
+        '--block',
+        type=bounded_float(0.01, 600.0, unit='s'),
+        default=1.0,
+        metavar='S',
+        help='block length [s] (default 1.0)',
     )
     p.add_argument('--fit-k', action='store_true', help='also fit the Stribeck constant k [s/rad]')
     p.add_argument(

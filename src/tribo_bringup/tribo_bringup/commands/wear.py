@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.argtypes import bounded_int
 from tribo_bringup.paths import CONFIG
 
 UM3 = 1e-18
@@ -69,7 +70,11 @@ def register(sub: Any) -> None:
         default=str(CONFIG / 'sim_detector.yaml'),
         help='simulated-detector configuration for --simulate (default: %(default)s)',
     )
-    p.add_argument('--seed', type=int, help='random seed for --simulate (default: from SIM.yaml)')
+    p.add_argument(
+        '--seed',
+        type=bounded_int(0, 2**63 - 1),
+        help='random seed for --simulate (default: from SIM.yaml)',
+    )
     p.set_defaults(func=run)
 
 

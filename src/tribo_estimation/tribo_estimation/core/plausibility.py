@@ -153,6 +153,18 @@ class Scales:
             f_stick_slip=math.sqrt(rig.C1 / rig.I1) / (2.0 * math.pi),
         )
 
+    @classmethod
+    def from_data(cls, torque: FloatArray, accel: FloatArray, speed: FloatArray) -> Scales:
+        """Scales from the record itself (median of each |channel|: robust to bursts
+        of up to half the record), for a record without a rig config (free decay);
+        ``f_stick_slip`` is NaN."""
+
+        def amp(x: FloatArray) -> float:
+            a = np.abs(x[np.isfinite(x)])
+            return float(np.median(a)) if a.size else 0.0
+
+        return cls(amp(torque), amp(accel), amp(speed), math.nan)
+
 
 def _amp(x: FloatArray) -> float:
     """Robust amplitude: the 95th percentile of |x|."""
