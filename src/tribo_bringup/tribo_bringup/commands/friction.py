@@ -87,6 +87,7 @@ def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
     """
     from tribo_estimation.core.align import AlignedChunk, GapEvent
     from tribo_estimation.core.rigio import (
+        centred_anchor,
         estimate_rate,
         grid_positions,
         iter_rig_csv,
@@ -102,12 +103,16 @@ def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
         t = rec.time
         if fs is None:
             fs = estimate_rate(t, str(path))
-            t_first = t_ref = float(t[0])
+            t_first = t_ref = centred_anchor(t, fs)
         lines = rec.first_line + np.arange(len(t))
-        idx, frac = grid_positions(t, fs, t_ref, idx_ref, str(path), lines)
+        after = None if next_index is None else next_index - 1
+        idx, frac = grid_positions(t, fs, t_ref, idx_ref, str(path), lines, after)
         if jitter is not None and frac.size:
             jitter.append(float(np.max(np.abs(frac))))
-        t_ref, idx_ref = float(t[-1]), int(idx[-1])
+        # next grid through this block's last sample, shifted by the block's mean offset
+        # (follows a rate that differs from the estimate in its 7th digit, averages jitter)
+        t_ref = float(t[-1]) - (float(frac[-1]) - float(np.mean(frac))) / fs
+        idx_ref = int(idx[-1])
         chans = [
             resample_on_grid(idx, frac, c)
             for c in (rec.torsion_moment, rec.angular_acceleration, rec.speed)

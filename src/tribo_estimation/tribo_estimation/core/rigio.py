@@ -379,6 +379,14 @@ def estimate_rate(t: np.ndarray, source: str = '<record>') -> float:
     return float(f'{1.0 / dt:.6g}')
 
 
+def centred_anchor(t: np.ndarray, fs: float) -> float:
+    """Grid time of the first sample of ``t`` [s] such that the stamps' offsets from
+    the grid have median zero (a jittered first stamp does not shift the grid)."""
+    pos = (np.asarray(t, dtype=np.float64) - float(t[0])) * fs
+    off = float(np.median(pos - np.rint(pos))) if pos.size else 0.0
+    return float(t[0]) + off / fs
+
+
 def grid_positions(
     t: np.ndarray,
     fs: float,
@@ -386,12 +394,14 @@ def grid_positions(
     idx_ref: int,
     source: str = '<record>',
     lines: np.ndarray | None = None,
+    after: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Grid index of each time ``t`` [s] and its offset from the grid [samples].
 
-    The grid passes through the reference sample ``idx_ref`` at ``t_ref`` (the last
-    sample of the previous chunk when streaming, so a slightly wrong rate never
-    accumulates). Raises :class:`IrregularSamplingError` naming the time and the
+    The grid has index ``idx_ref`` at time ``t_ref`` (when streaming, the grid time
+    of the previous chunk's last sample, so a rate wrong in its last digits never
+    accumulates); ``after``: index of the previous chunk's last sample (the first
+    index must be larger). Raises :class:`IrregularSamplingError` naming the time and the
     line (``lines``: file line of each sample) where a sample lies more than
     :data:`JITTER_TOL` intervals off the grid or two samples share one grid point.
     """
@@ -399,7 +409,7 @@ def grid_positions(
     idx = np.rint(pos)
     frac = pos - idx
     bad = np.flatnonzero(np.abs(frac) > JITTER_TOL)
-    prev = float(idx_ref) if t.shape[0] and float(t[0]) > t_ref else float(idx[0]) - 1.0
+    prev = float(after) if after is not None else float(idx[0]) - 1.0 if idx.size else 0.0
     dup = np.flatnonzero(np.diff(np.concatenate([[prev], idx])) < 1)
     if bad.size or dup.size:
         i = int(min(bad[0] if bad.size else len(t), dup[0] if dup.size else len(t)))
@@ -430,7 +440,8 @@ def regularise(rec: RigRecord, source: str = '<record>') -> tuple[RigRecord, Tim
     also put into ``metadata['time_origin_s']``).
     """
     fs = estimate_rate(rec.time, source)
-    idx, frac = grid_positions(rec.time, fs, float(rec.time[0]), 0, source)
+    t_ref = centred_anchor(rec.time, fs)
+    idx, frac = grid_positions(rec.time, fs, t_ref, 0, source)
     idx = idx - idx[0]
 
     def rs(v: np.ndarray) -> np.ndarray:
