@@ -53,8 +53,6 @@ def test_yaml_12_floats_duplicates_and_unknown_keys() -> None:
     with pytest.raises(ValueError, match=r"duplicate key 'k' on line 3 \(first on line 1\)"):
         parse_yaml('k: 1\nx: 2\nk: 3\n', 's', ValueError)
     with pytest.raises(ValueError, match=r"unknown key 'k_det_rel_sd' .did you mean 'k_det_rel_se"):
-        ValueError, match=r"unknown key 'k_det_rel_sd' .did you mean 'k_det_rel_se'"
-    ):
         check_keys({'k_det_rel_sd': 1}, ('k_det', 'k_det_rel_se'), 's', ValueError)
 
 
