@@ -257,3 +257,14 @@ def test_undecodable_csv_names_the_file(tmp_path: Path) -> None:
     p.write_bytes(b'time,torsion_moment,angular_acceleration,speed\n0,\xff\xfe,1,2\n')
     r = tribo('friction', str(p), '--rig', str(RIG), '--out', str(tmp_path / 'o'))
     assert r.rc == 2 and f'{p}: not a UTF-8 text rig CSV' in r.stderr, r.stderr
+
+
+def test_wear_simulate_refuses_absurd_durations(tmp_path: Path) -> None:
+    sim = tmp_path / 'sim.yaml'
+    sim.write_text(
+        f'nvct_config: {NVCT}\nduration_min: 1e308\ntrue_wear: {{running_in_volume_um3: 1, '
+        'running_in_tau_min: 1, progressive_rate_um3_per_min: 1}\n'
+    )
+    out = tmp_path / 'c.csv'
+    r = tribo('wear', '--simulate', str(out), '--sim', str(sim))
+    assert r.rc == 2 and 'at most 1e+06 dwells' in r.stderr and not out.exists(), r.stderr
