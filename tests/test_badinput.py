@@ -99,7 +99,6 @@ def test_unit_errors_are_named(tmp_path: Path, record: list[np.ndarray]) -> None
         'speed looks like rpm': [t, tq, ac, sp * 30.0 / math.pi],
         'deg/s^2': [t, tq, ac * 180.0 / math.pi, sp],
         'the time column looks like ms': [t * 1000.0, tq, ac, sp],
-        'a free-decay record?': [t, tq, ac, sp * 0.001],
     }
     for message, cols in cases.items():
         out = tmp_path / 'o'
@@ -107,6 +106,18 @@ def test_unit_errors_are_named(tmp_path: Path, record: list[np.ndarray]) -> None
                   '--out', str(out), '--no-plots', '--quiet')  # fmt: skip
         assert r.rc == 2 and message in r.stderr.splitlines()[-1], (message, r.stderr)
         assert not out.exists()  # nothing new in --out
+
+
+def test_speed_at_rest_error_for_discrepancy_warning_for_friction(
+    tmp_path: Path, record: list[np.ndarray]
+) -> None:
+    t, tq, ac, sp = record
+    p = _write(tmp_path / 'r.csv', [t, tq, ac, sp * 0.001])
+    r = tribo('discrepancy', str(p), '--rig', str(RIG), '--out', str(tmp_path / 'd'))
+    assert r.rc == 2 and 'a free-decay record?' in r.stderr.splitlines()[-1], r.stderr
+    r = tribo('friction', str(p), '--rig', str(RIG), '--out', str(tmp_path / 'f'), '--quiet',
+              '--no-plots')  # fmt: skip
+    assert r.rc == 0 and 'warning' in r.stderr and 'at rest at the start' in r.stderr, r.stderr
 
 
 def test_drive_speed_mismatch_is_a_warning(record: list[np.ndarray]) -> None:

@@ -213,11 +213,14 @@ def check_channels(
     speed: FloatArray,
     scales: Scales,
     source: str,
+    whole_record: bool = True,
 ) -> list[str]:
     """Compare each channel with the rig's physical scales.
 
     Returns warnings (one line each); raises :class:`UnitError` for a likely unit
-    mistake or a speed channel at rest under a driven RIG.yaml.
+    mistake or, when the channels are the ``whole_record``, a speed channel at rest
+    under a driven RIG.yaml (for the start of a stream that is a warning: the drive
+    may start later).
     """
     warnings: list[str] = []
     tq = _clean(torque, scales.torque)
@@ -253,12 +256,15 @@ def check_channels(
                 f'{scales.speed:.4g} rad/s (nominal_speed); convert: rad/s = rpm*pi/30'
             )
         if ratio < SPEED_WARN:
-            raise UnitError(
+            msg = (
                 f'{source}: speed channel is at rest (median {med:.3g} rad/s) but the rig '
                 f'config drives at {scales.speed:.4g} rad/s: a free-decay record? '
                 '(use `tribo decay`)'
             )
-        if abs(ratio - 1.0) > SPEED_WARN:
+            if whole_record:
+                raise UnitError(msg)
+            warnings.append(msg.replace('is at rest', 'is at rest at the start'))
+        elif abs(ratio - 1.0) > SPEED_WARN:
             warnings.append(
                 f'{source}: speed channel median {med:.4g} rad/s differs from nominal_speed '
                 f'{scales.speed:.4g} rad/s by {100.0 * (ratio - 1.0):+.0f} %: the rig config '
@@ -393,6 +399,7 @@ def checked_chunks(
                 np.concatenate([c.speed for c in chunks]),
                 scales,
                 source,
+                whole_record=False,
             )
         )
 
