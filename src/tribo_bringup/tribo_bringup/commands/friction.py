@@ -247,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)
             r0 = det.result
             n_spk = spikes.count(r0.first_index, r0.first_index + round(args.block * det.data.fs))
+            spikes.forget_before(r0.first_index)
             if n_spk:
                 det = dataclasses.replace(
                     det, result=with_flags(dataclasses.replace(r0, spikes=n_spk), 'spikes')

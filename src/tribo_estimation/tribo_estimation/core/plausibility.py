@@ -278,6 +278,7 @@ class SpikeLog:
     """Spike positions seen so far (sample indices since the stream start)."""
 
     indices: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    done: int = 0
 
     def add(self, first_index: int, mask: npt.NDArray[np.bool_]) -> None:
         if mask.any():
@@ -287,9 +288,15 @@ class SpikeLog:
         """Spikes with ``first <= index < end``."""
         return int(sum(int(np.count_nonzero((a >= first) & (a < end))) for a in self.indices))
 
+    def forget_before(self, index: int) -> None:
+        """Drop spikes before ``index`` (blocks already reported): bounded memory."""
+        self.done += sum(int(np.count_nonzero(a < index)) for a in self.indices)
+        self.indices = [k for a in self.indices if (k := a[a >= index]).size]
+
     @property
     def total(self) -> int:
-        return int(sum(a.size for a in self.indices))
+        """All spikes seen (forgotten ones included)."""
+        return self.done + int(sum(a.size for a in self.indices))
 
 
 def despike_chunk(
