@@ -279,3 +279,14 @@ def test_wear_simulate_refuses_absurd_durations(tmp_path: Path) -> None:
     out = tmp_path / 'c.csv'
     r = tribo('wear', '--simulate', str(out), '--sim', str(sim))
     assert r.rc == 2 and 'at most 1e+06 dwells' in r.stderr and not out.exists(), r.stderr
+
+
+def test_days_since_reference_beyond_60_half_lives_refused(tmp_path: Path) -> None:
+    from tribo_common.yamlio import load_yaml
+    from tribo_nvct.core.config import config_from_dict
+    from tribo_nvct.errors import NvctConfigError
+
+    raw = load_yaml(NVCT, NvctConfigError)
+    raw['days_since_reference'] = 1e5  # 1300 half-lives of Co-56: exp() overflowed
+    with pytest.raises(NvctConfigError, match='more than 60 half-lives of Co-56'):
+        config_from_dict(raw, NVCT.parent, 'nvct.yaml')

@@ -119,6 +119,8 @@ _CODEC = None
 def _codec():  # type: ignore[no-untyped-def]
     global _CODEC
     if _CODEC is None:
+        import cantools.database  # noqa: F401  (loaded whole, even after an interrupted run)
+
         from tribo_drivers.core.can_protocol import CanCodec
 
         _CODEC = CanCodec(ROOT / 'config' / 'tribo.dbc')

@@ -102,6 +102,10 @@ UPPER: dict[str, float] = {
     'oil_circuit.mixing_tolerance': 1.0,
 }
 
+#: Most half-lives between the depth profile's reference date and the test (the
+#: activity is then 2**-60 = 1e-18 of the reference: nothing left to count).
+MAX_HALF_LIVES = 60.0
+
 SLIDING_CONVENTIONS = {
     'paper': 'paper Equ. 10: d_s = stroke * frequency * duration',
     'astm_g133': 'ASTM G133: d_s = 2 * stroke * frequency * duration',
@@ -220,6 +224,11 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
     else:
         raise NvctConfigError(f'{src}: missing key nuclide (or half_life_days)')
     days = _num(raw, 'days_since_reference', src, strict=False)
+    if days > MAX_HALF_LIVES * nuc.half_life_days:
+        raise NvctConfigError(
+            f'{src}: days_since_reference = {days:g} d is more than {MAX_HALF_LIVES:g} '
+            f'half-lives of {nuc.name} ({nuc.half_life_days:g} d): nothing left to measure'
+        )
     k_det = _num(raw, 'k_det', src)
     k_det_rel_se = _value(raw.get('k_det_rel_se', 0.0), 'k_det_rel_se', src, strict=False)
     if 'background_counts' in raw or 'background_live_time_s' in raw:
