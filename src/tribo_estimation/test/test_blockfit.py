@@ -315,7 +315,7 @@ def test_csv_roundtrip_keeps_columns_and_flags(tmp_path) -> None:
         for x in res:
             w.write(x)
     header = path.read_text().splitlines()[0].split(',')
-    assert tuple(header) == CSV_COLUMNS
+    assert tuple(header) == (*CSV_COLUMNS, 'spikes')
     issue_columns = (
         't_start,t_end,mu0,mu_inf,mu0_se,mu_inf_se,moment_min,moment_max,moment_mean,'
         'motion,n_sticks,stick_fraction,rms_residual'

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tribo_bringup import cli
-from tribo_estimation.core.blockfit import CSV_COLUMNS, read_blocks_csv
+from tribo_estimation.core.blockfit import BLOCKS_CSV_HEADER, read_blocks_csv
 from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
 from tribo_estimation.core.rigio import write_rig_csv
 from tribo_estimation.core.simulate import NoiseSpec, SimResult, simulate
@@ -59,7 +59,7 @@ def test_csv_run_writes_blocks_and_figures(tmp_path: Path) -> None:
     assert _main(str(_csv(tmp_path / 'run.csv')), '--rig', str(RIG_YAML), '--out', str(out)) == 0
     with open(out / 'blocks.csv', newline='') as fh:
         header = next(csv.reader(fh))
-    assert tuple(header) == CSV_COLUMNS
+    assert tuple(header) == BLOCKS_CSV_HEADER
     tab = read_blocks_csv(out / 'blocks.csv')
     assert len(tab['t_start']) == 3
     assert tab['quality'][0].startswith('startup')

@@ -209,9 +209,11 @@ CSV_COLUMNS: tuple[str, ...] = (
     'n_sticks',
     'stick_fraction',
     'rms_residual',
-    'spikes',
     'quality',
 )
+#: Header of ``blocks.csv``: :data:`CSV_COLUMNS`, then the spike count of each block
+#: (samples repaired before the fit, core.plausibility).
+BLOCKS_CSV_HEADER: tuple[str, ...] = (*CSV_COLUMNS, 'spikes')
 
 
 def _fmt(v: float) -> str:
@@ -228,7 +230,7 @@ class BlockCsvWriter:
         self.path = os.fspath(path)
         self._fh: TextIO = open(self.path, 'w', newline='', encoding='utf-8')  # noqa: SIM115
         self._w = csv.writer(self._fh, lineterminator='\n')
-        self._w.writerow(CSV_COLUMNS)
+        self._w.writerow(BLOCKS_CSV_HEADER)
         self._fh.flush()
         self.rows = 0
 
@@ -249,8 +251,8 @@ class BlockCsvWriter:
                 str(r.n_sticks),
                 _fmt(r.stick_fraction),
                 _fmt(r.rms_residual),
-                str(r.spikes),
                 r.quality_str,
+                str(r.spikes),
             ]
         )
         self._fh.flush()
@@ -284,12 +286,12 @@ def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
         reader = csv.DictReader(fh)
         cols = reader.fieldnames or []
         for c in CSV_COLUMNS:
-            if c not in cols and c != 'spikes':  # spikes: added later, 0 if absent
+            if c not in cols:
                 raise MissingColumnError(f'{p}: missing column {c!r} in blocks table')
         rows = list(reader)
     out: dict[str, np.ndarray] = {}
     for c in CSV_COLUMNS:
-        vals = [r.get(c) or '0' for r in rows] if c == 'spikes' else [r[c] for r in rows]
+        vals = [r[c] for r in rows]
         if c in ('motion', 'quality'):
             out[c] = np.array(vals, dtype=object)
         else:
