@@ -290,3 +290,14 @@ def test_days_since_reference_beyond_60_half_lives_refused(tmp_path: Path) -> No
     raw['days_since_reference'] = 1e5  # 1300 half-lives of Co-56: exp() overflowed
     with pytest.raises(NvctConfigError, match='more than 60 half-lives of Co-56'):
         config_from_dict(raw, NVCT.parent, 'nvct.yaml')
+
+
+def test_tiny_nvct_values_refused(tmp_path: Path) -> None:
+    from tribo_common.yamlio import load_yaml
+    from tribo_nvct.core.config import config_from_dict
+    from tribo_nvct.errors import NvctConfigError
+
+    raw = load_yaml(NVCT, NvctConfigError)
+    raw['stroke_m'] = 6e-261  # with frequency_hz 6e-261: sliding distance underflowed to 0
+    with pytest.raises(NvctConfigError, match='stroke_m = 6e-261 is implausibly small'):
+        config_from_dict(raw, NVCT.parent, 'nvct.yaml')

@@ -86,7 +86,7 @@ def find_spikes(x: FloatArray, scale: float) -> npt.NDArray[np.bool_]:
     """Mask of isolated spikes and gross outliers in ``x``.
 
     ``scale`` is the channel's physical scale (same unit as ``x``): a sample
-    more than ``GROSS_FACTOR * scale`` from zero is always an outlier; otherwise
+    more than ``GROSS_FACTOR * scale`` from zero (``scale > 0``) is always an outlier; otherwise
     (not within two samples of either end, where a step cannot be told from a
     spike) a spike needs a residual above ``SPIKE_SIGMA`` robust
     standard deviations and above ``SPIKE_RANGE`` times the channel's
@@ -106,8 +106,8 @@ def find_spikes(x: FloatArray, scale: float) -> npt.NDArray[np.bool_]:
         sigma = mad_sigma(good) if good.size else 0.0
         lo, hi = np.percentile(xs, [1.0, 99.0])
         span = float(hi - lo) if math.isfinite(float(hi - lo)) else math.inf
-        thr = max(SPIKE_SIGMA * sigma, SPIKE_RANGE * span, 1e-12 * scale)
-        gross = np.abs(xs) > GROSS_FACTOR * scale
+        thr = max(SPIKE_SIGMA * sigma, SPIKE_RANGE * span, 1e-12 * max(scale, 0.0))
+        gross = np.abs(xs) > GROSS_FACTOR * scale if scale > 0 else np.zeros(n, dtype=bool)
         out: npt.NDArray[np.bool_] = bad | gross | ~np.isfinite(res) | (res > thr)
     return out
 
@@ -303,8 +303,7 @@ def despike_chunk(
     torsion: FloatArray, accel: FloatArray, speed: FloatArray, scales: Scales
 ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
     """Repair spikes of the three channels; returns them and the union mask."""
-    st = max(scales.torque, 1e-9)
-    sa = max(scales.accel, 1e-9)
+    st, sa = scales.torque, scales.accel  # 0 (no F_N): no gross bound, spikes only
     sv = max(scales.speed, 1.0)
     mt, ma, mv = find_spikes(torsion, st), find_spikes(accel, sa), find_spikes(speed, sv)
     return repair(torsion, mt), repair(accel, ma), repair(speed, mv), mt | ma | mv

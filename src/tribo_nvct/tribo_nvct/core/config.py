@@ -69,6 +69,10 @@ CIRCUIT_KEYS = frozenset(
     }
 )
 
+#: Smallest value of a key that must be > 0 (smaller ones underflow in products such
+#: as the sliding distance stroke * frequency * time, Equ. 10).
+TINY = 1e-30
+
 #: Largest plausible value of a key (in the key's own unit): larger values are
 #: unit mistakes or typos (e.g. ``load_N: 1e308``) and are refused.
 UPPER: dict[str, float] = {
@@ -181,6 +185,8 @@ def _value(v: Any, key: str, src: str, *, lo: float = 0.0, strict: bool = True) 
     if not math.isfinite(x) or (x <= lo if strict else x < lo):
         rel = '>' if strict else '>='
         raise NvctConfigError(f'{src}: {key} must be finite and {rel} {lo:g}, got {v!r}')
+    if strict and lo == 0.0 and x < TINY:
+        raise NvctConfigError(f'{src}: {key} = {x:g} is implausibly small (< {TINY:g})')
     hi = UPPER.get(key)
     if hi is not None and x > hi:
         raise NvctConfigError(f'{src}: {key} = {x:g} exceeds the plausible maximum {hi:g}')
