@@ -46,7 +46,10 @@ def register(sub: Any) -> None:
         '(paper Equ. 8) block by block from the torsion moment, the chamber acceleration '
         'and the shaft speed of a recorded session. Writes OUT/blocks.csv (one row per '
         'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
-        'fit_failed, short) and the figures blocks.png, mu_slip.png and detail.png.',
+        'fit_failed, short, spikes; the last column counts the spike samples replaced '
+        'before the fit) and the figures blocks.png, mu_slip.png and detail.png. The '
+        'channels are checked against the rig first: a torque in N mm, a speed in rpm or '
+        'a time in ms is named (exit 2); nothing is left in OUT on an error.',
     )
     p.add_argument(
         'input', help='rig CSV (time,torsion_moment,angular_acceleration,speed in SI) or a bag'
