@@ -26,7 +26,7 @@ PYTEST_ARGS ?=
 # test processes (pytest-xdist): the suite waits much on subprocesses and DDS
 PYTEST_JOBS ?= 2
 
-.PHONY: help setup build test lint bench demo clean distclean
+.PHONY: help setup build test fuzz lint bench demo clean distclean
 
 help:
 	@echo 'make demo   - run the demo on the simulated rig (main job)'
@@ -34,6 +34,7 @@ help:
 	@echo 'make setup  - install .venv and build the workspace (done by demo/test as needed)'
 	@echo 'make bench  - run the benchmarks (speed and accuracy figures)'
 	@echo 'make lint   - ruff and mypy'
+	@echo 'make fuzz   - the property-based bad-input suite, long profile (10,000 inputs per command)'
 
 setup: $(ROOT)/.setup-done
 
@@ -74,6 +75,15 @@ test: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) mypy $(MYPY_PATHS)
 	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
+
+# Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
+# runs its short profile): FUZZ_EXAMPLES generated bad inputs per command.
+FUZZ_EXAMPLES ?= 10000
+fuzz: setup
+	@echo '[fuzz] $(FUZZ_EXAMPLES) generated bad inputs per command and decoder'
+	@$(IN_ENV) HYPOTHESIS_PROFILE=fuzz HYPOTHESIS_MAX_EXAMPLES=$(FUZZ_EXAMPLES) python -m pytest -q \
+	  -n $(PYTEST_JOBS) --timeout=0 --hypothesis-show-statistics tests/test_fuzz_commands.py \
+	  tests/test_fuzz_decoders.py
 
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py

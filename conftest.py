@@ -9,6 +9,32 @@ from __future__ import annotations
 
 import os
 
+try:  # property-based suite (tests/test_fuzz_*.py): HYPOTHESIS_PROFILE=ci (default) or fuzz
+    from hypothesis import HealthCheck, settings
+
+    _quiet_checks = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much]
+    # ci: a few examples per command (the whole fuzz suite in ~30 s), reproducible
+    settings.register_profile(
+        'ci',
+        max_examples=4,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=_quiet_checks,
+    )
+    # fuzz (make fuzz): 10,000 generated bad inputs per command
+    settings.register_profile(
+        'fuzz', max_examples=10_000, deadline=None, suppress_health_check=_quiet_checks
+    )
+    settings.load_profile(os.environ.get('HYPOTHESIS_PROFILE', 'ci'))
+    if os.environ.get('HYPOTHESIS_MAX_EXAMPLES', '').isdigit():  # e.g. a shorter fuzz run
+        settings.register_profile(
+            'custom', settings(max_examples=int(os.environ['HYPOTHESIS_MAX_EXAMPLES']))
+        )
+        settings.load_profile('custom')
+except ImportError:  # hypothesis is pinned in requirements.txt; tolerate its absence
+    pass
+
 _worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
 _index = int(_worker[2:]) if _worker.startswith('gw') and _worker[2:].isdigit() else 0
 os.environ['ROS_DOMAIN_ID'] = str(11 + 40 * (_index % 3) + os.getpid() % 30)

@@ -1,5 +1,6 @@
 """Analysis commands on a bag whose recording was cut off: the good part is analysed
-and written, then one error line names the file and the last good message (exit 2)."""
+and written into OUT/partial/, then one error line names the file and the last good
+message (exit 2)."""
 
 from __future__ import annotations
 
@@ -46,7 +47,8 @@ def test_friction_writes_good_blocks_then_names_the_damage(cut_bag: Path, tmp_pa
     assert r.returncode == 2, r.stderr
     last = r.stderr.strip().splitlines()[-1]
     assert str(cut_bag) in last and 'last good message #' in last, last
-    with (out / 'blocks.csv').open() as f:
+    assert not (out / 'blocks.csv').exists()  # nothing that looks like a whole result
+    with (out / 'partial' / 'blocks.csv').open() as f:
         rows = list(csv.DictReader(f))
     # two complete chunks (about 8 s): at least 7 whole blocks are there and fitted
     assert len(rows) >= 7

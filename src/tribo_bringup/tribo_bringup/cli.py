@@ -3,8 +3,13 @@
 Each subcommand lives in :mod:`tribo_bringup.commands` as a module exposing
 ``register(subparsers)``; the module adds its parser and sets
 ``func=<callable(args) -> int>``. Bad input raised as one of the packages'
-specific errors (or ``ValueError``/``OSError``) is answered with one line on
-stderr and exit code 2; no traceback.
+specific errors (subclasses of ``EstimationError``, ``NvctError``,
+``DriverError``, ``BringupError``), a bad option value (argparse) or an
+``OSError`` naming a file (missing input, unwritable ``--out``) is answered
+with one line on stderr and exit code 2; no traceback. Anything else is a bug:
+its traceback is shown with a line asking to report it, exit code 1. Ctrl-C
+ends any command with exit code 130 (outputs are written atomically, so
+nothing partial is left).
 """
 
 from __future__ import annotations
@@ -12,7 +17,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import traceback
 from collections.abc import Sequence
+from typing import NoReturn
 
 #: Subcommand modules in the order ``tribo --help`` lists them. A module that
 #: is missing (work in progress) is skipped, never a crash of the whole CLI.
@@ -31,11 +38,13 @@ COMMANDS: tuple[str, ...] = (
 )
 
 EXIT_BAD_INPUT = 2
+EXIT_BUG = 1
+EXIT_INTERRUPTED = 130
 
 
 def _error_types() -> tuple[type[BaseException], ...]:
     """Collect the packages' base error classes (each package has one errors.py)."""
-    types: list[type[BaseException]] = [ValueError, OSError, KeyError]
+    types: list[type[BaseException]] = []
     for mod_name, cls_name in (
         ('tribo_estimation.errors', 'EstimationError'),
         ('tribo_nvct.errors', 'NvctError'),
@@ -52,9 +61,17 @@ def _error_types() -> tuple[type[BaseException], ...]:
     return tuple(types)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (no usage block), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        first = message.strip().splitlines()[0] if message.strip() else 'bad arguments'
+        self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {first} (see {self.prog} --help)\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser with every available subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog='tribo',
         description='Model-assisted tribometry on a ROS 2 graph: stick-slip friction '
         'estimation and nVCT wear measurement.',
@@ -75,18 +92,45 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``tribo`` command; returns the process exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print(f'tribo {args.command}: interrupted', file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except _error_types() as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        if isinstance(exc, KeyError):
-            msg = f'missing key {msg}'
-        print(f'tribo {args.command}: error: {msg}', file=sys.stderr)
+        print(f'tribo {args.command}: error: {_one_line(exc)}', file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:
+        if exc.filename is None:
+            return _report_bug(args.command)
+        reason = exc.strerror or type(exc).__name__
+        print(f'tribo {args.command}: error: {exc.filename}: {reason}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception:
+        return _report_bug(args.command)
+
+
+def _report_bug(command: str) -> int:
+    """Print the traceback of the exception being handled and ask for a report."""
+    traceback.print_exc()
+    print(
+        f'tribo {command}: internal error (a bug, not your input): please report it '
+        'with the traceback above and the command line',
+        file=sys.stderr,
+    )
+    return EXIT_BUG
+
+
+def _one_line(exc: BaseException) -> str:
+    """The first non-empty line of an error message (the class name if empty)."""
+    for line in str(exc).splitlines():
+        if line.strip():
+            return line.strip()
+    return type(exc).__name__
 
 
 if __name__ == '__main__':

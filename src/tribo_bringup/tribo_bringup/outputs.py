@@ -90,3 +90,23 @@ def atomic_output_file(path: Path | str) -> Iterator[Path]:
     if not tmp.exists():
         return
     os.replace(tmp, path)
+
+
+#: Sub-directory of ``--out`` that receives the results of the good part of a
+#: damaged input (a cut bag): never mistaken for the results of the whole input.
+PARTIAL_DIR = 'partial'
+
+
+def keep_as_partial(stage: Path) -> Path:
+    """Move everything written into ``stage`` so far into ``stage/partial/``.
+
+    For a command that analysed the good part of a damaged input and will exit
+    with an error: on leaving :func:`atomic_output_dir` the results land in
+    ``OUT/partial/`` instead of ``OUT/``. Returns the partial directory.
+    """
+    part = stage / PARTIAL_DIR
+    part.mkdir(exist_ok=True)
+    for item in sorted(stage.iterdir()):
+        if item != part:
+            os.replace(item, part / item.name)
+    return part

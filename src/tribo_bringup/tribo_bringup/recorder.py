@@ -24,7 +24,7 @@ from typing import Any
 from rclpy.node import Node
 
 from tribo_bringup import bagio
-from tribo_bringup.errors import BagError
+from tribo_bringup.errors import BagError, ConfigError
 from tribo_common import topics as topic_table
 from tribo_common.qos import data_qos, qos_for_topic, status_qos
 
@@ -93,7 +93,7 @@ class Recorder(Node):
     ) -> None:
         super().__init__('tribo_recorder')
         if not flush_period >= 0.0:
-            raise ValueError(f'flush period must be >= 0 s, got {flush_period!r}')
+            raise ConfigError(f'flush period must be >= 0 s, got {flush_period!r}')
         self._writer = writer
         self._flush_period = flush_period
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
@@ -213,7 +213,7 @@ class Replayer(Node):
     def __init__(self, bag: str | Path, topics: Iterable[str] | None = None, rate: float = 1.0):
         super().__init__('tribo_replay')
         if rate < 0:
-            raise ValueError(f'--rate must be >= 0, got {rate}')
+            raise ConfigError(f'--rate must be >= 0, got {rate}')
         self.bag = Path(bag)
         self.rate = rate
         self.topics = set(topics) if topics is not None else None

@@ -58,3 +58,18 @@ class AlignmentError(InvalidDataError):
 
 class FitError(EstimationError):
     """The block fit could not produce an estimate (too little or unusable data)."""
+
+
+class TimeBaseError(InvalidDataError):
+    """The time column gives no usable sample rate (wrong unit, outside 0.1-100 kHz)."""
+
+
+class IrregularSamplingError(TimeBaseError):
+    """Sample times do not lie on one regular grid (names the time and the line)."""
+
+
+class UnknownCandidateError(EstimationError, KeyError):
+    """A candidate effect name that is not registered (names the known ones)."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ''

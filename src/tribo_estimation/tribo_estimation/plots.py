@@ -26,6 +26,8 @@ import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from tribo_estimation.errors import InvalidDataError
+
 FloatArray = npt.NDArray[np.float64]
 BlockTable = Mapping[str, np.ndarray]
 
@@ -253,7 +255,7 @@ def plot_campaign(
 
     Returns the grid (rows, columns)."""
     if not runs:
-        raise ValueError('campaign: no runs to plot')
+        raise InvalidDataError('campaign: no runs to plot')
     groups: list[str] = []
     for r in runs:
         if r.group not in groups:

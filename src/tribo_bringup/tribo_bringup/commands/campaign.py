@@ -43,20 +43,17 @@ def register(sub: Any) -> None:
 
 
 def _runs_from_spec(path: Path) -> tuple[str, list[tuple[Path, str, str]]]:
-    import yaml
+    from tribo_common.yamlio import check_keys, load_yaml
 
-    try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f'{path}: cannot read campaign spec ({exc.strerror})') from exc
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'{path}: invalid YAML ({exc})') from exc
+    data = load_yaml(path, ConfigError, 'campaign spec')
     if not isinstance(data, dict) or not isinstance(data.get('runs'), list) or not data['runs']:
         raise ConfigError(f'{path}: expected a mapping with a non-empty list "runs"')
     runs: list[tuple[Path, str, str]] = []
+    check_keys(data, ('title', 'runs'), str(path), ConfigError)
     for i, item in enumerate(data['runs']):
         if not isinstance(item, dict) or 'dir' not in item:
             raise ConfigError(f'{path}: runs[{i}] needs a "dir" key')
+        check_keys(item, ('dir', 'label', 'group'), f'{path}: runs[{i}]', ConfigError)
         d = Path(str(item['dir']))
         if not d.is_absolute():
             d = path.parent / d
@@ -90,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
         if not f.is_file():
             raise ConfigError(f'{d}: no blocks.csv (run `tribo friction ... --out {d}` first)')
         items.append(CampaignRun(label, group, read_blocks_csv(f)))
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    plot_campaign(items, out, title)
+    from tribo_bringup.outputs import atomic_output_file
+
+    with atomic_output_file(args.out) as tmp:
+        plot_campaign(items, tmp, title)
     return 0

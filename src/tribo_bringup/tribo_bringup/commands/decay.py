@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
+
+from tribo_bringup.argtypes import bounded_float
 
 
 def register(sub: Any) -> None:
@@ -33,26 +36,48 @@ def register(sub: Any) -> None:
     )
     p.add_argument('input', metavar='INPUT.csv', help='rig CSV of a free decay')
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
-    p.add_argument('--t-start', type=float, default=None, metavar='S', help='use t >= S [s]')
-    p.add_argument('--t-end', type=float, default=None, metavar='S', help='use t <= S [s]')
+    p.add_argument(
+        '--t-start',
+        type=bounded_float(0.0, 1e7, unit='s'),
+        default=None,
+        metavar='S',
+        help='use t >= S [s] after the first sample',
+    )
+    p.add_argument(
+        '--t-end',
+        type=bounded_float(0.0, 1e7, unit='s'),
+        default=None,
+        metavar='S',
+        help='use t <= S [s] after the first sample',
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the identification; returns the exit code."""
+    from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.decay import identify_free_decay
-    from tribo_estimation.core.rigio import read_rig_csv
+    from tribo_estimation.core.plausibility import Scales, check_time_base, despike_chunk
+    from tribo_estimation.core.rigio import read_rig_csv, regularise
 
-    rec = read_rig_csv(args.input)
-    res = identify_free_decay(
-        rec.time,
+    rec, grid = regularise(read_rig_csv(args.input), str(args.input))
+    check_time_base(grid.fs, str(args.input))
+    torque, accel, _, spikes = despike_chunk(
         rec.torsion_moment,
         rec.angular_acceleration,
+        rec.speed,
+        Scales.from_data(rec.torsion_moment, rec.angular_acceleration, rec.speed),
+    )
+    if spikes.any():
+        print(f'decay: {int(spikes.sum())} spike samples replaced', file=sys.stderr)
+    res = identify_free_decay(
+        rec.time,
+        torque,
+        accel,
         t_start=args.t_start,
         t_end=args.t_end,
     )
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     data: dict[str, object] = {
         **res.to_dict(),
         'units': {
@@ -65,8 +90,10 @@ def run(args: argparse.Namespace) -> int:
             'accel_offset': 'rad/s^2',
         },
         'input': str(args.input),
+        'time_origin_s': grid.t0,
     }
-    (out / 'decay.json').write_text(json.dumps(data, indent=2) + '\n')
+    with atomic_output_dir(out) as stage:
+        (stage / 'decay.json').write_text(json.dumps(data, indent=2) + '\n')
     print(
         f'I1 = {res.I1:.6g} +- {res.I1_se:.2g} kg m^2, K1 = {res.K1:.5g} +- {res.K1_se:.2g} '
         f'N m s/rad, C1 = {res.C1:.6g} +- {res.C1_se:.2g} N m/rad, f_n = {res.f_n_hz:.4f} Hz, '

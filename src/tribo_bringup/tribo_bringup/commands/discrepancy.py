@@ -19,6 +19,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.argtypes import bounded_float, bounded_int
+
 
 def register(sub: Any) -> None:
     """Add the ``discrepancy`` subcommand."""
@@ -48,14 +50,14 @@ def register(sub: Any) -> None:
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     p.add_argument(
         '--start',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=0.0,
         metavar='S',
         help='analyse from this time after the first sample [s] (0)',
     )
     p.add_argument(
         '--duration',
-        type=float,
+        type=bounded_float(0.0, 1e7, unit='s'),
         default=0.0,
         metavar='S',
         help='analyse this many seconds (0: to the end) [s]',
@@ -67,11 +69,15 @@ def register(sub: Any) -> None:
         help='comma-separated candidate effects to try (default: the whole library)',
     )
     p.add_argument(
-        '--max-effects', type=int, default=3, metavar='N', help='most effects to add (3)'
+        '--max-effects',
+        type=bounded_int(0, 20),
+        default=3,
+        metavar='N',
+        help='most effects to add (3)',
     )
     p.add_argument(
         '--min-gain',
-        type=float,
+        type=bounded_float(0.0, 100.0),
         default=0.25,
         metavar='F',
         help='relative held-out improvement needed to add an effect (0.25)',
@@ -85,9 +91,13 @@ def _say(msg: str) -> None:
 
 
 def _load_csv(path: Path) -> tuple[Any, Any, Any, Any]:
-    from tribo_estimation.core.rigio import read_rig_csv
+    """Channels of a rig CSV on a regular time base from its first sample [s]
+    (epoch stamps made relative, jitter resampled: core.rigio.regularise)."""
+    from tribo_estimation.core.rigio import read_rig_csv, regularise
 
-    rec = read_rig_csv(path)
+    rec, grid = regularise(read_rig_csv(path), str(path))
+    if grid.max_jitter >= 0.01:
+        _say(f'time stamps jitter up to {grid.max_jitter:.1%} of the interval: resampled')
     return rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed
 
 
@@ -108,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from tribo_bringup.errors import ConfigError
+    from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
     from tribo_estimation.core.discrepancy import candidates as cand_lib
@@ -149,6 +160,26 @@ def run(args: argparse.Namespace) -> int:
             f'{src}: the window start {args.start} s, duration {args.duration} s holds '
             f'{int(np.count_nonzero(sel))} samples (need >= 100)'
         )
+    from tribo_estimation.core.plausibility import (
+        Scales,
+        check_channels,
+        check_time_base,
+        despike_chunk,
+    )
+
+    scales = Scales.of(cfg.rig, cfg.friction, cfg.drive.nominal_speed)
+    fs_est = (t.size - 1) / float(t[-1] - t[0]) if t.size > 1 else math.nan
+    check_time_base(fs_est, str(src), scales.f_stick_slip)
+    torque, accel, speed, spk = despike_chunk(
+        np.asarray(torque, dtype=np.float64),
+        np.asarray(accel, dtype=np.float64),
+        np.asarray(speed, dtype=np.float64),
+        scales,
+    )
+    for w in check_channels(torque[sel], accel[sel], speed[sel], scales, str(src)):
+        _say(f'warning: {w}')
+    if int(np.count_nonzero(spk)):
+        _say(f'{int(np.count_nonzero(spk))} spike samples replaced by interpolation')
     record = Record(
         np.ascontiguousarray(t[sel], dtype=np.float64),
         np.ascontiguousarray(torque[sel], dtype=np.float64),
@@ -162,15 +193,16 @@ def run(args: argparse.Namespace) -> int:
     result = run_discrepancy(
         record, cfg.rig, cfg.drive, k=cfg.friction.k, settings=settings, progress=_say
     )
+    if truncated is not None:
+        raise truncated  # nothing is written for a damaged bag; exit 2 names the damage
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = write_json(result, out / 'discrepancy.json')
-    _say(f'wrote {path}')
-    if not args.no_plots:
-        from tribo_estimation.core.discrepancy.plots import write_plots
+    with atomic_output_dir(out) as stage:
+        write_json(result, stage / 'discrepancy.json')
+        if not args.no_plots:
+            from tribo_estimation.core.discrepancy.plots import write_plots
 
-        for p in write_plots(result, out):
-            _say(f'wrote {p}')
+            write_plots(result, stage)
+    _say(f'wrote {out / "discrepancy.json"}' + ('' if args.no_plots else ' and the plots'))
     if result.drive.get('warning'):
         _say(f'warning: {result.drive["warning"]}')
     added = ', '.join(a.effect for a in result.added) or 'nothing'
@@ -178,6 +210,4 @@ def run(args: argparse.Namespace) -> int:
         f'added: {added}; torque residual rms {result.baseline.rms:.4g} -> '
         f'{result.final.rms:.4g} N m; unexplained: {len(result.unexplained)}'
     )
-    if truncated is not None:
-        raise truncated  # the good part is analysed and written; exit 2 names the damage
     return 0

@@ -11,6 +11,7 @@ the length of the session.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -20,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from tribo_bringup.errors import BagError
+from tribo_bringup.argtypes import bounded_float
+from tribo_bringup.errors import BagError, BagTruncatedError
 
 #: Observer samples kept per block for the mu-vs-slip-speed figure.
 _POINTS_PER_BLOCK = 60
@@ -37,7 +39,10 @@ def register(sub: Any) -> None:
         '(paper Equ. 8) block by block from the torsion moment, the chamber acceleration '
         'and the shaft speed of a recorded session. Writes OUT/blocks.csv (one row per '
         'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
-        'fit_failed, short) and the figures blocks.png, mu_slip.png and detail.png.',
+        'fit_failed, short, spikes; the last column counts the spike samples replaced '
+        'before the fit) and the figures blocks.png, mu_slip.png and detail.png. The '
+        'channels are checked against the rig first: a torque in N mm, a speed in rpm or '
+        'a time in ms is named (exit 2); nothing is left in OUT on an error.',
     )
     p.add_argument(
         'input', help='rig CSV (time,torsion_moment,angular_acceleration,speed in SI) or a bag'
@@ -45,7 +50,11 @@ def register(sub: Any) -> None:
     p.add_argument('--rig', required=True, help='RIG.yaml with the rig parameters (SI)')
     p.add_argument('--out', required=True, help='output directory (created if needed)')
     p.add_argument(
-        '--block', type=float, default=1.0, metavar='S', help='block length [s] (default 1.0)'
+        '--block',
+        type=bounded_float(0.01, 600.0, unit='s'),
+        default=1.0,
+        metavar='S',
+        help='block length [s] (default 1.0)',
     )
     p.add_argument('--fit-k', action='store_true', help='also fit the Stribeck constant k [s/rad]')
     p.add_argument(
@@ -66,45 +75,61 @@ def _is_bag(path: Path) -> bool:
     return path.is_dir() or path.suffix in ('.mcap', '.db3')
 
 
-def csv_events(path: Path) -> Iterator[Any]:
+def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
     """Aligner events (chunks and gaps) from a rig CSV read block by block.
 
-    The sample index is ``round((t - t_first)*fs)``; a time step that skips
-    samples becomes a :class:`GapEvent` (never bridged).
+    The rate comes from the first block (:func:`~tribo_estimation.core.rigio.estimate_rate`;
+    epoch or relative stamps); each sample's index from the grid through the previous
+    block's last sample, stamps that jitter are resampled onto the grid (largest jitter
+    in sample intervals appended to ``jitter``), a time step that skips samples
+    becomes a :class:`GapEvent` (never bridged), a sample off the grid is an error
+    naming its line.
     """
     from tribo_estimation.core.align import AlignedChunk, GapEvent
-    from tribo_estimation.core.rigio import iter_rig_csv
-    from tribo_estimation.errors import InvalidDataError
+    from tribo_estimation.core.rigio import (
+        centred_anchor,
+        estimate_rate,
+        grid_positions,
+        iter_rig_csv,
+        resample_on_grid,
+    )
 
     fs: float | None = None
     t_first = math.nan
+    t_ref = math.nan
+    idx_ref = 0
     next_index: int | None = None
     for rec in iter_rig_csv(path, 10_000):
         t = rec.time
         if fs is None:
-            if len(rec) < 2:
-                raise InvalidDataError(f'{path}: need at least two samples to find the rate')
-            fs = float(round(1.0 / float(np.median(np.diff(t[: min(len(t), 1000)]))), 6))
-            t_first = float(t[0])
-        idx = np.rint((t - t_first) * fs).astype(np.int64)
+            fs = estimate_rate(t, str(path))
+            t_first = t_ref = centred_anchor(t, fs)
+        lines = rec.first_line + np.arange(len(t))
+        after = None if next_index is None else next_index - 1
+        idx, frac = grid_positions(t, fs, t_ref, idx_ref, str(path), lines, after)
+        if jitter is not None and frac.size:
+            jitter.append(float(np.max(np.abs(frac))))
+        # next grid through this block's last sample, shifted by the block's mean offset
+        # (follows a rate that differs from the estimate in its 7th digit, averages jitter)
+        t_ref = float(t[-1]) - (float(frac[-1]) - float(np.mean(frac))) / fs
+        idx_ref = int(idx[-1])
+        chans = [
+            resample_on_grid(idx, frac, c)
+            for c in (rec.torsion_moment, rec.angular_acceleration, rec.speed)
+        ]
         cuts = np.flatnonzero(np.diff(idx) != 1) + 1
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(idx)], strict=True):
             a, b = int(a), int(b)
             first = int(idx[a])
             if next_index is not None and first != next_index:
-                if first < next_index:
-                    raise InvalidDataError(
-                        f'{path}: line {rec.first_line + a}: sample time {t[a]!r} s falls '
-                        'on an earlier sample instant (irregular sampling)'
-                    )
                 yield GapEvent(next_index, first, ('csv',), t_first + next_index / fs)
             yield AlignedChunk(
                 first,
-                float(t[a]),
+                t_first + first / fs,
                 fs,
-                rec.torsion_moment[a:b],
-                rec.angular_acceleration[a:b],
-                rec.speed[a:b],
+                chans[0][a:b],
+                chans[1][a:b],
+                chans[2][a:b],
             )
             next_index = int(idx[b - 1]) + 1
 
@@ -167,13 +192,20 @@ class _Collector:
 
 def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
-    from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
+    from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
+    from tribo_estimation.core.blockfit import (
+        BlockConfig,
+        BlockCsvWriter,
+        BlockEstimator,
+        with_flags,
+    )
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.drive import MISMATCH_LIMIT
+    from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
 
     src = Path(args.input)
     if not src.exists():
-        raise FileNotFoundError(f'{src}: no such file or bag')
+        raise BagError(f'{src}: no such file or bag')
     cfg_rig = load_rig_config(args.rig)
     nominal = cfg_rig.drive.nominal_speed
     cfg = BlockConfig(
@@ -183,18 +215,31 @@ def run(args: argparse.Namespace) -> int:
         ramp_time=cfg_rig.drive.ramp_time,
     )
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
-    events = bag_events(src, args.namespace) if _is_bag(src) else csv_events(src)
+    jitter: list[float] = []
+    raw_events = bag_events(src, args.namespace) if _is_bag(src) else csv_events(src, jitter)
+    scales = Scales.of(cfg_rig.rig, cfg_rig.friction, nominal)
+    spikes = SpikeLog()
+    warnings: list[str] = []
+    events = checked_chunks(raw_events, scales, str(src), spikes, warnings)
     fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
     coll = _Collector(fnr if fnr > 0 else 1.0)
     results = []
     t_wall = time.monotonic()
     last_report = t_wall
-    with BlockCsvWriter(out / 'blocks.csv') as writer:
+    with atomic_output_dir(out) as stage, BlockCsvWriter(stage / 'blocks.csv') as writer:
 
         def handle(det: Any) -> None:
             nonlocal last_report
+            while warnings:
+                print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)
+            r0 = det.result
+            n_spk = spikes.count(r0.first_index, r0.first_index + round(args.block * det.data.fs))
+            spikes.forget_before(r0.first_index)
+            if n_spk:
+                det = dataclasses.replace(
+                    det, result=with_flags(dataclasses.replace(r0, spikes=n_spk), 'spikes')
+                )
             writer.write(det.result)
             results.append(det.result)
             coll.add(det)
@@ -209,15 +254,27 @@ def run(args: argparse.Namespace) -> int:
                 )
                 last_report = now
 
-        for ev in events:
-            for det in est.feed(ev):
+        truncated: BagTruncatedError | None = None
+        try:
+            for ev in events:
+                for det in est.feed(ev):
+                    handle(det)
+        except BagTruncatedError as exc:
+            truncated = exc  # the blocks before the damage are kept in OUT/partial/
+        if truncated is None:
+            for det in est.finish():
                 handle(det)
-        for det in est.finish():
-            handle(det)
-    if not results:
-        raise BagError(f'{src}: no complete block of data')
-    if not args.no_plots:
-        _plots(out, results, coll, cfg_rig.friction.k)
+        if not results:
+            raise truncated or BagError(f'{src}: no complete block of data')
+        if not args.no_plots:
+            _plots(stage, results, coll, cfg_rig.friction.k)
+        if truncated is not None:
+            writer.close()
+            keep_as_partial(stage)
+    if truncated is not None:
+        raise BagTruncatedError(f'{truncated} (blocks before it in {out / PARTIAL_DIR})')
+    for w in warnings:
+        print(f'friction: warning: {w}', file=sys.stderr)
     n_ok = sum(r.ok for r in results)
     off = [
         r
@@ -237,6 +294,14 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not args.quiet:
+        if jitter and max(jitter) >= 0.01:
+            print(
+                f'friction: time stamps jitter up to {max(jitter):.1%} of the sample interval: '
+                'resampled onto the regular grid',
+                file=sys.stderr,
+            )
+        if spikes.total:
+            print(f'friction: {spikes.total} spike samples replaced', file=sys.stderr)
         print(
             f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '
             f'in {time.monotonic() - t_wall:.1f} s',

@@ -7,6 +7,8 @@ import sys
 import time
 from typing import Any
 
+from tribo_bringup.errors import ConfigError
+
 
 def register(sub: Any) -> None:
     """Add the ``record`` subcommand."""
@@ -45,9 +47,9 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Record until the duration is over, Ctrl-C, or a recording error (exit 2)."""
     if args.duration < 0:
-        raise ValueError(f'--duration must be >= 0, got {args.duration}')
+        raise ConfigError(f'--duration must be >= 0, got {args.duration}')
     if args.idle_stop < 0:
-        raise ValueError(f'--idle-stop must be >= 0, got {args.idle_stop}')
+        raise ConfigError(f'--idle-stop must be >= 0, got {args.idle_stop}')
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         names = ['/' + t.lstrip('/') for t in args.topics]
         unknown = [t for t in names if t not in bagio.TOPIC_TYPES]
         if unknown:
-            raise ValueError(
+            raise ConfigError(
                 f'unknown topic(s) {", ".join(unknown)}; known: {", ".join(bagio.TOPIC_TYPES)}'
             )
         topics = {t: bagio.TOPIC_TYPES[t] for t in names}

@@ -9,6 +9,8 @@ from typing import Any
 
 def register(sub: Any) -> None:
     """Add the ``replay`` subcommand."""
+    from tribo_bringup.argtypes import bounded_float
+
     p = sub.add_parser(
         'replay',
         help='publish a recorded bag with its timing',
@@ -16,7 +18,12 @@ def register(sub: Any) -> None:
         '(scaled by --rate), with the lossless data QoS.',
     )
     p.add_argument('bag', help='bag directory (or .mcap file)')
-    p.add_argument('--rate', type=float, default=1.0, help='speed factor (0: as fast as possible)')
+    p.add_argument(
+        '--rate',
+        type=bounded_float(1e-3, 1e3, zero_ok=True),
+        default=1.0,
+        help='speed factor (0: as fast as possible; else 0.001-1000)',
+    )
     p.add_argument('--topics', nargs='+', help='topics to replay (default: all)')
     p.add_argument(
         '--wait-subscribers',

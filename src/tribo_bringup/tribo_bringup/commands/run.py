@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.errors import ConfigError
 from tribo_bringup.paths import CONFIG
 
 
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     from tribo_common.topics import normalize_namespace
 
     if args.duration < 0:
-        raise ValueError(f'--duration must be >= 0, got {args.duration}')
+        raise ConfigError(f'--duration must be >= 0, got {args.duration}')
     nodes = select_nodes(args)
     overrides = rig_overrides(args.rig)
     overrides['sim_detector'] = {'sim_config': str(Path(args.detector).resolve())}

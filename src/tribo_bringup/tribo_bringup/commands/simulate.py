@@ -17,7 +17,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.argtypes import bounded_float, bounded_int
+
 CHUNK_S = 1.0
+#: Longest simulated time [s] (one day) and rate range [Hz]: a record beyond
+#: these is a typo, not an experiment (and would fill the disk).
+MAX_DURATION_S = 86_400.0
+FS_RANGE = (100.0, 100_000.0)
 
 
 def register(sub: Any) -> None:
@@ -38,19 +44,31 @@ def register(sub: Any) -> None:
         '  tribo decay /tmp/decay.csv --out /tmp/decay',
     )
     p.add_argument('--rig', required=True, metavar='RIG.yaml', help='rig parameters (SI)')
-    p.add_argument('--duration', required=True, type=float, metavar='S', help='simulated time [s]')
     p.add_argument(
-        '--fs', type=float, default=10_000.0, metavar='HZ', help='output rate [Hz] (10000)'
+        '--duration',
+        required=True,
+        type=bounded_float(0.0, MAX_DURATION_S, lo_open=True, unit='s'),
+        metavar='S',
+        help=f'simulated time [s] (up to {MAX_DURATION_S:g})',
+    )
+    p.add_argument(
+        '--fs',
+        type=bounded_float(*FS_RANGE, unit='Hz'),
+        default=10_000.0,
+        metavar='HZ',
+        help='output rate [Hz] (10000; 100-100000)',
     )
     p.add_argument(
         '--noise',
         action='store_true',
         help='add the measurement noise of RIG.yaml (noise_torque, noise_accel, noise_speed)',
     )
-    p.add_argument('--seed', type=int, default=None, metavar='N', help='noise seed')
+    p.add_argument(
+        '--seed', type=bounded_int(0, 2**63 - 1), default=None, metavar='N', help='noise seed'
+    )
     p.add_argument(
         '--speed',
-        type=float,
+        type=bounded_float(-1000.0, 1000.0, unit='rad/s'),
         default=None,
         metavar='RAD_S',
         help='override nominal_speed of RIG.yaml [rad/s]',
@@ -62,7 +80,7 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         '--phi0',
-        type=float,
+        type=bounded_float(-1.0, 1.0, unit='rad'),
         default=0.01,
         metavar='RAD',
         help='initial chamber deflection for --free-decay [rad] (0.01)',
@@ -77,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from tribo_bringup.outputs import atomic_output_file
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
     from tribo_estimation.core.rigio import RigCsvWriter
@@ -123,7 +142,10 @@ def run(args: argparse.Namespace) -> int:
     chunk = max(1, round(CHUNK_S * args.fs))
     done = 0
     state = initial
-    with RigCsvWriter(args.out, ('friction_moment', 'slip_speed', 'stick'), meta) as w:
+    with (
+        atomic_output_file(args.out) as tmp,
+        RigCsvWriter(tmp, ('friction_moment', 'slip_speed', 'stick'), meta) as w,
+    ):
         while done < n_total:
             n = min(chunk, n_total - done)
             r = simulate(

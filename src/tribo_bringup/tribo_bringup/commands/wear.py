@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tribo_bringup.argtypes import bounded_int
 from tribo_bringup.paths import CONFIG
 
 UM3 = 1e-18
@@ -69,7 +70,11 @@ def register(sub: Any) -> None:
         default=str(CONFIG / 'sim_detector.yaml'),
         help='simulated-detector configuration for --simulate (default: %(default)s)',
     )
-    p.add_argument('--seed', type=int, help='random seed for --simulate (default: from SIM.yaml)')
+    p.add_argument(
+        '--seed',
+        type=bounded_int(0, 2**63 - 1),
+        help='random seed for --simulate (default: from SIM.yaml)',
+    )
     p.set_defaults(func=run)
 
 
@@ -96,7 +101,10 @@ def _simulate(args: argparse.Namespace) -> int:
         f'progressive_rate_um3_per_min={tr["progressive_rate"] * 60 / UM3:.6g}, '
         f'running_in_volume_um3={tr["running_in_volume"] / UM3:.6g}'
     )
-    write_counts_csv(args.simulate, dwells, header)
+    from tribo_bringup.outputs import atomic_output_file
+
+    with atomic_output_file(args.simulate) as tmp:
+        write_counts_csv(tmp, dwells, header)
     print(f'wear: wrote {len(dwells)} simulated dwells to {args.simulate}', file=sys.stderr)
     return 0
 
@@ -268,6 +276,9 @@ def _write_csv(path: Path, pts: list[Any]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate one or several runs (or write a simulated counts file)."""
+    from tribo_bringup.errors import BagTruncatedError
+    from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
+
     if args.simulate:
         return _simulate(args)
     if not args.counts:
@@ -283,10 +294,24 @@ def run(args: argparse.Namespace) -> int:
         )
     nvcts = [Path(n) for n in args.nvct] * (len(inputs) if len(args.nvct) == 1 else 1)
     out = Path(args.out)
+    truncated: BagTruncatedError | None = None
+    with atomic_output_dir(out) as stage:
+        try:
+            _run_all(inputs, nvcts, stage, args)
+        except BagTruncatedError as exc:
+            keep_as_partial(stage)  # results of the good part, never taken for the whole
+            truncated = exc
+    if truncated is not None:
+        raise BagTruncatedError(f'{truncated} (results of the good part in {out / PARTIAL_DIR})')
+    return 0
+
+
+def _run_all(inputs: list[Path], nvcts: list[Path], out: Path, args: argparse.Namespace) -> int:
+    """Evaluate the runs into ``out`` (the staging directory of ``--out``)."""
     if len(inputs) == 1:
         s = _evaluate_run(inputs[0], nvcts[0], out, args)
         print(
-            f'wear: {out / "summary.json"}: total {_fmt(s["total_volume_um3"])} '
+            f'wear: {Path(args.out) / "summary.json"}: total {_fmt(s["total_volume_um3"])} '
             f'+- {_fmt(s.get("total_volume_combined_se_um3"))} um^3 at 180 min, progressive '
             f'{_fmt(s["progressive_rate_um3_per_min"])} '
             f'+- {_fmt(s.get("progressive_rate_combined_se_um3_per_min"))} um^3/min, '
@@ -337,7 +362,7 @@ def run(args: argparse.Namespace) -> int:
         from tribo_nvct.plots import plot_campaign_kw
 
         plot_campaign_kw(out / 'campaign_kw.png', rows)
-    print(f'wear: {len(rows)} runs, {out / "campaign.csv"}', file=sys.stderr)
+    print(f'wear: {len(rows)} runs, {Path(args.out) / "campaign.csv"}', file=sys.stderr)
     return 0
 
 

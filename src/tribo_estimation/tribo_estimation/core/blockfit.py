@@ -161,7 +161,7 @@ class BlockConfig:
 MOTIONS = ('stick-slip', 'slip-slip', 'steady')
 
 #: Quality flags; a block with any of them is not a good estimate.
-FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short')
+FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short', 'spikes')
 
 
 @dataclass(frozen=True)
@@ -187,6 +187,7 @@ class BlockResult:
             speed [-] (NaN: none configured); beyond 5 % the command warns.
         n_samples: valid samples used [-].
         n_iter: Levenberg-Marquardt iterations [-].
+        spikes: samples replaced as spikes before the fit (core.plausibility) [-].
     """
 
     index: int
@@ -211,6 +212,7 @@ class BlockResult:
     n_samples: int = 0
     n_iter: int = 0
     drive_mismatch: float = math.nan
+    spikes: int = 0
 
     @property
     def ok(self) -> bool:
@@ -244,14 +246,17 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 #: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
 #: fit used (``w0`` [rad/s], measured) and its relative deviation from the
-#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``. Older files
-#: without the two are read too.
-FILE_COLUMNS: tuple[str, ...] = (*CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality')
+#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``, and after it
+#: the spike count of each block (``spikes``: samples repaired before the fit,
+#: :mod:`.plausibility`). Older files without these are read too.
+FILE_COLUMNS: tuple[str, ...] = (
+    *CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality', 'spikes'
+)
 REQUIRED_COLUMNS = CSV_COLUMNS
 
 
 def _fmt(v: float) -> str:
-    return 'nan' if not math.isfinite(v) else f'{v:.9g}'
+    return 'nan' if not math.isfinite(v) else repr(float(v))  # round-trip: epoch stamps
 
 
 class BlockCsvWriter:
@@ -288,6 +293,7 @@ class BlockCsvWriter:
                 _fmt(r.w0),
                 _fmt(r.drive_mismatch),
                 r.quality_str,
+                str(r.spikes),
             ]
         )
         self._fh.flush()

@@ -18,8 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from tribo_common.yamlio import check_keys, load_yaml
 from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
 from tribo_estimation.core.rigspec import RIG_OPTIONAL, RIG_REQUIRED, RIG_SPEC
 from tribo_estimation.core.simulate import NoiseSpec
@@ -74,19 +73,13 @@ def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Rig
     for key in REQUIRED_KEYS:
         if key not in data:
             raise MissingKeyError(f'{source}: missing key {key!r}')
-    unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
-    if unknown:
-        raise InvalidParameterError(f'{source}: unknown key(s) {", ".join(map(repr, unknown))}')
+    check_keys(data, (*REQUIRED_KEYS, *OPTIONAL_KEYS), source, InvalidParameterError)
     v = {k: _number(data, k, source) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS[:4]) if k in data}
     effects = data.get('effects') or {}
     if not isinstance(effects, Mapping):
         raise InvalidParameterError(f'{source}: key "effects" must be a mapping')
     names = {f.name for f in dataclasses.fields(Extensions)}
-    for key in effects:
-        if key not in names:
-            raise InvalidParameterError(
-                f'{source}: unknown effect {key!r} (known: {", ".join(sorted(names))})'
-            )
+    check_keys(effects, names, source, InvalidParameterError, 'effect')
     try:
         eff = {str(k): _number(effects, k, f'{source}: effects') for k in effects}
         rig = RigParams.from_mapping(v)
@@ -104,14 +97,7 @@ def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Rig
 def load_rig_config(path: str | Path) -> RigConfig:
     """Read a RIG.yaml file (see the module docstring for the keys)."""
     p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as exc:
-        raise ConfigFileError(f'{p}: cannot read rig config ({exc.strerror})') from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigFileError(f'{p}: invalid YAML ({exc})') from exc
+    data = load_yaml(p, ConfigFileError, 'rig config')
     if data is None:
         raise ConfigFileError(f'{p}: empty rig config')
     return rig_config_from_dict(data, str(p))

@@ -14,6 +14,7 @@ checks (a one-hour 10 kHz file is never loaded at once).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +25,10 @@ import numpy as np
 
 from tribo_estimation.errors import (
     InvalidDataError,
+    IrregularSamplingError,
     MissingColumnError,
     NonMonotonicTimeError,
+    TimeBaseError,
     TooShortError,
     UnitError,
 )
@@ -103,7 +106,7 @@ class RigCsvWriter:
         n = arrs[0].shape[0]
         if any(a.shape != (n,) for a in arrs):
             raise InvalidDataError(f'{self.path}: columns differ in length')
-        fmt = ['%.12g'] + ['%.9g'] * (len(arrs) - 1)
+        fmt = ['%.16g'] + ['%.9g'] * (len(arrs) - 1)  # time: epoch stamps to 1 us
         np.savetxt(self._fh, np.column_stack(arrs), fmt=fmt, delimiter=',')
         self.rows += n
 
@@ -214,7 +217,7 @@ def _check_block(
     if bad.any():
         r, c = np.argwhere(bad)[0]
         raise InvalidDataError(
-            f'{path}: line {numbers[r]}, column {names[c]!r}: non-finite value {data[r, c]}'
+            f'{path}: line {numbers[r]}, column {names[c]!r}: non-finite value {float(data[r, c])}'
         )
     t = data[:, names.index('time')]
     steps = np.diff(np.concatenate([[last_time], t])) if np.isfinite(last_time) else np.diff(t)
@@ -223,8 +226,8 @@ def _check_block(
     if nonpos.size:
         i = nonpos[0] + off
         raise NonMonotonicTimeError(
-            f'{path}: line {numbers[i]}: time {t[i]!r} s does not increase '
-            f'(previous sample {t[i - 1] if i > 0 else last_time!r} s)'
+            f'{path}: line {numbers[i]}: time {float(t[i])!r} s does not increase '
+            f'(previous sample {float(t[i - 1] if i > 0 else last_time)!r} s)'
         )
     if max_speed is not None:
         sp = data[:, names.index('speed')]
@@ -232,7 +235,8 @@ def _check_block(
         if big.size:
             i = big[0]
             raise UnitError(
-                f"{path}: line {numbers[i]}, column 'speed': {sp[i]!r} exceeds the plausible "
+                f"{path}: line {numbers[i]}, column 'speed': {float(sp[i])!r} exceeds "
+                f'the plausible '
                 f'{max_speed} rad/s of the rig; the speed looks like rpm (convert: '
                 f'rad/s = rpm*pi/30)'
             )
@@ -258,8 +262,18 @@ def iter_rig_csv(
 
     Time must increase across block boundaries too. ``max_speed`` [rad/s]: speeds of
     larger magnitude raise :class:`UnitError` (``None`` switches the check off).
+    Bytes that are not UTF-8 raise :class:`InvalidDataError` naming the file.
     """
     p = Path(path)
+    try:
+        yield from _iter_rig_csv(p, block_size, max_speed)
+    except UnicodeDecodeError as exc:
+        raise InvalidDataError(
+            f'{p}: not a UTF-8 text rig CSV (undecodable byte {exc.object[exc.start]:#04x})'
+        ) from None
+
+
+def _iter_rig_csv(p: Path, block_size: int, max_speed: float | None) -> Iterator[RigRecord]:
     if block_size < 1:
         raise InvalidDataError(f'block_size must be >= 1, got {block_size}')
     try:
@@ -310,3 +324,137 @@ def read_rig_csv(path: str | Path, *, max_speed: float | None = MAX_SPEED) -> Ri
         metadata=blocks[0].metadata,
         first_line=blocks[0].first_line,
     )
+
+
+# ----------------------------------------------------------------------------- time base
+#: Largest distance of a sample time from the regular grid [sample intervals];
+#: closer samples are resampled onto the grid, farther ones are irregular sampling.
+JITTER_TOL = 0.25
+#: Jitter below this fraction of the sample interval is snapped, not interpolated.
+JITTER_SNAP = 0.01
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    """A regular time base: sample ``i`` at ``t0 + i / fs``.
+
+    Attributes:
+        t0: time of the first sample as written in the file (epoch or relative) [s].
+        fs: sample rate [Hz].
+        max_jitter: largest distance of a written time from the grid [sample intervals].
+    """
+
+    t0: float
+    fs: float
+    max_jitter: float = 0.0
+
+
+def estimate_rate(t: np.ndarray, source: str = '<record>') -> float:
+    """Sample rate [Hz] of strictly increasing times ``t`` [s] (epoch or relative).
+
+    The median step gives each sample's grid index; a least-squares line of time on
+    index gives the interval (jitter and epoch rounding average out); the rate is
+    rounded to 6 significant digits.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if t.shape[0] < 2:
+        raise TooShortError(f'{source}: need at least two samples to find the sample rate')
+    rel = t - t[0]
+    dt0 = float(np.median(np.diff(rel)))
+    if not (math.isfinite(dt0) and dt0 > 0.0):
+        raise TimeBaseError(f'{source}: time steps give no sample rate (median step {dt0} s)')
+    dt = dt0
+    n = min(rel.shape[0], 64)
+    while True:  # refine on growing prefixes so a slightly wrong step never skips an index
+        idx = np.rint(rel[:n] / dt)
+        di = idx - idx.mean()
+        den = float(np.dot(di, di))
+        if den > 0.0:
+            dt = float(np.dot(di, rel[:n] - rel[:n].mean()) / den)
+        if n == rel.shape[0] or not (math.isfinite(dt) and dt > 0.0):
+            break
+        n = min(rel.shape[0], n * 8)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise TimeBaseError(f'{source}: time steps give no sample rate')
+    return float(f'{1.0 / dt:.6g}')
+
+
+def centred_anchor(t: np.ndarray, fs: float) -> float:
+    """Grid time of the first sample of ``t`` [s] such that the stamps' offsets from
+    the grid have median zero (a jittered first stamp does not shift the grid)."""
+    pos = (np.asarray(t, dtype=np.float64) - float(t[0])) * fs
+    off = float(np.median(pos - np.rint(pos))) if pos.size else 0.0
+    return float(t[0]) + off / fs
+
+
+def grid_positions(
+    t: np.ndarray,
+    fs: float,
+    t_ref: float,
+    idx_ref: int,
+    source: str = '<record>',
+    lines: np.ndarray | None = None,
+    after: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Grid index of each time ``t`` [s] and its offset from the grid [samples].
+
+    The grid has index ``idx_ref`` at time ``t_ref`` (when streaming, the grid time
+    of the previous chunk's last sample, so a rate wrong in its last digits never
+    accumulates); ``after``: index of the previous chunk's last sample (the first
+    index must be larger). Raises :class:`IrregularSamplingError` naming the time and the
+    line (``lines``: file line of each sample) where a sample lies more than
+    :data:`JITTER_TOL` intervals off the grid or two samples share one grid point.
+    """
+    pos = idx_ref + (np.asarray(t, dtype=np.float64) - t_ref) * fs
+    idx = np.rint(pos)
+    frac = pos - idx
+    bad = np.flatnonzero(np.abs(frac) > JITTER_TOL)
+    prev = float(after) if after is not None else float(idx[0]) - 1.0 if idx.size else 0.0
+    dup = np.flatnonzero(np.diff(np.concatenate([[prev], idx])) < 1)
+    if bad.size or dup.size:
+        i = int(min(bad[0] if bad.size else len(t), dup[0] if dup.size else len(t)))
+        where = f'line {int(lines[i])}, ' if lines is not None else f'sample {i + 1}, '
+        raise IrregularSamplingError(
+            f'{source}: {where}time {float(t[i])!r} s is {float(frac[i]):+.2f} sample '
+            f'intervals off the regular {fs:g} Hz grid (irregular sampling; jitter up to '
+            f'{JITTER_TOL:.0%} of the interval is resampled)'
+        )
+    return idx.astype(np.int64), frac
+
+
+def resample_on_grid(idx: np.ndarray, frac: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``values`` at the grid points ``idx`` (linear interpolation between the
+    samples at ``idx + frac``); unchanged where the jitter is below :data:`JITTER_SNAP`."""
+    if frac.size == 0 or float(np.max(np.abs(frac))) < JITTER_SNAP:
+        return values
+    pos = idx + frac
+    return np.interp(idx.astype(np.float64), pos, values)
+
+
+def regularise(rec: RigRecord, source: str = '<record>') -> tuple[RigRecord, TimeGrid]:
+    """The record on a regular time base relative to its first sample.
+
+    Returns the record with ``time = index / fs`` [s] (gaps kept as missing grid
+    points) and every channel resampled onto the grid where the stamps jitter, and
+    the :class:`TimeGrid` (``t0`` is the first written time, e.g. an epoch stamp;
+    also put into ``metadata['time_origin_s']``).
+    """
+    fs = estimate_rate(rec.time, source)
+    t_ref = centred_anchor(rec.time, fs)
+    idx, frac = grid_positions(rec.time, fs, t_ref, 0, source)
+    idx = idx - idx[0]
+
+    def rs(v: np.ndarray) -> np.ndarray:
+        return resample_on_grid(idx, frac, np.asarray(v, dtype=np.float64))
+
+    grid = TimeGrid(float(rec.time[0]), fs, float(np.max(np.abs(frac))) if frac.size else 0.0)
+    out = RigRecord(
+        time=idx.astype(np.float64) / fs,
+        torsion_moment=rs(rec.torsion_moment),
+        angular_acceleration=rs(rec.angular_acceleration),
+        speed=rs(rec.speed),
+        extra={k: rs(v) for k, v in rec.extra.items()},
+        metadata={**rec.metadata, 'time_origin_s': repr(grid.t0)},
+        first_line=rec.first_line,
+    )
+    return out, grid

@@ -35,8 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from tribo_common.yamlio import check_keys, load_yaml
 from tribo_nvct.core.circuit import OilCircuit
 from tribo_nvct.core.contact import ContactResult, Material, RingLinerGeometry
 from tribo_nvct.core.counting import Background
@@ -53,6 +52,74 @@ from tribo_nvct.errors import ContactError, NvctConfigError
 
 UM = 1e-6
 UM2 = 1e-12
+
+#: Top-level keys of NVCT.yaml (anything else is refused with the closest match).
+KNOWN_KEYS: frozenset[str] = frozenset(
+    {
+        'nuclide', 'half_life_days', 'days_since_reference', 'k_det', 'k_det_rel_se',
+        'background_cps', 'background_se_cps', 'background_counts', 'background_live_time_s',
+        'depth_profile', 'profile_knot_spacing_um', 'pin_area_um2', 'tagged_area_um2',
+        'contact_area_um2', 'contact', 'load_N', 'stroke_m', 'frequency_hz',
+        'sliding_distance', 'circulation_time_s', 'oil_circuit', 'temperature_K', 'label',
+        'window_min', 'profile_model', 'profile_bootstrap_replicas', 'profile_bootstrap_seed',
+    }
+)  # fmt: skip
+CONTACT_KEYS = frozenset(
+    {'ring_radius_m', 'liner_radius_m', 'ring_height_m', 'crown_radius_m', 'ring', 'liner'}
+)
+MATERIAL_KEYS = frozenset({'E_Pa', 'nu'})
+CIRCUIT_KEYS = frozenset(
+    {
+        'transit_fraction',
+        'first_width_fraction',
+        'dispersion_fraction',
+        'deposition_rate_per_s',
+        'mixing_tolerance',
+    }
+)
+
+#: Smallest value of a key that must be > 0 (smaller ones underflow in products such
+#: as the sliding distance stroke * frequency * time, Equ. 10).
+TINY = 1e-30
+
+#: Largest plausible value of a key (in the key's own unit): larger values are
+#: unit mistakes or typos (e.g. ``load_N: 1e308``) and are refused.
+UPPER: dict[str, float] = {
+    'half_life_days': 1e7,
+    'days_since_reference': 1e5,
+    'k_det': 1e12,
+    'k_det_rel_se': 1.0,
+    'background_cps': 1e9,
+    'background_se_cps': 1e9,
+    'background_counts': 1e15,
+    'background_live_time_s': 1e9,
+    'profile_knot_spacing_um': 1e4,
+    'profile_bootstrap_replicas': 1e5,
+    'profile_bootstrap_seed': 2.0**63,
+    'pin_area_um2': 1e12,
+    'tagged_area_um2': 1e12,
+    'contact_area_um2': 1e12,
+    'load_N': 1e6,
+    'stroke_m': 1.0,
+    'frequency_hz': 1e4,
+    'circulation_time_s': 1e6,
+    'temperature_K': 2000.0,
+    'ring_radius_m': 10.0,
+    'liner_radius_m': 10.0,
+    'ring_height_m': 1.0,
+    'crown_radius_m': 100.0,
+    'E_Pa': 1e13,
+    'nu': 0.5,
+    'oil_circuit.transit_fraction': 1.0,
+    'oil_circuit.first_width_fraction': 10.0,
+    'oil_circuit.dispersion_fraction': 10.0,
+    'oil_circuit.deposition_rate_per_s': 1e3,
+    'oil_circuit.mixing_tolerance': 1.0,
+}
+
+#: Most half-lives between the depth profile's reference date and the test (the
+#: activity is then 2**-60 = 1e-18 of the reference: nothing left to count).
+MAX_HALF_LIVES = 60.0
 
 SLIDING_CONVENTIONS = {
     'paper': 'paper Equ. 10: d_s = stroke * frequency * duration',
@@ -129,12 +196,18 @@ def _value(v: Any, key: str, src: str, *, lo: float = 0.0, strict: bool = True) 
     if not math.isfinite(x) or (x <= lo if strict else x < lo):
         rel = '>' if strict else '>='
         raise NvctConfigError(f'{src}: {key} must be finite and {rel} {lo:g}, got {v!r}')
+    if strict and lo == 0.0 and x < TINY:
+        raise NvctConfigError(f'{src}: {key} = {x:g} is implausibly small (< {TINY:g})')
+    hi = UPPER.get(key)
+    if hi is not None and x > hi:
+        raise NvctConfigError(f'{src}: {key} = {x:g} exceeds the plausible maximum {hi:g}')
     return x
 
 
 def _material(d: Any, name: str, src: str) -> Material:
     if not isinstance(d, dict):
         raise NvctConfigError(f'{src}: contact.{name} must be a mapping with E_Pa and nu')
+    check_keys(d, MATERIAL_KEYS, f'{src}: contact.{name}', NvctConfigError)
     try:
         return Material(_num(d, 'E_Pa', src), _value(d.get('nu'), 'nu', src, lo=-1.0))
     except ContactError as exc:
@@ -143,6 +216,7 @@ def _material(d: Any, name: str, src: str) -> Material:
 
 def geometry_from_dict(d: dict[str, Any], src: str = '<contact>') -> RingLinerGeometry:
     """Ring/liner geometry from the ``contact`` mapping of NVCT.yaml."""
+    check_keys(d, CONTACT_KEYS, f'{src}: contact', NvctConfigError)
     crown = d.get('crown_radius_m')
     return RingLinerGeometry(
         ring_radius=_num(d, 'ring_radius_m', src),
@@ -159,6 +233,7 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
     src = source
     if not isinstance(raw, dict):
         raise NvctConfigError(f'{src}: top level must be a mapping')
+    check_keys(raw, KNOWN_KEYS, src, NvctConfigError)
     if 'half_life_days' in raw:
         nuc = custom_nuclide(_num(raw, 'half_life_days', src), str(raw.get('nuclide', 'custom')))
     elif 'nuclide' in raw:
@@ -166,6 +241,11 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
     else:
         raise NvctConfigError(f'{src}: missing key nuclide (or half_life_days)')
     days = _num(raw, 'days_since_reference', src, strict=False)
+    if days > MAX_HALF_LIVES * nuc.half_life_days:
+        raise NvctConfigError(
+            f'{src}: days_since_reference = {days:g} d is more than {MAX_HALF_LIVES:g} '
+            f'half-lives of {nuc.name} ({nuc.half_life_days:g} d): nothing left to measure'
+        )
     k_det = _num(raw, 'k_det', src)
     k_det_rel_se = _value(raw.get('k_det_rel_se', 0.0), 'k_det_rel_se', src, strict=False)
     if 'background_counts' in raw or 'background_live_time_s' in raw:
@@ -243,6 +323,7 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
         extra = raw.get('oil_circuit') or {}
         if not isinstance(extra, dict):
             raise NvctConfigError(f'{src}: oil_circuit must be a mapping')
+        check_keys(extra, CIRCUIT_KEYS, f'{src}: oil_circuit', NvctConfigError)
         kw: dict[str, float] = {}
         for key, attr in (
             ('transit_fraction', 'transit_fraction'),
@@ -292,10 +373,5 @@ def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config
 def load_config(path: str | Path) -> NvctConfig:
     """Read and validate NVCT.yaml."""
     p = Path(path)
-    try:
-        raw = yaml.safe_load(p.read_text(encoding='utf-8'))
-    except OSError as exc:
-        raise NvctConfigError(f'cannot read {p}: {exc.strerror}') from None
-    except yaml.YAMLError as exc:
-        raise NvctConfigError(f'{p}: not valid YAML ({exc})') from None
+    raw = load_yaml(p, NvctConfigError, 'nVCT config')
     return config_from_dict(raw, p.parent, str(p))

@@ -19,6 +19,8 @@ def read_counts_csv(path: str | Path) -> list[Dwell]:
         lines = p.read_text(encoding='utf-8').splitlines()
     except OSError as exc:
         raise CountsFileError(f'cannot read counts file {p}: {exc.strerror}') from None
+    except UnicodeDecodeError as exc:
+        raise CountsFileError(f'{p}: not a UTF-8 text counts file (byte {exc.start})') from None
     body = [
         (n, ln) for n, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith('#')
     ]

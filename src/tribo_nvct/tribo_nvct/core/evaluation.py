@@ -51,6 +51,7 @@ from scipy.optimize import OptimizeWarning, curve_fit
 from tribo_nvct.core.config import SLIDING_CONVENTIONS, NvctConfig
 from tribo_nvct.core.profile import BOOTSTRAP_SEED
 from tribo_nvct.core.wear import WearPoint, detection_limit_height
+from tribo_nvct.errors import EvaluationError
 
 FloatArray = NDArray[np.float64]
 UM3 = 1e-18
@@ -92,14 +93,14 @@ def weighted_line(t: FloatArray, v: FloatArray, se: FloatArray) -> LineFit:
     The time origin is shifted to the data mean internally for conditioning.
     """
     if t.size < 3:
-        raise ValueError('need at least 3 points for a line fit')
+        raise EvaluationError('need at least 3 points for a line fit')
     w = 1.0 / se**2
     t0 = float(np.average(t, weights=w))
     x = t - t0
     Sw = w.sum()
     Sxx = float((w * x * x).sum())
     if Sxx <= 0.0:
-        raise ValueError('time values do not vary')
+        raise EvaluationError('time values do not vary')
     b = float((w * x * v).sum() / Sxx)
     a0 = float((w * v).sum() / Sw)
     resid = v - a0 - b * x

@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
+from tribo_common.yamlio import load_yaml
 from tribo_nvct.core.config import NvctConfig, load_config
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.profile import DepthProfile
@@ -161,6 +161,10 @@ class SimDetectorConfig:
     seed: int | None
 
 
+#: Most dwells a simulated test may have (a 4 h test of 60 s dwells has 240).
+MAX_DWELLS = 1e6
+
+
 def _pos(d: dict[str, Any], key: str, src: str, default: float | None = None) -> float:
     v = d.get(key, default)
     if v is None:
@@ -179,12 +183,7 @@ def load_sim_config(path: str | Path, nvct_override: str | Path | None = None) -
     """Read sim_detector.yaml (``nvct_config`` relative to it unless overridden)."""
     p = Path(path)
     src = str(p)
-    try:
-        raw = yaml.safe_load(p.read_text(encoding='utf-8'))
-    except OSError as exc:
-        raise NvctConfigError(f'cannot read {p}: {exc.strerror}') from None
-    except yaml.YAMLError as exc:
-        raise NvctConfigError(f'{p}: not valid YAML ({exc})') from None
+    raw = load_yaml(p, NvctConfigError, 'simulated-detector config')
     if not isinstance(raw, dict):
         raise NvctConfigError(f'{src}: top level must be a mapping')
     if nvct_override is not None:
@@ -210,6 +209,11 @@ def load_sim_config(path: str | Path, nvct_override: str | Path | None = None) -
         dead_time=_pos(raw, 'dead_time_s', src, 5e-6),
         pause=_pos(raw, 'pause_s', src, 0.0),
     )
+    if not (settings.dwell > 0.0 and settings.duration / settings.dwell <= MAX_DWELLS):
+        raise NvctConfigError(
+            f'{src}: duration_min / dwell_s must give at most {MAX_DWELLS:g} dwells '
+            f'(dwell_s > 0), got duration {settings.duration:g} s, dwell {settings.dwell:g} s'
+        )
     scale = _pos(raw, 'time_scale', src, 240.0)
     if scale <= 0:
         raise NvctConfigError(f'{src}: time_scale must be > 0')

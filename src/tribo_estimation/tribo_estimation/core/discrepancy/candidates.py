@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tribo_estimation.errors import InvalidParameterError, UnknownCandidateError
+
 from .stats import FloatArray, fit_sinusoid, spectral_lines
 
 #: Localising variables (names used by :mod:`.localise` and the plots).
@@ -55,14 +57,16 @@ class ParamSpec:
 
     def __post_init__(self) -> None:
         if not (self.lower <= self.initial <= self.upper):
-            raise ValueError(
+            raise InvalidParameterError(
                 f'parameter {self.name}: initial {self.initial} outside '
                 f'[{self.lower}, {self.upper}]'
             )
         if self.scale <= 0:
-            raise ValueError(f'parameter {self.name}: scale must be > 0, got {self.scale}')
+            raise InvalidParameterError(
+                f'parameter {self.name}: scale must be > 0, got {self.scale}'
+            )
         if self.log and self.lower <= 0:
-            raise ValueError(f'parameter {self.name}: log scaling needs lower > 0')
+            raise InvalidParameterError(f'parameter {self.name}: log scaling needs lower > 0')
 
 
 @dataclass(frozen=True)
@@ -109,10 +113,12 @@ class Candidate:
 
     def __post_init__(self) -> None:
         if self.localiser not in LOCALISERS:
-            raise ValueError(f'candidate {self.name}: unknown localiser {self.localiser!r}')
+            raise InvalidParameterError(
+                f'candidate {self.name}: unknown localiser {self.localiser!r}'
+            )
         names = [p.name for p in self.params]
         if len(set(names)) != len(names):
-            raise ValueError(f'candidate {self.name}: duplicate parameter names {names}')
+            raise InvalidParameterError(f'candidate {self.name}: duplicate parameter names {names}')
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -182,7 +188,7 @@ _REGISTRY: dict[str, Candidate] = {}
 def register(candidate: Candidate, *, replace: bool = False) -> Candidate:
     """Add a candidate to the library (``replace`` to overwrite a name)."""
     if candidate.name in _REGISTRY and not replace:
-        raise ValueError(f'candidate {candidate.name!r} is already registered')
+        raise InvalidParameterError(f'candidate {candidate.name!r} is already registered')
     _REGISTRY[candidate.name] = candidate
     return candidate
 
@@ -192,7 +198,9 @@ def get(name: str) -> Candidate:
     try:
         return _REGISTRY[name]
     except KeyError:
-        raise KeyError(f'unknown candidate effect {name!r}; known: {sorted(_REGISTRY)}') from None
+        raise UnknownCandidateError(
+            f'unknown candidate effect {name!r}; known: {sorted(_REGISTRY)}'
+        ) from None
 
 
 def names() -> tuple[str, ...]:

@@ -19,6 +19,7 @@ import numpy.typing as npt
 from scipy import signal
 
 from tribo_estimation.core.signal import noise_level, runs
+from tribo_estimation.errors import InvalidDataError
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -41,7 +42,7 @@ def phase_labels(slip_speed: FloatArray, stick: BoolArray) -> IntArray:
     v = np.abs(np.asarray(slip_speed, dtype=np.float64))
     st = np.asarray(stick, dtype=bool)
     if v.shape != st.shape:
-        raise ValueError(f'slip_speed {v.shape} and stick {st.shape} differ in shape')
+        raise InvalidDataError(f'slip_speed {v.shape} and stick {st.shape} differ in shape')
     labels = np.zeros(v.size, dtype=np.int64)
     starts, stops = runs(~st)
     for a, b in zip(starts, stops, strict=True):
