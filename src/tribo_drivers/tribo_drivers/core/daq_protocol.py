@@ -16,7 +16,7 @@ CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF, no reflection, no f
 Physical value of channel c: ``(raw_c - offset_c) * gain_c`` with offset in counts and gain in
 SI unit per count (N m, rad/s^2, rad/s per count).  The three channels are the measured
 quantities of the paper's rig model (torsion moment C1*phi1 and w1' of Equ. 1-2, shaft speed w2
-of Equ. 3-4, numbering per ``shared/notes/physics.md``).
+of Equ. 3-4, numbering per ``docs/physics.md``).
 
 The decoder is vectorised with numpy (several million frames per second): it finds every
 ``A5 5A`` sync candidate in the buffer, checks all CRCs at once and keeps the earliest

@@ -1,7 +1,7 @@
 """Compiled (numba) equations of motion and event-accurate stick/slip integrator.
 
 This module is the ONE place where the rig's equations of motion are written
-(paper Equ. 1-3, 6, 8 as corrected in ``shared/notes/physics.md``). Everything else
+(paper Equ. 1-3, 6, 8 as corrected in ``docs/physics.md``). Everything else
 (:mod:`.model` Python wrappers, :mod:`.simulate`, :mod:`.reference`, the block fits,
 the simulated rig driver, the discrepancy workflow) calls these functions.
 
