@@ -19,7 +19,11 @@ estimate is beyond 3 standard errors)
 and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
 [rad/s], ``mismatch`` [-], ``mismatched`` (> 5 %), ``warning``, the profile's
 ``knot_time`` [s] / ``knot_speed`` [rad/s] and per time block ``blocks``:
-``[{"block", "t_start", "t_end", "w0"}]``).
+``[{"block", "t_start", "t_end", "w0"}]``), ``identifiable`` (per candidate
+``{"ok": bool, "reason": str, "suggest": str}``: can this record separate it from
+the baseline and the instrument model, and which experiment would decide it) and
+``not_identifiable`` (candidates that lowered the residual clearly but that the
+record cannot separate: never named in ``added``).
 """
 
 from __future__ import annotations
@@ -86,6 +90,8 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
         'settings': dict(result.settings),
         'instrument': dict(result.instrument),
         'drive': dict(result.drive),
+        'identifiable': {n: v.as_dict() for n, v in result.identifiable.items()},
+        'not_identifiable': list(result.blocked),
     }
     return _clean(d)
 

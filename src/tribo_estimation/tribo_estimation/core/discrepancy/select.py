@@ -20,6 +20,11 @@ Forward selection over the candidate library (:mod:`.candidates`):
    ``parsimony``; e.g. a torque-offset drift vs equal drifts of mu0 and
    mu_inf, which predict the same signals); the model is polished, and the
    next round starts from it. Repeat until no candidate is eligible.
+   Every candidate's identifiability (:mod:`.identify`: standard errors and
+   correlations of its round-1 fit with mu0/mu_inf and the instrument model,
+   stick-duration and drive-speed spread, record length) is judged; a candidate
+   this record cannot separate is never added: it is reported in ``blocked``
+   as not identifiable, with the experiment that would decide it.
 5. Describe what remains (:func:`describe_unexplained`): spectral lines, a
    phase-concentrated excess, a trend, a shaft-angle dependence, each with
    where / how large / which frequency, rather than forcing a name; and
@@ -46,12 +51,15 @@ from .fitting import (
     CHANNELS,
     MU0,
     MU_INF,
+    SPEED_LAG,
+    SPEED_OFFSET,
     Problem,
     Record,
     SimulatedRecord,
     identify_speed_sensor,
     make_segments,
 )
+from .identify import Identifiability, gauss_newton, identifiability
 from .localise import localise, shaft_angle, torque_residual, variable
 from .sparse import SparseTerm, feature_library, stlsq
 from .stats import (
@@ -216,6 +224,8 @@ class DiscrepancyResult:
     traces: Traces
     instrument: dict[str, Any] = field(default_factory=dict)
     drive: dict[str, Any] = field(default_factory=dict)
+    identifiable: dict[str, Identifiability] = field(default_factory=dict)
+    blocked: tuple[str, ...] = ()
 
 
 # --------------------------------------------------------------------------- helpers
@@ -542,6 +552,8 @@ def run_discrepancy(
     pool: list[Candidate] = [cand_lib.get(n) for n in names]
     added: list[AddedEffect] = []
     rounds: list[tuple[CandidateScore, ...]] = []
+    verdicts: dict[str, Identifiability] = {}
+    blocked: list[str] = []
     for rnd in range(st.max_effects):
         scores: list[CandidateScore] = []
         for c in pool:
@@ -563,10 +575,20 @@ def run_discrepancy(
             )
         if not scores:
             break
+        if rnd == 0:
+            verdicts = judge_candidates(pb, base_sim, {s.effect: s.model.params for s in scores})
+            for n, v in verdicts.items():
+                say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
         # eligible: clearly better on held-out blocks AND by BIC; among those the
         # lowest BIC wins (Occam: with equal fits the candidate with fewer
-        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf)
-        eligible = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
+        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf).
+        # A candidate this record cannot separate is never named (``blocked``).
+        better = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
+        eligible = [s for s in better if verdicts.get(s.effect, _OK).ok]
+        for s in better:
+            if s not in eligible and s.effect not in blocked:
+                blocked.append(s.effect)
+                say(f'round {rnd + 1}: {s.effect} improves but is not identifiable here')
         ok = bool(eligible)
         best = (
             min(eligible, key=lambda s: s.model.bic)
@@ -650,7 +672,55 @@ def run_discrepancy(
         traces=Traces(pb, base_sim, final_sim),
         instrument=instrument,
         drive=drive_report(pb),
+        identifiable=verdicts,
+        blocked=tuple(blocked),
     )
+
+
+_OK = Identifiability(True, '')
+
+
+def record_facts(pb: Problem, sim: SimulatedRecord) -> tuple[FloatArray, FloatArray, float]:
+    """Durations [s] of the record's complete stick phases (the segments' stick
+    runs, else those of the simulation ``sim``), mean drive speed per time block
+    [rad/s] and the record length [s]."""
+    seg = pb.segments
+    n = pb.record.time.size
+    if seg.run_start is not None and seg.run_stop is not None:
+        ra, rb = np.unique(np.column_stack([seg.run_start, seg.run_stop]), axis=0).T
+        keep = (ra > 0) & (rb < n)
+        durations = ((rb[keep] - ra[keep]) / pb.record.fs).astype(np.float64)
+    else:
+        durations = stick_durations(np.nan_to_num(sim.stick, nan=0.0) > 0.5, pb.record.fs)
+    speeds = np.asarray([b['w0'] for b in drive_report(pb)['blocks']], dtype=np.float64)
+    t = pb.record.time
+    return durations, speeds, float(t[-1] - t[0])
+
+
+def judge_candidates(
+    pb: Problem,
+    base_sim: SimulatedRecord,
+    fits: Mapping[str, Mapping[str, float]],
+    *,
+    corr_time: float = 1e-3,
+) -> dict[str, Identifiability]:
+    """The identifiability verdict (:func:`.identify.identifiability`) of every
+    candidate in ``fits`` (name -> its fitted values: mu0, mu_inf, the candidate's
+    parameters and the fixed instrument model), from the Gauss-Newton linearisation
+    of its fit (with the speed-sensor terms when the model uses them) and the
+    record's stick durations, drive speeds and length."""
+    durations, speeds, length = record_facts(pb, base_sim)
+    out: dict[str, Identifiability] = {}
+    for name, vals in fits.items():
+        c = cand_lib.get(name)
+        specs = [MU0, MU_INF]
+        specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
+        specs += list(c.params)
+        gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
+        out[name] = identifiability(
+            name, c.param_names, gn, durations, drive_speeds=speeds, duration=length
+        )
+    return out
 
 
 def drive_report(pb: Problem) -> dict[str, Any]:
@@ -687,6 +757,8 @@ __all__ = [
     'SelectionSettings',
     'Unexplained',
     'describe_unexplained',
+    'judge_candidates',
+    'record_facts',
     'run_discrepancy',
     'variable',
 ]
