@@ -208,7 +208,7 @@ def identifiability(
     max_rel_se: float = 0.2,
     max_correlation: float = 0.999,
     min_spread: float = 0.1,
-    min_drift_duration: float = 1.0,
+    min_drift_duration: float = 0.5,
 ) -> Identifiability:
     """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)
     and the instrument model?

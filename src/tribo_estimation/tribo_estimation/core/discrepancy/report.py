@@ -33,6 +33,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from .joint import JointResult
 from .select import DiscrepancyResult
 
 
@@ -96,11 +97,13 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
     return _clean(d)
 
 
-def write_json(result: DiscrepancyResult, path: str | Path) -> Path:
-    """Write ``discrepancy.json`` (strict JSON, indented); returns the path."""
+def write_json(result: DiscrepancyResult | JointResult, path: str | Path) -> Path:
+    """Write ``discrepancy.json`` (strict JSON, indented; a joint run of several records
+    in the layout of :meth:`.joint.JointResult.as_dict`); returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_suffix(p.suffix + '.tmp')
-    tmp.write_text(json.dumps(to_dict(result), indent=2, allow_nan=False) + '\n')
+    d = _clean(result.as_dict()) if isinstance(result, JointResult) else to_dict(result)
+    tmp.write_text(json.dumps(d, indent=2, allow_nan=False) + '\n')
     tmp.replace(p)
     return p

@@ -473,27 +473,16 @@ def propose_terms(
 # --------------------------------------------------------------------------- entry
 
 
-def run_discrepancy(
-    record: Record,
-    rig: RigParams,
-    drive: DriveProfile,
-    *,
-    k: float = 2.0,
-    settings: SelectionSettings | None = None,
-    progress: Progress | None = None,
-) -> DiscrepancyResult:
-    """The missing-physics workflow on one record (see the module docstring).
-
-    ``rig`` (Tab. 1 parameters, F_N, R), ``drive`` (nominal speed, ramp) and
-    ``k`` (Equ. 8, s/rad) are known; ``mu0``/``mu_inf`` and the effects are fitted.
-    """
-    st = settings or SelectionSettings()
-    say: Progress = progress or (lambda _msg: None)
-    t_start = _time.perf_counter()
-    pb = Problem(
-        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
-    )
+def fit_baseline(
+    pb: Problem, st: SelectionSettings, say: Progress
+) -> tuple[dict[str, float], SimulatedRecord, dict[str, Any]]:
+    """The baseline of one record: the speed-sensor model from the stick phases
+    (held fixed), the paper's model (Equ. 1-8: mu0, mu_inf) from several starts,
+    channel weights from its residuals (never above 1/noise floor) and a polished
+    refit. Returns the values (with the instrument model), the simulation and the
+    instrument report of ``discrepancy.json``."""
     sel = _Selector(pb, st, say)
+    record, rig = pb.record, pb.rig
     # the instrument model (speed-sensor lag and offset) is identified from the stick
     # phases before any fit (friction-free) and held fixed by every model
     seg = pb.segments
@@ -541,6 +530,31 @@ def run_discrepancy(
     # any effect is tried; the effects' fits hold it fixed
     base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
     base_sim = pb.simulate(base_vals)
+    return base_vals, base_sim, instrument
+
+
+def run_discrepancy(
+    record: Record,
+    rig: RigParams,
+    drive: DriveProfile,
+    *,
+    k: float = 2.0,
+    settings: SelectionSettings | None = None,
+    progress: Progress | None = None,
+) -> DiscrepancyResult:
+    """The missing-physics workflow on one record (see the module docstring).
+
+    ``rig`` (Tab. 1 parameters, F_N, R), ``drive`` (nominal speed, ramp) and
+    ``k`` (Equ. 8, s/rad) are known; ``mu0``/``mu_inf`` and the effects are fitted.
+    """
+    st = settings or SelectionSettings()
+    say: Progress = progress or (lambda _msg: None)
+    t_start = _time.perf_counter()
+    pb = Problem(
+        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
+    )
+    sel = _Selector(pb, st, say)
+    base_vals, base_sim, instrument = fit_baseline(pb, st, say)
     current = sel.score((), base_vals)
     baseline = current
     say(
@@ -583,12 +597,7 @@ def run_discrepancy(
         # lowest BIC wins (Occam: with equal fits the candidate with fewer
         # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf).
         # A candidate this record cannot separate is never named (``blocked``).
-        better = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
-        eligible = [s for s in better if verdicts.get(s.effect, _OK).ok]
-        for s in better:
-            if s not in eligible and s.effect not in blocked:
-                blocked.append(s.effect)
-                say(f'round {rnd + 1}: {s.effect} improves but is not identifiable here')
+        eligible = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
         ok = bool(eligible)
         best = (
             min(eligible, key=lambda s: s.model.bic)
@@ -605,12 +614,19 @@ def run_discrepancy(
         ]
         if simpler:
             best = min(simpler, key=lambda s: (s.model.n_params, s.model.cost))
+        if ok and not verdicts.get(best.effect, _OK).ok:
+            # the best explanation is one this record cannot separate: name nothing
+            # (another candidate would only absorb its signal) and say so
+            blocked.append(best.effect)
+            say(f'round {rnd + 1}: {best.effect} improves but is not identifiable here')
+            ok = False
         scores = [
             CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best) for s in scores
         ]
         rounds.append(tuple(scores))
         if not ok:
-            say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
+            if not blocked or blocked[-1] != best.effect:
+                say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
             break
         c = cand_lib.get(best.effect)
         # polish the accepted model to convergence before it becomes the reference
@@ -757,6 +773,7 @@ __all__ = [
     'SelectionSettings',
     'Unexplained',
     'describe_unexplained',
+    'fit_baseline',
     'judge_candidates',
     'record_facts',
     'run_discrepancy',
