@@ -8,8 +8,9 @@ Modules: :mod:`.stats` (residual statistics), :mod:`.localise` (where the gap
 concentrates), :mod:`.candidates` (the pluggable library), :mod:`.fitting`
 (segment-wise output-error fit), :mod:`.select` (cross-validated, BIC-checked
 forward selection), :mod:`.identify` (can the record separate an effect?),
-:mod:`.joint` (several records at once), :mod:`.monitor` (live rolling window), :mod:`.sparse` (SINDy-style proposal), :mod:`.report`
-(``discrepancy.json``), :mod:`.plots` (PNG figures).
+:mod:`.joint` (several records at once), :mod:`.monitor` (live rolling window),
+:mod:`.sparse` (SINDy-style proposal), :mod:`.report` (``discrepancy.json``),
+:mod:`.plots` (PNG figures).
 """
 
 from .joint import JointResult, run_joint_discrepancy
