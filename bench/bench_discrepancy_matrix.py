@@ -162,6 +162,7 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
         'perr': perr,
         'wall': wall,
         'unexplained': '; '.join(f'{u.kind} {u.where} {u.size:.3g} N m' for u in res.unexplained),
+        'blocked': ','.join(res.blocked),
     }
 
 
@@ -183,7 +184,8 @@ def main() -> int:
         print(
             f'{h:<20s} x{scale:<4g} {cond:<8s} -> {r["outcome"]:<20s} ident={r["ident"]!s:<5s} '
             f'rms {r["rms0"]:.3f} -> {r["rms1"]:.3f} N m ({r["rms1"] / r["floor"]:.2f} floor) '
-            f'perr {r["perr"]:.2f} {r["wall"]:.1f} s',
+            f'perr {r["perr"]:.2f} {r["wall"]:.1f} s'
+            + (f' (not identifiable: {r["blocked"]})' if r['blocked'] else ''),
             flush=True,
         )
     total = time.perf_counter() - t_all
