@@ -18,7 +18,9 @@ times, the percent correct among cases the workflow calls identifiable (its own
 verdict on the hidden effect), residual after adding vs the noise floor, parameter
 errors, and the worst cases.
 
-    .venv/bin/python bench/bench_discrepancy_matrix.py [--quick] [--duration 3]
+    .venv/bin/python bench/bench_discrepancy_matrix.py [--quick | --full] [--duration 3]
+
+``make bench`` runs the quick set (the default).
 """
 
 from __future__ import annotations
@@ -168,10 +170,14 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    ap.add_argument('--quick', action='store_true', help='fewer conditions (43 records, ~5 min)')
+    ap.add_argument(
+        '--quick', action='store_true', help='fewer conditions (43 records, ~7 min; the default)'
+    )
+    ap.add_argument('--full', action='store_true', help='every condition (133 records, ~20 min)')
     ap.add_argument('--duration', type=float, default=3.0, help='record length [s]')
     ap.add_argument('--only', default='', help='comma-separated hidden effects to run')
     args = ap.parse_args()
+    args.quick = not args.full
     todo = cases(args.quick)
     if args.only:
         keep = set(args.only.split(','))
