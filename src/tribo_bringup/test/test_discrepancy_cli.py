@@ -152,3 +152,22 @@ def test_cli_reads_a_bag(hidden_csv: Path, tmp_path: Path) -> None:
     data = json.loads((out / 'discrepancy.json').read_text())
     assert [a['effect'] for a in data['added']] == ['torque_sensor_lag']
     assert data['added'][0]['params']['torque_lag_tau'] == pytest.approx(5e-4, rel=0.2)
+
+
+def test_cli_fits_several_records_jointly(
+    hidden_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two records (here the same one twice, from 0.2 s and from 0.6 s): the joint report
+    with per-record friction laws and an identifiability verdict per candidate."""
+    out = tmp_path / 'joint'
+    rc = main(['discrepancy', str(hidden_csv), str(hidden_csv), '--rig',
+               str(CONFIG / 'rig.yaml'), '--out', str(out), '--start', '0.2',
+               '--candidates', 'torque_sensor_lag,viscous_friction'])  # fmt: skip
+    assert rc == 0
+    data = json.loads((out / 'discrepancy.json').read_text())
+    assert data['joint'] is True and len(data['records']) == 2
+    assert set(data['identifiable']) == {'torque_sensor_lag', 'viscous_friction'}
+    for v in data['identifiable'].values():
+        assert set(v) == {'ok', 'reason', 'suggest'}
+    assert [a['effect'] for a in data['added']] == ['torque_sensor_lag']
+    assert 'joint fit of 2 records' in capsys.readouterr().out

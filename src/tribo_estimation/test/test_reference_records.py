@@ -154,3 +154,30 @@ def test_truth_sticks_match_event_log_and_csv_roundtrip(tmp_path: object) -> Non
     back = read_rig_csv(path)
     np.testing.assert_allclose(back.torsion_moment, r.torsion_moment, rtol=1e-8, atol=1e-9)
     np.testing.assert_array_equal(back.extra['stick'] > 0.5, r.stick)
+
+
+def test_unmodelled_backlash_delays_the_belt_and_stiffness_drift_scales_torsion() -> None:
+    """Out-of-library effects of the benchmark (core/reference.py ``Unmodelled``)."""
+    from tribo_estimation.core.reference import Unmodelled
+
+    w = 1.0  # rad/s, constant from t = 0
+    prof = SpeedProfile.constant(w)
+    law = FrictionLaw(0.13, 0.1, 2.0)
+    plain = simulate_reference(RIG, law, prof, 0.02, 10_000.0, rtol=1e-8)
+    same = simulate_reference(RIG, law, prof, 0.02, 10_000.0, rtol=1e-8, unmodelled=Unmodelled())
+    np.testing.assert_array_equal(plain.torsion_moment, same.torsion_moment)
+    b = 0.01  # rad full width: the belt engages once the drive has turned b/2 (5 ms)
+    bl = simulate_reference(RIG, law, prof, 0.02, 10_000.0, rtol=1e-8,
+                            unmodelled=Unmodelled(backlash=b))  # fmt: skip
+    t_engage = 0.5 * b / w
+    early = bl.time < 0.9 * t_engage
+    # within the dead band only the belt damper K2 drives the discs: less torsion
+    pl, bk = plain.torsion_moment[early], bl.torsion_moment[early]
+    assert np.all(bk <= pl + 1e-9)
+    assert bk[-1] < 0.9 * pl[-1]
+    # C1 grows 10 %/s: the torsion moment C1(t)*phi1 differs from the plain run
+    dr = simulate_reference(RIG, law, prof, 0.02, 10_000.0, rtol=1e-8,
+                            unmodelled=Unmodelled(stiffness_drift=0.1))  # fmt: skip
+    assert dr.torsion_moment[0] == pytest.approx(plain.torsion_moment[0], abs=1e-12)
+    rel = np.abs(dr.torsion_moment[-1] / plain.torsion_moment[-1] - 1.0)
+    assert 1e-4 < rel < 0.01  # of the order of 0.1/s * 0.02 s = 0.2 %

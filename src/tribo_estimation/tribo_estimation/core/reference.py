@@ -181,13 +181,32 @@ class SpeedProfile:
         return np.array([self.angle_at(float(x)) for x in tt])
 
 
+@dataclass(frozen=True)
+class Unmodelled:
+    """Effects outside the discrepancy workflow's candidate library (benchmark truth;
+    no fitting model has them): ``backlash`` full width [rad] of a dead band in the
+    belt deflection phi2 - phi0 of Equ. 2 (drive backlash: the belt transmits no
+    torque within +-backlash/2); ``stiffness_drift`` relative change of the
+    measuring-spring stiffness C1 of Equ. 1 per second of test time [1/s]
+    (C1(t) = C1*(1 + stiffness_drift*t); the torsion channel shows C1(t)*phi1)."""
+
+    backlash: float = 0.0
+    stiffness_drift: float = 0.0
+
+
 class _Model:
     """Plain-Python right-hand side of the rig (see the module docstring)."""
 
     def __init__(
-        self, rig: RigParams, law: FrictionLaw, drive: SpeedProfile, ext: Extensions
+        self,
+        rig: RigParams,
+        law: FrictionLaw,
+        drive: SpeedProfile,
+        ext: Extensions,
+        unmodelled: Unmodelled | None = None,
     ) -> None:
         self.I1, self.K1, self.C1 = rig.I1, rig.K1, rig.C1
+        self.un = unmodelled or Unmodelled()
         self.I2, self.K2, self.C2 = rig.I2, rig.K2, rig.C2
         self.fnr = rig.F_N * rig.R
         self.mu0, self.muinf, self.k = law.mu0, law.mu_inf, law.k
@@ -229,8 +248,12 @@ class _Model:
             mu0 += g * (1.0 - math.exp(-t_stick / tau)) if tau > 0.0 else g
         return mu0
 
-    def q1(self, phi1: float, w1: float) -> float:
-        q = -self.K1 * w1 - self.C1 * phi1
+    def c1(self, t: float) -> float:
+        """Measuring-spring stiffness at test time ``t`` [N m/rad] (:class:`Unmodelled`)."""
+        return self.C1 * (1.0 + self.un.stiffness_drift * t)
+
+    def q1(self, phi1: float, w1: float, t: float = 0.0) -> float:
+        q = -self.K1 * w1 - self.c1(t) * phi1
         mb = self.ext.bearing_moment
         if mb != 0.0:
             reg = self.ext.bearing_reg_speed
@@ -238,18 +261,22 @@ class _Model:
         return q
 
     def q2(self, t: float, phi2: float, w2: float) -> float:
-        return -self.K2 * (w2 - self.w0(t)) - self.C2 * (phi2 - self.phi0(t))
+        d = phi2 - self.phi0(t)
+        half = 0.5 * self.un.backlash
+        if half > 0.0:
+            d = math.copysign(max(abs(d) - half, 0.0), d)
+        return -self.K2 * (w2 - self.w0(t)) - self.C2 * d
 
     def m_stick(self, t: float, phi1: float, w: float, phi2: float) -> float:
         """Equ. 6 [N m]."""
-        return (self.I1 * self.q2(t, phi2, w) - self.I2 * self.q1(phi1, w)) / (self.I1 + self.I2)
+        return (self.I1 * self.q2(t, phi2, w) - self.I2 * self.q1(phi1, w, t)) / (self.I1 + self.I2)
 
     def rhs(
         self, t: float, y: Sequence[float] | np.ndarray, stuck: bool, direction: float, peak: bool
     ) -> tuple[float, float, float, float, float, float]:
         """(phi1', w1', phi2', w2', lag', M) [rad/s, rad/s^2, rad/s, rad/s^2, 1/s, N m]."""
         phi1, w1, phi2, w2, lag = y[0], y[1], y[2], y[3], y[4]
-        q1 = self.q1(phi1, w1)
+        q1 = self.q1(phi1, w1, t)
         if stuck:
             q2 = self.q2(t, phi2, w1)
             s = self.I1 + self.I2
@@ -280,6 +307,7 @@ def simulate_reference(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_segments: int = 1_000_000,
+    unmodelled: Unmodelled | None = None,
 ) -> SimResult:
     """Reference solution (no noise, no measurement side) at ``fs`` [Hz] for
     ``duration`` [s] from ``initial`` (default at rest, sticking, t = 0).
@@ -295,7 +323,7 @@ def simulate_reference(
         raise InvalidParameterError(f'duration {duration} s at fs {fs} Hz gives no sample')
     prof = drive if isinstance(drive, SpeedProfile) else SpeedProfile.from_drive(drive)
     ext = extensions if extensions is not None else Extensions()
-    mdl = _Model(rig, friction, prof, ext)
+    mdl = _Model(rig, friction, prof, ext, unmodelled)
     st = initial if initial is not None else RigState.at_rest()
     t_start = st.t
     t_end = t_start + n / fs
@@ -368,7 +396,7 @@ def simulate_reference(
             for j in range(k1 - k):
                 yj = ys[:, j]
                 d = mdl.rhs(float(times[k + j]), yj, *mode)
-                out[0, k + j] = rig.C1 * yj[0]
+                out[0, k + j] = mdl.c1(float(times[k + j])) * yj[0]
                 out[1, k + j] = d[1]
                 out[3, k + j] = d[5]
             out[2, k:k1] = ys[3]

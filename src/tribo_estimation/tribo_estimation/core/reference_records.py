@@ -34,7 +34,12 @@ import numpy as np
 from scipy.signal import lfilter
 
 from tribo_estimation.core.model import Extensions, FrictionLaw, RigParams
-from tribo_estimation.core.reference import SpeedProfile, simulate_reference, stick_intervals
+from tribo_estimation.core.reference import (
+    SpeedProfile,
+    Unmodelled,
+    simulate_reference,
+    stick_intervals,
+)
 from tribo_estimation.core.rigio import write_rig_csv
 from tribo_estimation.errors import InvalidParameterError
 
@@ -102,7 +107,9 @@ class RecordSpec:
     """Everything that defines one generated record.
 
     ``rig``, ``friction``, ``drive`` (w0(t) breakpoints, test time [s] from the drive
-    start), ``extensions`` (hidden model effects), instrument per channel
+    start), ``extensions`` (hidden model effects), ``unmodelled`` (effects outside the
+    candidate library: drive backlash, a drifting C1; :class:`.reference.Unmodelled`),
+    instrument per channel
     (``torsion``, ``accel``, ``speed``), ``seed`` of all noise, ``duration`` [s] of
     the record, ``fs`` [Hz], ``start_offset`` [s] of test time dropped before the
     record starts, ``time_zero`` [s] first time stamp of the record (epoch
@@ -114,6 +121,7 @@ class RecordSpec:
     friction: FrictionLaw
     drive: SpeedProfile
     extensions: Extensions = field(default_factory=Extensions)
+    unmodelled: Unmodelled = field(default_factory=Unmodelled)
     torsion: Channel = field(default_factory=Channel)
     accel: Channel = field(default_factory=Channel)
     speed: Channel = field(default_factory=Channel)
@@ -251,6 +259,7 @@ def make_record(spec: RecordSpec) -> RecordTruth:
         (n_skip + n_rec) / fs,
         fs,
         extensions=spec.extensions,
+        unmodelled=spec.unmodelled,
         rtol=spec.rtol,
         atol=1e-10,
     )

@@ -41,6 +41,7 @@ from tribo_estimation.errors import EstimationError, InvalidDataError, InvalidPa
 from . import candidates as cand_lib
 from .candidates import Candidate, ParamSpec
 from .fitting import CHANNELS, MU0, MU_INF, Problem, Record
+from .identify import GaussNewton, Identifiability, gauss_newton, identifiability
 from .localise import torque_residual
 from .select import _baseline_starts
 from .stats import (
@@ -143,14 +144,6 @@ class MonitorConfig:
 
 
 @dataclass(frozen=True)
-class Identifiability:
-    """Verdict of :func:`identifiability`: ``ok`` and the reason (one line)."""
-
-    ok: bool
-    reason: str
-
-
-@dataclass(frozen=True)
 class WindowResult:
     """One evaluated window (see :class:`WindowMonitor`).
 
@@ -196,172 +189,6 @@ class WindowData:
     torsion_moment: FloatArray
     angular_acceleration: FloatArray
     speed: FloatArray
-
-
-# --------------------------------------------------------------------------- identifiability
-
-
-@dataclass(frozen=True)
-class GaussNewton:
-    """Linearised uncertainty of an output-error fit at its solution.
-
-    ``names`` the fitted parameters; ``values`` and their standard errors
-    ``se`` in the parameters' SI units; ``corr`` their correlation matrix (-),
-    rows/columns in the order of ``names``; ``dead`` the parameters the
-    simulated channels do not depend on at all (zero Jacobian column).
-    """
-
-    names: tuple[str, ...]
-    values: tuple[float, ...]
-    se: tuple[float, ...]
-    corr: FloatArray
-    dead: tuple[str, ...]
-
-
-def gauss_newton(
-    problem: Problem,
-    specs: Sequence[ParamSpec],
-    values: Mapping[str, float],
-    seg_mask: npt.NDArray[np.bool_] | None = None,
-    *,
-    corr_time: float = 1e-3,
-) -> GaussNewton:
-    """Gauss-Newton covariance of an output-error fit (:meth:`Problem.fit`).
-
-    The Jacobian J of the weighted residual vector (:meth:`Problem.residual_vector`)
-    by forward differences in the optimiser's coordinates (value/scale, or log
-    for time constants); covariance ``s^2*(J^T J)^-1*c`` with s^2 the residual
-    variance per sample and ``c = corr_time*fs`` (>= 1): residuals of a model
-    mismatch are correlated over about ``corr_time`` [s], so only one sample in
-    c counts (as the selection's BIC does). A singular J^T J gives
-    correlations of +-1 (NaN entries become 1). ``seg_mask`` selects segments.
-    """
-    base = dict(values)
-
-    def coord(p: ParamSpec, v: float) -> float:
-        return math.log(max(v, p.lower)) if p.log else v / p.scale
-
-    def value(p: ParamSpec, x: float) -> float:
-        return math.exp(x) if p.log else x * p.scale
-
-    r0 = problem.residual_vector(problem.simulate(base, seg_mask))
-    cols = []
-    for p in specs:
-        x = coord(p, float(base[p.name]))
-        h = 1e-3 * max(1.0, abs(x))
-        vals = dict(base)
-        hi = coord(p, p.upper)
-        xs = x + h if x + h <= hi else x - h
-        vals[p.name] = value(p, xs)
-        cols.append((problem.residual_vector(problem.simulate(vals, seg_mask)) - r0) / (xs - x))
-    J = np.vstack(cols)
-    m, k = r0.size, len(specs)
-    s2 = float(r0 @ r0) / max(m - k, 1)
-    inflation = max(1.0, corr_time * problem.record.fs)
-    cov = np.linalg.pinv(J @ J.T) * s2 * inflation
-    d = np.sqrt(np.abs(np.diag(cov)))
-    with np.errstate(invalid='ignore', divide='ignore'):
-        corr = cov / np.outer(d, d)
-    corr = np.where(np.isfinite(corr), corr, 1.0)
-    dead_mask = ~np.any(J != 0.0, axis=1)
-    corr[dead_mask, :] = 1.0
-    corr[:, dead_mask] = 1.0
-    se = []
-    for p, dx in zip(specs, d, strict=True):
-        v = float(base[p.name])
-        se.append(abs(v) * float(dx) if p.log else float(dx) * p.scale)
-    return GaussNewton(
-        names=tuple(p.name for p in specs),
-        values=tuple(float(base[p.name]) for p in specs),
-        se=tuple(se),
-        corr=np.asarray(corr, dtype=np.float64),
-        dead=tuple(p.name for p, dd in zip(specs, dead_mask, strict=True) if dd),
-    )
-
-
-_DECIDE = '(a second drive speed or a speed step would decide it)'
-
-
-def identifiability(
-    candidate: str,
-    param_names: Sequence[str],
-    gn: GaussNewton,
-    stick_durations_s: FloatArray,
-    *,
-    max_rel_se: float = 0.2,
-    max_correlation: float = 0.999,
-    min_spread: float = 0.1,
-) -> Identifiability:
-    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)?
-
-    Honest checks on what the fit gives (``gn``: :func:`gauss_newton` of the
-    fit of mu0, mu_inf and the candidate's ``param_names``):
-
-    * for ``dwell_time_stiction`` the spread of the stick durations
-      ``stick_durations_s`` [s]: the effect only shows as a dependence of the
-      breakaway on the preceding stick time, so if (p90 - p10) / median is
-      below ``min_spread`` (-; at one constant drive speed every stick lasts as
-      long as the next) it is confounded with mu0;
-    * a parameter the simulation does not depend on is not identifiable;
-    * the correlation of a candidate parameter with mu0 or mu_inf above
-      ``max_correlation`` (-): the record cannot tell the effect from a change
-      of the friction law (the linearisation is then not trustworthy either);
-    * the relative standard error of every candidate parameter (the
-      correlation with mu0/mu_inf inflates it) must not exceed ``max_rel_se``
-      (-): otherwise this record cannot pin the effect down.
-
-    Returns the verdict with a one-line reason (with the experiment that would
-    decide it when it cannot). Meant to move to a shared identifiability
-    module of the offline workflow.
-    """
-    idx = {n: i for i, n in enumerate(gn.names)}
-    missing = [n for n in ('mu0', 'mu_inf', *param_names) if n not in idx]
-    if missing:
-        raise InvalidParameterError(
-            f'identifiability: the fit lacks {missing} (has {list(gn.names)})'
-        )
-    if candidate == 'dwell_time_stiction':
-        d = np.asarray(stick_durations_s, dtype=np.float64)
-        d = d[np.isfinite(d)]
-        if d.size < 3:
-            return Identifiability(
-                False, f'only {d.size} complete stick phases: dwell-time stiction needs >= 3'
-            )
-        lo, med, hi = (float(v) for v in np.percentile(d, (10.0, 50.0, 90.0)))
-        if med <= 0 or (hi - lo) / med < min_spread:
-            return Identifiability(
-                False,
-                f'all sticks last {1e3 * lo:.1f}-{1e3 * hi:.1f} ms: dwell-time stiction is '
-                f'confounded with mu0 {_DECIDE}',
-            )
-    dead = [n for n in param_names if n in gn.dead]
-    if dead:
-        return Identifiability(False, f'the record does not depend on {", ".join(dead)} here')
-    worst, pair = 0.0, ('', '')
-    for pn in param_names:
-        for bn in ('mu0', 'mu_inf'):
-            c = abs(float(gn.corr[idx[pn], idx[bn]]))
-            if c > worst:
-                worst, pair = c, (pn, bn)
-    corr_txt = f'correlation of {pair[0]} with {pair[1]} {worst:.3f}'
-    if worst > max_correlation:
-        return Identifiability(
-            False,
-            f'{corr_txt} (> {max_correlation:g}): {candidate} is confounded with the friction '
-            f'law in this record {_DECIDE}',
-        )
-    parts = []
-    for pn in param_names:
-        v, se = gn.values[idx[pn]], gn.se[idx[pn]]
-        rel = se / abs(v) if v != 0 else math.inf
-        parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %)')
-        if not rel <= max_rel_se:
-            return Identifiability(
-                False,
-                f'{parts[-1]} exceeds {100 * max_rel_se:g} %: this window cannot pin '
-                f'{candidate} down; {corr_txt} {_DECIDE}',
-            )
-    return Identifiability(True, f'{"; ".join(parts)} (1 SE); {corr_txt}')
 
 
 # --------------------------------------------------------------------------- localisation

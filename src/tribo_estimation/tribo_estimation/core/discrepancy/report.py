@@ -19,7 +19,11 @@ estimate is beyond 3 standard errors)
 and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
 [rad/s], ``mismatch`` [-], ``mismatched`` (> 5 %), ``warning``, the profile's
 ``knot_time`` [s] / ``knot_speed`` [rad/s] and per time block ``blocks``:
-``[{"block", "t_start", "t_end", "w0"}]``).
+``[{"block", "t_start", "t_end", "w0"}]``), ``identifiable`` (per candidate
+``{"ok": bool, "reason": str, "suggest": str}``: can this record separate it from
+the baseline and the instrument model, and which experiment would decide it) and
+``not_identifiable`` (candidates that lowered the residual clearly but that the
+record cannot separate: never named in ``added``).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from .joint import JointResult
 from .select import DiscrepancyResult
 
 
@@ -86,15 +91,19 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
         'settings': dict(result.settings),
         'instrument': dict(result.instrument),
         'drive': dict(result.drive),
+        'identifiable': {n: v.as_dict() for n, v in result.identifiable.items()},
+        'not_identifiable': list(result.blocked),
     }
     return _clean(d)
 
 
-def write_json(result: DiscrepancyResult, path: str | Path) -> Path:
-    """Write ``discrepancy.json`` (strict JSON, indented); returns the path."""
+def write_json(result: DiscrepancyResult | JointResult, path: str | Path) -> Path:
+    """Write ``discrepancy.json`` (strict JSON, indented; a joint run of several records
+    in the layout of :meth:`.joint.JointResult.as_dict`); returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_suffix(p.suffix + '.tmp')
-    tmp.write_text(json.dumps(to_dict(result), indent=2, allow_nan=False) + '\n')
+    d = _clean(result.as_dict()) if isinstance(result, JointResult) else to_dict(result)
+    tmp.write_text(json.dumps(d, indent=2, allow_nan=False) + '\n')
     tmp.replace(p)
     return p

@@ -20,6 +20,11 @@ Forward selection over the candidate library (:mod:`.candidates`):
    ``parsimony``; e.g. a torque-offset drift vs equal drifts of mu0 and
    mu_inf, which predict the same signals); the model is polished, and the
    next round starts from it. Repeat until no candidate is eligible.
+   Every candidate's identifiability (:mod:`.identify`: standard errors and
+   correlations of its round-1 fit with mu0/mu_inf and the instrument model,
+   stick-duration and drive-speed spread, record length) is judged; a candidate
+   this record cannot separate is never added: it is reported in ``blocked``
+   as not identifiable, with the experiment that would decide it.
 5. Describe what remains (:func:`describe_unexplained`): spectral lines, a
    phase-concentrated excess, a trend, a shaft-angle dependence, each with
    where / how large / which frequency, rather than forcing a name; and
@@ -46,12 +51,15 @@ from .fitting import (
     CHANNELS,
     MU0,
     MU_INF,
+    SPEED_LAG,
+    SPEED_OFFSET,
     Problem,
     Record,
     SimulatedRecord,
     identify_speed_sensor,
     make_segments,
 )
+from .identify import Identifiability, gauss_newton, identifiability
 from .localise import localise, shaft_angle, torque_residual, variable
 from .sparse import SparseTerm, feature_library, stlsq
 from .stats import (
@@ -216,6 +224,8 @@ class DiscrepancyResult:
     traces: Traces
     instrument: dict[str, Any] = field(default_factory=dict)
     drive: dict[str, Any] = field(default_factory=dict)
+    identifiable: dict[str, Identifiability] = field(default_factory=dict)
+    blocked: tuple[str, ...] = ()
 
 
 # --------------------------------------------------------------------------- helpers
@@ -463,27 +473,16 @@ def propose_terms(
 # --------------------------------------------------------------------------- entry
 
 
-def run_discrepancy(
-    record: Record,
-    rig: RigParams,
-    drive: DriveProfile,
-    *,
-    k: float = 2.0,
-    settings: SelectionSettings | None = None,
-    progress: Progress | None = None,
-) -> DiscrepancyResult:
-    """The missing-physics workflow on one record (see the module docstring).
-
-    ``rig`` (Tab. 1 parameters, F_N, R), ``drive`` (nominal speed, ramp) and
-    ``k`` (Equ. 8, s/rad) are known; ``mu0``/``mu_inf`` and the effects are fitted.
-    """
-    st = settings or SelectionSettings()
-    say: Progress = progress or (lambda _msg: None)
-    t_start = _time.perf_counter()
-    pb = Problem(
-        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
-    )
+def fit_baseline(
+    pb: Problem, st: SelectionSettings, say: Progress
+) -> tuple[dict[str, float], SimulatedRecord, dict[str, Any]]:
+    """The baseline of one record: the speed-sensor model from the stick phases
+    (held fixed), the paper's model (Equ. 1-8: mu0, mu_inf) from several starts,
+    channel weights from its residuals (never above 1/noise floor) and a polished
+    refit. Returns the values (with the instrument model), the simulation and the
+    instrument report of ``discrepancy.json``."""
     sel = _Selector(pb, st, say)
+    record, rig = pb.record, pb.rig
     # the instrument model (speed-sensor lag and offset) is identified from the stick
     # phases before any fit (friction-free) and held fixed by every model
     seg = pb.segments
@@ -531,6 +530,31 @@ def run_discrepancy(
     # any effect is tried; the effects' fits hold it fixed
     base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
     base_sim = pb.simulate(base_vals)
+    return base_vals, base_sim, instrument
+
+
+def run_discrepancy(
+    record: Record,
+    rig: RigParams,
+    drive: DriveProfile,
+    *,
+    k: float = 2.0,
+    settings: SelectionSettings | None = None,
+    progress: Progress | None = None,
+) -> DiscrepancyResult:
+    """The missing-physics workflow on one record (see the module docstring).
+
+    ``rig`` (Tab. 1 parameters, F_N, R), ``drive`` (nominal speed, ramp) and
+    ``k`` (Equ. 8, s/rad) are known; ``mu0``/``mu_inf`` and the effects are fitted.
+    """
+    st = settings or SelectionSettings()
+    say: Progress = progress or (lambda _msg: None)
+    t_start = _time.perf_counter()
+    pb = Problem(
+        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
+    )
+    sel = _Selector(pb, st, say)
+    base_vals, base_sim, instrument = fit_baseline(pb, st, say)
     current = sel.score((), base_vals)
     baseline = current
     say(
@@ -542,6 +566,8 @@ def run_discrepancy(
     pool: list[Candidate] = [cand_lib.get(n) for n in names]
     added: list[AddedEffect] = []
     rounds: list[tuple[CandidateScore, ...]] = []
+    verdicts: dict[str, Identifiability] = {}
+    blocked: list[str] = []
     for rnd in range(st.max_effects):
         scores: list[CandidateScore] = []
         for c in pool:
@@ -563,9 +589,14 @@ def run_discrepancy(
             )
         if not scores:
             break
+        if rnd == 0:
+            verdicts = judge_candidates(pb, base_sim, {s.effect: s.model.params for s in scores})
+            for n, v in verdicts.items():
+                say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
         # eligible: clearly better on held-out blocks AND by BIC; among those the
         # lowest BIC wins (Occam: with equal fits the candidate with fewer
-        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf)
+        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf).
+        # A candidate this record cannot separate is never named (``blocked``).
         eligible = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
         ok = bool(eligible)
         best = (
@@ -583,12 +614,19 @@ def run_discrepancy(
         ]
         if simpler:
             best = min(simpler, key=lambda s: (s.model.n_params, s.model.cost))
+        if ok and not verdicts.get(best.effect, _OK).ok:
+            # the best explanation is one this record cannot separate: name nothing
+            # (another candidate would only absorb its signal) and say so
+            blocked.append(best.effect)
+            say(f'round {rnd + 1}: {best.effect} improves but is not identifiable here')
+            ok = False
         scores = [
             CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best) for s in scores
         ]
         rounds.append(tuple(scores))
         if not ok:
-            say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
+            if not blocked or blocked[-1] != best.effect:
+                say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
             break
         c = cand_lib.get(best.effect)
         # polish the accepted model to convergence before it becomes the reference
@@ -650,7 +688,55 @@ def run_discrepancy(
         traces=Traces(pb, base_sim, final_sim),
         instrument=instrument,
         drive=drive_report(pb),
+        identifiable=verdicts,
+        blocked=tuple(blocked),
     )
+
+
+_OK = Identifiability(True, '')
+
+
+def record_facts(pb: Problem, sim: SimulatedRecord) -> tuple[FloatArray, FloatArray, float]:
+    """Durations [s] of the record's complete stick phases (the segments' stick
+    runs, else those of the simulation ``sim``), mean drive speed per time block
+    [rad/s] and the record length [s]."""
+    seg = pb.segments
+    n = pb.record.time.size
+    if seg.run_start is not None and seg.run_stop is not None:
+        ra, rb = np.unique(np.column_stack([seg.run_start, seg.run_stop]), axis=0).T
+        keep = (ra > 0) & (rb < n)
+        durations = ((rb[keep] - ra[keep]) / pb.record.fs).astype(np.float64)
+    else:
+        durations = stick_durations(np.nan_to_num(sim.stick, nan=0.0) > 0.5, pb.record.fs)
+    speeds = np.asarray([b['w0'] for b in drive_report(pb)['blocks']], dtype=np.float64)
+    t = pb.record.time
+    return durations, speeds, float(t[-1] - t[0])
+
+
+def judge_candidates(
+    pb: Problem,
+    base_sim: SimulatedRecord,
+    fits: Mapping[str, Mapping[str, float]],
+    *,
+    corr_time: float = 1e-3,
+) -> dict[str, Identifiability]:
+    """The identifiability verdict (:func:`.identify.identifiability`) of every
+    candidate in ``fits`` (name -> its fitted values: mu0, mu_inf, the candidate's
+    parameters and the fixed instrument model), from the Gauss-Newton linearisation
+    of its fit (with the speed-sensor terms when the model uses them) and the
+    record's stick durations, drive speeds and length."""
+    durations, speeds, length = record_facts(pb, base_sim)
+    out: dict[str, Identifiability] = {}
+    for name, vals in fits.items():
+        c = cand_lib.get(name)
+        specs = [MU0, MU_INF]
+        specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
+        specs += list(c.params)
+        gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
+        out[name] = identifiability(
+            name, c.param_names, gn, durations, drive_speeds=speeds, duration=length
+        )
+    return out
 
 
 def drive_report(pb: Problem) -> dict[str, Any]:
@@ -687,6 +773,9 @@ __all__ = [
     'SelectionSettings',
     'Unexplained',
     'describe_unexplained',
+    'fit_baseline',
+    'judge_candidates',
+    'record_facts',
     'run_discrepancy',
     'variable',
 ]

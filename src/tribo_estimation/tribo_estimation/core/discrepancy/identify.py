@@ -1,0 +1,333 @@
+"""Identifiability of candidate effects: can this record (or these records) decide?
+
+One place for the verdict used by the offline workflow (:func:`.select.run_discrepancy`,
+:func:`.joint.run_joint_discrepancy`) and the live monitor (:mod:`.monitor`):
+
+* :func:`gauss_newton`: linearised standard errors and correlations of an
+  output-error fit at its solution (the Jacobian of the weighted residual vector);
+* :func:`identifiability`: the verdict for one candidate from those numbers and
+  physical checks on the record (spread of the stick durations for dwell-time
+  stiction, spread of the drive speeds for speed-dependent effects, record length
+  for drifts), with the reason and the experiment that would decide it;
+* :func:`record_facts` / :func:`assess`: the physical facts of a fitted record and
+  the verdict of every candidate of a selection round.
+
+The baseline is the paper's friction law (Equ. 8: mu0, mu_inf); the instrument
+model (speed-sensor lag and offset) is included in the correlation check when it is
+part of the linearisation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from tribo_estimation.errors import InvalidParameterError
+
+from .candidates import ParamSpec
+from .fitting import Problem
+from .stats import FloatArray
+
+#: Baseline parameters an effect must be separable from (Equ. 8).
+BASELINE_NAMES: tuple[str, ...] = ('mu0', 'mu_inf')
+#: Instrument-model parameters (speed sensor) also checked for correlation.
+INSTRUMENT_NAMES: tuple[str, ...] = ('speed_lag_tau', 'speed_offset')
+
+#: Candidates whose signature depends on the slip or drive speed.
+SPEED_DEPENDENT: frozenset[str] = frozenset(
+    {'viscous_friction', 'frictional_lag', 'dwell_time_stiction', 'bearing_friction'}
+)
+#: Candidates that change with test time (need record length).
+DRIFTS: frozenset[str] = frozenset({'friction_drift', 'torque_offset'})
+
+SUGGEST_SPEED = 'a second drive speed or a speed step'
+SUGGEST_LONGER = 'a longer record'
+SUGGEST_MORE = 'a longer record (more stick-slip cycles)'
+
+
+def suggestion(candidate: str) -> str:
+    """The experiment that would decide ``candidate`` when a record cannot."""
+    if candidate in SPEED_DEPENDENT:
+        return SUGGEST_SPEED
+    if candidate in DRIFTS:
+        return SUGGEST_LONGER
+    return SUGGEST_MORE
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """Verdict of :func:`identifiability`: ``ok``, a one-line ``reason`` and, when
+    not ok, the experiment that would decide it (``suggest``; also named in the reason)."""
+
+    ok: bool
+    reason: str
+    suggest: str = ''
+
+    def as_dict(self) -> dict[str, object]:
+        return {'ok': self.ok, 'reason': self.reason, 'suggest': self.suggest}
+
+
+@dataclass(frozen=True)
+class RecordFacts:
+    """Physical facts of a fitted record (or several) for :func:`identifiability`.
+
+    ``stick_durations`` complete stick phases [s]; ``drive_speeds`` mean drive speed
+    per time block (and record) [rad/s]; ``duration`` total length of the records [s].
+    """
+
+    stick_durations: FloatArray
+    drive_speeds: FloatArray
+    duration: float
+
+
+class ResidualModel(Protocol):
+    """What :func:`gauss_newton` needs: the weighted residual vector of a value mapping."""
+
+    @property
+    def fs(self) -> float: ...
+
+    def residuals(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> FloatArray: ...
+
+
+class ProblemResiduals:
+    """:class:`ResidualModel` of one record's :class:`.fitting.Problem`."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+
+    @property
+    def fs(self) -> float:
+        return self.problem.record.fs
+
+    def residuals(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> FloatArray:
+        return self.problem.residual_vector(self.problem.simulate(values, seg_mask))
+
+
+@dataclass(frozen=True)
+class GaussNewton:
+    """Linearised uncertainty of an output-error fit at its solution.
+
+    ``names`` the fitted parameters; ``values`` and their standard errors
+    ``se`` in the parameters' SI units; ``corr`` their correlation matrix (-),
+    rows/columns in the order of ``names``; ``dead`` the parameters the
+    simulated channels do not depend on at all (zero Jacobian column).
+    """
+
+    names: tuple[str, ...]
+    values: tuple[float, ...]
+    se: tuple[float, ...]
+    corr: FloatArray
+    dead: tuple[str, ...]
+
+
+def gauss_newton(
+    problem: ResidualModel | Problem,
+    specs: Sequence[ParamSpec],
+    values: Mapping[str, float],
+    seg_mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    corr_time: float = 1e-3,
+) -> GaussNewton:
+    """Gauss-Newton covariance of an output-error fit (:meth:`.fitting.Problem.fit`).
+
+    The Jacobian J of the weighted residual vector (``problem.residuals``) by
+    forward differences in the optimiser's coordinates (value/scale, or log for
+    time constants); covariance ``s^2*(J^T J)^-1*c`` with s^2 the residual
+    variance per sample and ``c = corr_time*fs`` (>= 1): residuals of a model
+    mismatch are correlated over about ``corr_time`` [s], so only one sample in
+    c counts (as the selection's BIC does). A singular J^T J gives
+    correlations of +-1 (NaN entries become 1). ``seg_mask`` selects segments.
+    """
+    if isinstance(problem, Problem):
+        problem = ProblemResiduals(problem)
+    base = dict(values)
+
+    def coord(p: ParamSpec, v: float) -> float:
+        return math.log(max(v, p.lower)) if p.log else v / p.scale
+
+    def value(p: ParamSpec, x: float) -> float:
+        return math.exp(x) if p.log else x * p.scale
+
+    r0 = problem.residuals(base, seg_mask)
+    cols = []
+    for p in specs:
+        x = coord(p, float(base[p.name]))
+        h = 1e-3 * max(1.0, abs(x))
+        vals = dict(base)
+        hi = coord(p, p.upper)
+        xs = x + h if x + h <= hi else x - h
+        vals[p.name] = value(p, xs)
+        cols.append((problem.residuals(vals, seg_mask) - r0) / (xs - x))
+    J = np.vstack(cols)
+    m, k = r0.size, len(specs)
+    s2 = float(r0 @ r0) / max(m - k, 1)
+    inflation = max(1.0, corr_time * problem.fs)
+    cov = np.linalg.pinv(J @ J.T) * s2 * inflation
+    d = np.sqrt(np.abs(np.diag(cov)))
+    with np.errstate(invalid='ignore', divide='ignore'):
+        corr = cov / np.outer(d, d)
+    corr = np.where(np.isfinite(corr), corr, 1.0)
+    dead_mask = ~np.any(J != 0.0, axis=1)
+    corr[dead_mask, :] = 1.0
+    corr[:, dead_mask] = 1.0
+    se = []
+    for p, dx in zip(specs, d, strict=True):
+        v = float(base[p.name])
+        se.append(abs(v) * float(dx) if p.log else float(dx) * p.scale)
+    return GaussNewton(
+        names=tuple(p.name for p in specs),
+        values=tuple(float(base[p.name]) for p in specs),
+        se=tuple(se),
+        corr=np.asarray(corr, dtype=np.float64),
+        dead=tuple(p.name for p, dd in zip(specs, dead_mask, strict=True) if dd),
+    )
+
+
+def _base(name: str) -> str:
+    """Parameter name without a per-record suffix (``mu0@1`` -> ``mu0``)."""
+    return name.split('@', 1)[0]
+
+
+def identifiability(
+    candidate: str,
+    param_names: Sequence[str],
+    gn: GaussNewton,
+    stick_durations_s: FloatArray,
+    *,
+    drive_speeds: FloatArray | None = None,
+    duration: float | None = None,
+    max_rel_se: float = 0.2,
+    max_correlation: float = 0.999,
+    min_spread: float = 0.1,
+    min_drift_duration: float = 0.5,
+) -> Identifiability:
+    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)
+    and the instrument model?
+
+    Honest checks on what the fit gives (``gn``: :func:`gauss_newton` of the fit of
+    mu0, mu_inf (per record: ``mu0@i``), optionally the speed-sensor terms, and the
+    candidate's ``param_names``):
+
+    * for ``dwell_time_stiction`` the spread of the stick durations
+      ``stick_durations_s`` [s]: the effect only shows as a dependence of the
+      breakaway on the preceding stick time, so if (p90 - p10) / median is
+      below ``min_spread`` (-; at one constant drive speed every stick lasts as
+      long as the next) it is confounded with mu0;
+    * for drifts (``friction_drift``, ``torque_offset``) the record ``duration`` [s]
+      must reach ``min_drift_duration``;
+    * a parameter the simulation does not depend on is not identifiable;
+    * the correlation of a candidate parameter with mu0/mu_inf or the instrument
+      terms above ``max_correlation`` (-): the record cannot tell the effect from a
+      change of the friction law or of the sensor;
+    * the relative standard error of every candidate parameter (the correlations
+      inflate it) must not exceed ``max_rel_se`` (-).
+
+    ``drive_speeds`` [rad/s] (per block or record) only shapes the reason of a
+    speed-dependent effect that fails (one speed: "all at 3.14 rad/s").
+    """
+    idx = {n: i for i, n in enumerate(gn.names)}
+    have_base = {_base(n) for n in gn.names}
+    missing = [n for n in (*BASELINE_NAMES, *param_names) if n not in have_base and n not in idx]
+    if missing:
+        raise InvalidParameterError(
+            f'identifiability: the fit lacks {missing} (has {list(gn.names)})'
+        )
+    suggest = suggestion(candidate)
+    decide = f'({suggest} would decide it)'
+    speed_txt = ''
+    if drive_speeds is not None:
+        ds = np.asarray(drive_speeds, dtype=np.float64)
+        ds = ds[np.isfinite(ds)]
+        if ds.size and float(np.mean(ds)) > 0:
+            lo_w, hi_w = float(np.min(ds)), float(np.max(ds))
+            if (hi_w - lo_w) / float(np.mean(ds)) < min_spread:
+                speed_txt = f' (all at one drive speed, {lo_w:.3g}-{hi_w:.3g} rad/s)'
+    if candidate == 'dwell_time_stiction':
+        d = np.asarray(stick_durations_s, dtype=np.float64)
+        d = d[np.isfinite(d)]
+        if d.size < 3:
+            return Identifiability(
+                False,
+                f'only {d.size} complete stick phases: dwell-time stiction needs >= 3 {decide}',
+                suggest,
+            )
+        lo, med, hi = (float(v) for v in np.percentile(d, (10.0, 50.0, 90.0)))
+        if med <= 0 or (hi - lo) / med < min_spread:
+            return Identifiability(
+                False,
+                f'all sticks last {1e3 * lo:.1f}-{1e3 * hi:.1f} ms: dwell-time stiction is '
+                f'confounded with mu0 {decide}',
+                suggest,
+            )
+    if candidate in DRIFTS and duration is not None and duration < min_drift_duration:
+        return Identifiability(
+            False,
+            f'the record lasts {duration:.2g} s (< {min_drift_duration:g} s): a drift of '
+            f'{candidate} is confounded with mu0/mu_inf {decide}',
+            suggest,
+        )
+    dead = [n for n in param_names if n in gn.dead]
+    if dead:
+        return Identifiability(
+            False, f'the record does not depend on {", ".join(dead)} here {decide}', suggest
+        )
+    others = [n for n in gn.names if _base(n) in (*BASELINE_NAMES, *INSTRUMENT_NAMES)]
+    worst, pair = 0.0, ('', '')
+    for pn in param_names:
+        for bn in others:
+            c = abs(float(gn.corr[idx[pn], idx[bn]]))
+            if c > worst:
+                worst, pair = c, (pn, bn)
+    corr_txt = f'correlation of {pair[0]} with {pair[1]} {worst:.3f}'
+    if worst > max_correlation:
+        what = 'the instrument model' if _base(pair[1]) in INSTRUMENT_NAMES else 'the friction law'
+        return Identifiability(
+            False,
+            f'{corr_txt} (> {max_correlation:g}): {candidate} is confounded with {what} '
+            f'in this record{speed_txt} {decide}',
+            suggest,
+        )
+    parts = []
+    for pn in param_names:
+        v, se = gn.values[idx[pn]], gn.se[idx[pn]]
+        rel = se / abs(v) if v != 0 else math.inf
+        parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %)')
+        if not rel <= max_rel_se:
+            return Identifiability(
+                False,
+                f'{parts[-1]} exceeds {100 * max_rel_se:g} %: this record cannot pin '
+                f'{candidate} down{speed_txt}; {corr_txt} {decide}',
+                suggest,
+            )
+    return Identifiability(True, f'{"; ".join(parts)} (1 SE); {corr_txt}')
+
+
+def per_record(spec: ParamSpec, i: int) -> ParamSpec:
+    """``spec`` renamed for record ``i`` of a joint fit (``mu0`` -> ``mu0@i``)."""
+    return replace(spec, name=f'{spec.name}@{i}')
+
+
+__all__ = [
+    'BASELINE_NAMES',
+    'DRIFTS',
+    'INSTRUMENT_NAMES',
+    'SPEED_DEPENDENT',
+    'GaussNewton',
+    'Identifiability',
+    'ProblemResiduals',
+    'RecordFacts',
+    'ResidualModel',
+    'gauss_newton',
+    'identifiability',
+    'per_record',
+    'suggestion',
+]
