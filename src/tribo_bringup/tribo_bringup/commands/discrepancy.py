@@ -120,38 +120,38 @@ def _load_bag(
     return read_rig_stretch(path, start, duration, _say)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the workflow; returns the exit code."""
+def _candidate_names(args: argparse.Namespace) -> tuple[str, ...] | None:
+    """The ``--candidates`` list, checked against the library (None: all)."""
+    from tribo_bringup.errors import ConfigError
+    from tribo_estimation.core.discrepancy import candidates as cand_lib
+
+    names = tuple(n.strip() for n in args.candidates.split(',') if n.strip()) or None
+    for n in names or ():
+        if n not in cand_lib.names():
+            raise ConfigError(
+                f'--candidates: unknown effect {n!r} (known: {", ".join(cand_lib.names())})'
+            )
+    return names
+
+
+def _load_record(src: Path, args: argparse.Namespace, cfg: Any) -> tuple[Any, Exception | None]:
+    """One input (rig CSV or bag) as a :class:`Record` of the ``--start``/``--duration``
+    window, its time base and channels checked and its spikes repaired
+    (:mod:`tribo_estimation.core.plausibility`); also the truncation error of a bag
+    that ends early (its good part is returned)."""
     import numpy as np
 
     from tribo_bringup.errors import ConfigError
-    from tribo_bringup.outputs import atomic_output_dir
-    from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
-    from tribo_estimation.core.discrepancy import candidates as cand_lib
     from tribo_estimation.core.discrepancy.fitting import Record
-    from tribo_estimation.core.discrepancy.report import write_json
+    from tribo_estimation.core.plausibility import (
+        Scales,
+        check_channels,
+        check_time_base,
+        despike_chunk,
+    )
 
-    if len(args.input) > 1:
-        return _run_joint(args)
-    src = Path(args.input[0])
     if not src.exists():
         raise ConfigError(f'{src}: no such file or bag')
-    if not (math.isfinite(args.start) and args.start >= 0):
-        raise ConfigError(f'--start must be >= 0 s, got {args.start}')
-    if not (math.isfinite(args.duration) and args.duration >= 0):
-        raise ConfigError(f'--duration must be >= 0 s, got {args.duration}')
-    names = tuple(n.strip() for n in args.candidates.split(',') if n.strip()) or None
-    if names:
-        for n in names:
-            if n not in cand_lib.names():
-                raise ConfigError(
-                    f'--candidates: unknown effect {n!r} (known: {", ".join(cand_lib.names())})'
-                )
-    cfg = load_rig_config(args.rig)
-    settings = SelectionSettings(
-        min_gain=args.min_gain, max_effects=args.max_effects, candidates=names
-    )
     is_csv = src.is_file() and src.suffix.lower() in ('.csv', '.txt')
     _say(f'reading {src} ({"rig CSV" if is_csv else "bag"})')
     truncated: Exception | None = None
@@ -169,13 +169,6 @@ def run(args: argparse.Namespace) -> int:
             f'{src}: the window start {args.start} s, duration {args.duration} s holds '
             f'{int(np.count_nonzero(sel))} samples (need >= 100)'
         )
-    from tribo_estimation.core.plausibility import (
-        Scales,
-        check_channels,
-        check_time_base,
-        despike_chunk,
-    )
-
     scales = Scales.of(cfg.rig, cfg.friction, cfg.drive.nominal_speed)
     fs_est = (t.size - 1) / float(t[-1] - t[0]) if t.size > 1 else math.nan
     check_time_base(fs_est, str(src), scales.f_stick_slip)
@@ -190,15 +183,40 @@ def run(args: argparse.Namespace) -> int:
     if int(np.count_nonzero(spk)):
         _say(f'{int(np.count_nonzero(spk))} spike samples replaced by interpolation')
     record = Record(
-        np.ascontiguousarray(t[sel], dtype=np.float64),
-        np.ascontiguousarray(torque[sel], dtype=np.float64),
-        np.ascontiguousarray(accel[sel], dtype=np.float64),
-        np.ascontiguousarray(speed[sel], dtype=np.float64),
+        *(np.ascontiguousarray(a[sel], dtype=np.float64) for a in (t, torque, accel, speed))
     )
     _say(
         f'{record.time.size} samples at {record.fs:.0f} Hz '
         f'({record.time[-1] - record.time[0]:.2f} s)'
     )
+    return record, truncated
+
+
+def _check_window(args: argparse.Namespace) -> None:
+    from tribo_bringup.errors import ConfigError
+
+    if not (math.isfinite(args.start) and args.start >= 0):
+        raise ConfigError(f'--start must be >= 0 s, got {args.start}')
+    if not (math.isfinite(args.duration) and args.duration >= 0):
+        raise ConfigError(f'--duration must be >= 0 s, got {args.duration}')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the workflow; returns the exit code."""
+    from tribo_bringup.outputs import atomic_output_dir
+    from tribo_estimation.core.config import load_rig_config
+    from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
+    from tribo_estimation.core.discrepancy.report import write_json
+
+    _check_window(args)
+    if len(args.input) > 1:
+        return _run_joint(args)
+    names = _candidate_names(args)
+    cfg = load_rig_config(args.rig)
+    settings = SelectionSettings(
+        min_gain=args.min_gain, max_effects=args.max_effects, candidates=names
+    )
+    record, truncated = _load_record(Path(args.input[0]), args, cfg)
     result = run_discrepancy(
         record, cfg.rig, cfg.drive, k=cfg.friction.k, settings=settings, progress=_say
     )
@@ -225,47 +243,20 @@ def run(args: argparse.Namespace) -> int:
 def _run_joint(args: argparse.Namespace) -> int:
     """Several records fitted jointly (:func:`run_joint_discrepancy`); ``--start`` and
     ``--duration`` apply to each. Writes ``DIR/discrepancy.json`` (joint layout)."""
-    import numpy as np
-
-    from tribo_bringup.errors import ConfigError
+    from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.discrepancy import SelectionSettings
-    from tribo_estimation.core.discrepancy import candidates as cand_lib
-    from tribo_estimation.core.discrepancy.fitting import Record
     from tribo_estimation.core.discrepancy.joint import run_joint_discrepancy
     from tribo_estimation.core.discrepancy.report import write_json
 
-    names = tuple(n.strip() for n in args.candidates.split(',') if n.strip()) or None
-    for n in names or ():
-        if n not in cand_lib.names():
-            raise ConfigError(
-                f'--candidates: unknown effect {n!r} (known: {", ".join(cand_lib.names())})'
-            )
+    names = _candidate_names(args)
     cfg = load_rig_config(args.rig)
     records = []
     for name in args.input:
-        src = Path(name)
-        if not src.exists():
-            raise ConfigError(f'{src}: no such file or bag')
-        if src.is_file() and src.suffix.lower() in ('.csv', '.txt'):
-            t, torque, accel, speed = _load_csv(src)
-            t0 = float(t[0]) + args.start
-        else:
-            (t, torque, accel, speed), truncated = _load_bag(src, args.start, args.duration)
-            if truncated is not None:
-                raise truncated
-            t0 = float(t[0])
-        sel = t >= t0
-        if args.duration > 0:
-            sel &= t < t0 + args.duration
-        if int(np.count_nonzero(sel)) < 100:
-            raise ConfigError(f'{src}: fewer than 100 samples in the window')
-        records.append(
-            Record(
-                *(np.ascontiguousarray(a[sel], dtype=np.float64) for a in (t, torque, accel, speed))
-            )
-        )
-        _say(f'{src}: {records[-1].time.size} samples')
+        record, truncated = _load_record(Path(name), args, cfg)
+        if truncated is not None:
+            raise truncated  # a joint fit needs every record whole
+        records.append(record)
     settings = SelectionSettings(min_gain=args.min_gain, candidates=names)
     res = run_joint_discrepancy(
         records,
@@ -275,8 +266,10 @@ def _run_joint(args: argparse.Namespace) -> int:
         settings=settings,
         progress=_say,
     )
-    path = write_json(res, Path(args.out) / 'discrepancy.json')
-    _say(f'wrote {path}')
+    out = Path(args.out)
+    with atomic_output_dir(out) as stage:
+        write_json(res, stage / 'discrepancy.json')
+    _say(f'wrote {out / "discrepancy.json"}')
     blocked = ', '.join(res.not_identifiable)
     print(
         f'added: {res.named or "nothing"} (joint fit of {len(records)} records)'
