@@ -54,16 +54,16 @@ from typing import TextIO
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import EstimationError, FitError, InvalidDataError, InvalidParameterError, UnitError
-from . import kernel as kn
-from .align import AlignEvent, GapEvent, RestartEvent
-from .drive import DriveEstimate, estimate_drive
-from .lsq import levenberg_marquardt
-from .model import DriveProfile, FrictionLaw, RigParams, pack_params
-from .observer import FrictionObserver, friction_moment
-from .shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
-from .signal import CHAMBER_HALF, chamber_speed, longest_run, noise_level, runs
-from .sticks import (
+from ...errors import EstimationError, FitError, InvalidDataError, InvalidParameterError, UnitError
+from .. import kernel as kn
+from ..align import AlignEvent, GapEvent, RestartEvent
+from ..drive import DriveEstimate, estimate_drive
+from ..lsq import levenberg_marquardt
+from ..model import DriveProfile, FrictionLaw, RigParams, pack_params
+from ..observer import FrictionObserver, friction_moment
+from ..shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
+from ..signal import CHAMBER_HALF, chamber_speed, longest_run, noise_level, runs
+from ..sticks import (
     chamber_speed_integral,
     classify_motion,
     detect_sticks,
@@ -316,7 +316,7 @@ def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     Raises:
         MissingColumnError-like :class:`InvalidDataError` naming the missing column.
     """
-    from ..errors import MissingColumnError
+    from ...errors import MissingColumnError
 
     p = os.fspath(path)
     try:
@@ -1177,7 +1177,7 @@ class StreamingPipeline:
     """
 
     def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
-        from .align import ChannelAligner
+        from ..align import ChannelAligner
 
         self.aligner = ChannelAligner()
         self.estimator = BlockEstimator(rig, friction, cfg)
@@ -1186,7 +1186,7 @@ class StreamingPipeline:
         self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
     ) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
         """Add one block of one channel; see the class docstring."""
-        from .align import AlignedChunk
+        from ..align import AlignedChunk
 
         moments: list[MomentChunk] = []
         blocks: list[PendingBlock] = []
@@ -1224,7 +1224,7 @@ class StreamingPipeline:
     def warm_up(self) -> None:
         """Fit a short simulated stretch once, so the compiled code is loaded before
         the first real block ends (keeps the first estimate's latency low)."""
-        from .simulate import simulate
+        from ..simulate import simulate
 
         est = self.estimator
         w0 = est.cfg.nominal_speed or 1.0
