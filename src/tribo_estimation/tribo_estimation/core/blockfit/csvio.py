@@ -1,0 +1,152 @@
+"""The block table ``blocks.csv``: its columns, a streaming writer and a reader.
+
+:func:`read_blocks_csv` and :func:`results_table` give the same column arrays,
+from a file and from :class:`.results.BlockResult` objects in memory.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import fields
+from typing import TextIO
+
+import numpy as np
+
+from ...errors import InvalidDataError, MissingColumnError
+from .results import BlockResult
+
+#: Block-table columns shared with the live estimates (FrictionEstimate) and the
+#: report, then ``quality``.
+CSV_COLUMNS: tuple[str, ...] = (
+    't_start',
+    't_end',
+    'mu0',
+    'mu_inf',
+    'mu0_se',
+    'mu_inf_se',
+    'moment_min',
+    'moment_max',
+    'moment_mean',
+    'motion',
+    'n_sticks',
+    'stick_fraction',
+    'rms_residual',
+    'quality',
+)
+
+#: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
+#: fit used (``w0`` [rad/s], measured) and its relative deviation from the
+#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``, and after it
+#: the spike count of each block (``spikes``: samples repaired before the fit,
+#: :mod:`.plausibility`). Older files without these are read too.
+FILE_COLUMNS: tuple[str, ...] = (*CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality', 'spikes')
+REQUIRED_COLUMNS = CSV_COLUMNS
+
+
+def _fmt(v: float) -> str:
+    return 'nan' if not math.isfinite(v) else repr(float(v))  # round-trip: epoch stamps
+
+
+class BlockCsvWriter:
+    """Write :class:`BlockResult` rows to ``blocks.csv`` as they come (streaming).
+
+    Each row is flushed, so a run that is interrupted keeps every finished block.
+    """
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = os.fspath(path)
+        self._fh: TextIO = open(self.path, 'w', newline='', encoding='utf-8')  # noqa: SIM115
+        self._w = csv.writer(self._fh, lineterminator='\n')
+        self._w.writerow(FILE_COLUMNS)
+        self._fh.flush()
+        self.rows = 0
+
+    def write(self, r: BlockResult) -> None:
+        """Append one block."""
+        self._w.writerow(
+            [
+                _fmt(r.t_start),
+                _fmt(r.t_end),
+                _fmt(r.mu0),
+                _fmt(r.mu_inf),
+                _fmt(r.mu0_se),
+                _fmt(r.mu_inf_se),
+                _fmt(r.moment_min),
+                _fmt(r.moment_max),
+                _fmt(r.moment_mean),
+                r.motion,
+                str(r.n_sticks),
+                _fmt(r.stick_fraction),
+                _fmt(r.rms_residual),
+                _fmt(r.w0),
+                _fmt(r.drive_mismatch),
+                r.quality_str,
+                str(r.spikes),
+            ]
+        )
+        self._fh.flush()
+        self.rows += 1
+
+    def close(self) -> None:
+        """Close the file."""
+        self._fh.close()
+
+    def __enter__(self) -> BlockCsvWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """Read a ``blocks.csv`` into column arrays (float for numbers, object for text).
+
+    Raises:
+        MissingColumnError: a required column is missing (named in the message).
+        InvalidDataError: the file cannot be read or a number column holds text.
+    """
+    p = os.fspath(path)
+    try:
+        fh = open(p, newline='', encoding='utf-8')  # noqa: SIM115
+    except OSError as exc:
+        raise InvalidDataError(f'{p}: cannot read blocks table ({exc.strerror})') from exc
+    with fh:
+        reader = csv.DictReader(fh)
+        cols = reader.fieldnames or []
+        for c in REQUIRED_COLUMNS:
+            if c not in cols:
+                raise MissingColumnError(f'{p}: missing column {c!r} in blocks table')
+        rows = list(reader)
+    out: dict[str, np.ndarray] = {}
+    for c in FILE_COLUMNS:
+        vals = [r.get(c) or 'nan' for r in rows]
+        if c in ('motion', 'quality'):
+            out[c] = np.array(vals, dtype=object)
+        else:
+            try:
+                out[c] = np.array([float(v) for v in vals], dtype=float)
+            except ValueError as exc:
+                raise InvalidDataError(f'{p}: column {c!r} has a non-numeric value') from exc
+    return out
+
+
+def results_table(results: Iterable[BlockResult]) -> dict[str, np.ndarray]:
+    """Column arrays (as :func:`read_blocks_csv` gives) from results in memory."""
+    rs = list(results)
+    out: dict[str, np.ndarray] = {}
+    for c in CSV_COLUMNS:
+        if c == 'quality':
+            out[c] = np.array([r.quality_str for r in rs], dtype=object)
+        elif c == 'motion':
+            out[c] = np.array([r.motion for r in rs], dtype=object)
+        else:
+            out[c] = np.array([float(getattr(r, c)) for r in rs], dtype=float)
+    return out
+
+
+def results_as_dicts(results: Iterable[BlockResult]) -> list[dict[str, object]]:
+    """Results as plain dicts (all dataclass fields)."""
+    return [{f.name: getattr(r, f.name) for f in fields(r)} for r in results]

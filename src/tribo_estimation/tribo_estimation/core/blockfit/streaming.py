@@ -1,0 +1,252 @@
+"""Streaming block-wise estimation: aligned chunks in, one result per block out.
+
+:class:`BlockEstimator` cuts the aligned stream into fixed blocks of
+``block_length`` seconds (paper section 2.5, Fig. 4/5) and runs the streaming
+friction observer (Equ. 1 solved for M) on the way; :func:`estimate_blocks` is
+its offline loop; :class:`StreamingPipeline` adds the channel aligner for live
+input (the estimator node's core, no rclpy). The fit of a block is
+:func:`.evaluate.evaluate_block`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..align import AlignedChunk, AlignEvent, ChannelAligner, GapEvent, RestartEvent
+from ..model import DriveProfile, FrictionLaw, RigParams
+from ..observer import FrictionObserver
+from ..signal import CHAMBER_HALF, chamber_speed
+from .evaluate import evaluate_block
+from .results import BlockConfig, BlockDetail, BlockResult, FloatArray, PendingBlock
+
+
+class BlockEstimator:
+    """Streaming block-wise estimator: aligned chunks in, one result per block out.
+
+    Blocks are fixed index ranges ``[i*N, (i+1)*N)`` (``N = block_length*fs``)
+    of the stream, so results do not depend on how the input was chunked.
+    Memory is one block of samples, whatever the session length.
+
+    :meth:`push` collects (cheap, for a subscription callback) and returns
+    :class:`PendingBlock` objects; :meth:`evaluate` does the fit (heavy, for a
+    worker thread). :meth:`feed` does both.
+    """
+
+    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+        self.rig = rig
+        self.friction = friction
+        self.cfg = cfg
+        self.fs: float | None = None
+        self._n = 0
+        self._cur: PendingBlock | None = None
+        self._epoch_first: int | None = None  # first index of the current epoch
+        self._epoch_t0 = math.nan
+        self._observer: FrictionObserver | None = None
+        self.blocks_done = 0
+        #: Observer friction moment of the last chunk pushed [N m] (for /friction/moment).
+        self.last_moment: FloatArray = np.zeros(0)
+
+    # ---------------------------------------------------------------- collect
+    def _new_block(self, bi: int, t_first: float, idx_first: int) -> PendingBlock:
+        assert self.fs is not None
+        n = self._n
+        start_idx = bi * n
+        t_start = t_first - (idx_first - start_idx) / self.fs
+        flags: set[str] = set()
+        if self._epoch_first is not None and (
+            start_idx <= self._epoch_first or t_start < self._epoch_t0 + self.cfg.ramp_time - 1e-9
+        ):
+            flags.add('startup')
+        return PendingBlock(
+            index=bi,
+            first_index=start_idx,
+            t_start=t_start,
+            fs=self.fs,
+            torsion=np.full(n, np.nan),
+            accel=np.full(n, np.nan),
+            speed=np.full(n, np.nan),
+            valid=np.zeros(n, dtype=bool),
+            moment=np.full(n, np.nan),
+            flags=flags,
+        )
+
+    def push(self, event: AlignEvent) -> list[PendingBlock]:
+        """Collect one aligner event; return the blocks completed by it."""
+        done: list[PendingBlock] = []
+        self.last_moment = np.zeros(0)
+        if isinstance(event, RestartEvent):
+            if self._cur is not None:
+                done.append(self._cur)
+            self._cur = None
+            self._epoch_first = None
+            self._observer = None
+            return done
+        if isinstance(event, GapEvent):
+            if self._cur is not None:
+                self._cur.flags.add('gap')
+            self._observer = None  # the chamber speed is lost with the samples
+            return done
+        ch = event
+        if self.fs is None:
+            self.fs = ch.sample_rate
+            self._n = max(1, round(self.cfg.block_length * self.fs))
+        if self._epoch_first is None:
+            self._epoch_first = ch.first_index
+            self._epoch_t0 = ch.t0
+        if self._observer is None:
+            w_start = float(
+                chamber_speed(ch.torsion[: 4 * CHAMBER_HALF], ch.sample_rate, self.rig.C1)[0]
+            )
+            self._observer = FrictionObserver(self.rig, ch.sample_rate, initial_speed=w_start)
+        moment = self._observer.update(ch.torsion, ch.accel)
+        self.last_moment = moment
+        n = self._n
+        pos = 0
+        m = len(ch)
+        while pos < m:
+            idx = ch.first_index + pos
+            bi = idx // n
+            if self._cur is not None and self._cur.index != bi:
+                done.append(self._cur)
+                self._cur = None
+            if self._cur is None:
+                self._cur = self._new_block(bi, ch.t0 + pos / ch.sample_rate, idx)
+            off = idx - bi * n
+            take = min(n - off, m - pos)
+            cur = self._cur
+            cur.torsion[off : off + take] = ch.torsion[pos : pos + take]
+            cur.accel[off : off + take] = ch.accel[pos : pos + take]
+            cur.speed[off : off + take] = ch.speed[pos : pos + take]
+            assert cur.moment is not None
+            cur.moment[off : off + take] = moment[pos : pos + take]
+            cur.valid[off : off + take] = True
+            pos += take
+            if off + take == n:
+                done.append(cur)
+                self._cur = None
+        return done
+
+    def flush(self) -> list[PendingBlock]:
+        """End of input: the partial block (if any)."""
+        if self._cur is None:
+            return []
+        blk = self._cur
+        self._cur = None
+        return [blk]
+
+    # ---------------------------------------------------------------- evaluate
+    def evaluate(self, blk: PendingBlock) -> BlockDetail:
+        """Fit one collected block (see :func:`evaluate_block`)."""
+        det = evaluate_block(self.rig, self.friction, self.cfg, blk)
+        self.blocks_done += 1
+        return det
+
+    def feed(self, event: AlignEvent) -> list[BlockDetail]:
+        """Collect and evaluate in one go (offline use)."""
+        return [self.evaluate(b) for b in self.push(event)]
+
+    def finish(self) -> list[BlockDetail]:
+        """Evaluate the partial last block (offline use)."""
+        return [self.evaluate(b) for b in self.flush()]
+
+
+def estimate_blocks(
+    rig: RigParams,
+    friction: FrictionLaw,
+    cfg: BlockConfig,
+    events: Iterable[AlignEvent],
+) -> Iterator[BlockDetail]:
+    """Stream :class:`BlockDetail` for a sequence of aligner events."""
+    est = BlockEstimator(rig, friction, cfg)
+    for ev in events:
+        yield from est.feed(ev)
+    yield from est.finish()
+
+
+@dataclass(frozen=True)
+class MomentChunk:
+    """Observer friction moment M [N m] for samples ``first_index ...`` (``/friction/moment``).
+
+    ``t0`` time of the first sample [s], ``sample_rate`` [Hz]."""
+
+    first_index: int
+    t0: float
+    sample_rate: float
+    moment: FloatArray
+
+
+class StreamingPipeline:
+    """Aligner + estimator for live input (the estimator node's core, no rclpy).
+
+    :meth:`push` takes one SampleBlock of one channel (cheap: alignment and the
+    observer) and returns the observer output chunks, the blocks ready to be
+    fitted and the notices (gaps, restarts) for logging. The fit of a block
+    (:meth:`evaluate`) is meant for a worker thread. Same input in the same
+    order gives the same blocks as the offline ``tribo friction``.
+    """
+
+    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+        self.aligner = ChannelAligner()
+        self.estimator = BlockEstimator(rig, friction, cfg)
+
+    def push(
+        self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
+    ) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
+        """Add one block of one channel; see the class docstring."""
+        moments: list[MomentChunk] = []
+        blocks: list[PendingBlock] = []
+        notes: list[str] = []
+        for ev in self.aligner.push(channel, first_index, sample_rate, stamp, data):
+            blocks.extend(self.estimator.push(ev))
+            if isinstance(ev, AlignedChunk):
+                moments.append(
+                    MomentChunk(ev.first_index, ev.t0, ev.sample_rate, self.estimator.last_moment)
+                )
+            elif isinstance(ev, GapEvent):
+                notes.append(
+                    f'gap: samples {ev.start_index}..{ev.end_index - 1} ({ev.n_missing}) '
+                    f'missing in {", ".join(ev.channels)}; not bridged'
+                )
+            elif isinstance(ev, RestartEvent):
+                notes.append(
+                    f'restart: {ev.channel} index went back from {ev.old_index} to '
+                    f'{ev.new_index}; new stream epoch'
+                )
+        return moments, blocks, notes
+
+    def flush(self) -> list[PendingBlock]:
+        """End of input: remaining aligned data and the partial block."""
+        blocks: list[PendingBlock] = []
+        for ev in self.aligner.flush():
+            blocks.extend(self.estimator.push(ev))
+        blocks.extend(self.estimator.flush())
+        return blocks
+
+    def evaluate(self, blk: PendingBlock) -> BlockResult:
+        """Fit one block (heavy; worker thread)."""
+        return self.estimator.evaluate(blk).result
+
+    def warm_up(self) -> None:
+        """Fit a short simulated stretch once, so the compiled code is loaded before
+        the first real block ends (keeps the first estimate's latency low)."""
+        from ..simulate import simulate
+
+        est = self.estimator
+        w0 = est.cfg.nominal_speed or 1.0
+        r = simulate(est.rig, est.friction, DriveProfile(w0), 0.3)
+        n = r.time.shape[0]
+        blk = PendingBlock(
+            -1,
+            0,
+            0.0,
+            r.fs,
+            r.torsion_moment,
+            r.angular_acceleration,
+            r.speed,
+            np.ones(n, dtype=bool),
+        )
+        evaluate_block(est.rig, est.friction, replace(est.cfg, min_fraction=0.01), blk)
