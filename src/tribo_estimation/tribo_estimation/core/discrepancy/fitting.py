@@ -589,7 +589,7 @@ class Problem:
         same_sensor = self._instrument[:2] == (tau, offset)
         self._instrument = key
         if same_sensor:  # only the model's drive ripple or torque offset changed
-            self._fit_drive(tau, offset, ripple, torque)
+            self._fit_drive(tau, offset, ripple, torque, place=False)
             return
         rec = self.record
         self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
@@ -608,10 +608,13 @@ class Problem:
         offset: float,
         ripple: tuple[float, float, float],
         torque: tuple[float, float],
+        *,
+        place: bool = True,
     ) -> None:
         """The drive profile from the drive angles at the stick samples, with the
         speed sensor inverted, the model's torque offset and drift [N m, N m/s] taken
-        off the torsion moment and the model's drive-speed ripple (its angle) taken out."""
+        off the torsion moment and the model's drive-speed ripple (its angle) taken out.
+        ``place``: search the profile's corner times (else keep the last ones)."""
         rec = self.record
         # drive angle while stuck = shaft angle (integral of the speed channel, less
         # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
@@ -636,10 +639,12 @@ class Problem:
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
         # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
         # more with the profile from the angles
-        drive = self._drive_speed0
-        for _ in range(2):
+        drive = self._drive_speed0 if place else self.drive_estimate
+        for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
-            drive = refine_with_angles(self._drive_speed0, t, phi2 - defl - ripple_angle, hints)
+            drive = refine_with_angles(
+                drive, t, phi2 - defl - ripple_angle, hints, place=place and it == 0
+            )
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
