@@ -350,7 +350,8 @@ def refine_with_angles(
         corners = _corners(inner)
         corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
         tk = np.concatenate(([t_lo, t_hi], moved, corners))
-        free = np.concatenate(([False, False], np.zeros(moved.size, bool), np.ones(corners.size, bool)))
+        n_fixed = 2 + moved.size
+        free = np.concatenate((np.zeros(n_fixed, bool), np.ones(corners.size, bool)))
         order = np.argsort(tk, kind='stable')
         tk, free = tk[order], free[order]
         keep = np.concatenate(([True], np.diff(tk) > _MIN_PIECE))

@@ -337,7 +337,7 @@ def identify_speed_sensor(
     # y' from the speed channel itself (during a stick it follows w' through the lag,
     # and before it the shaft's own acceleration)
     acc = speed_slope(record.speed, record.dt)
-    guard = CHAMBER_HALF + 3
+    guard = 2 * CHAMBER_HALF + 3
     idx_l: list[IntArray] = []
     cl_l: list[IntArray] = []
     for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
@@ -592,7 +592,10 @@ class Problem:
             self._fit_drive(tau, offset, ripple, torque, place=False)
             return
         rec = self.record
-        self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
+        if tau > 0.0:
+            self._w_start = self._stuck_speed_through_lag(tau) - offset
+        else:
+            self._w_start = self._speed_start - offset
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
         for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
@@ -601,6 +604,43 @@ class Problem:
             w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
         self._fit_drive(tau, offset, ripple, torque)
+
+    def _stuck_speed_through_lag(self, tau: float) -> FloatArray:
+        """Shaft speed [rad/s] at the segment starts behind a first-order speed sensor
+        of lag ``tau`` [s] (offset not removed). Inverting ``w = y + tau*y'`` pointwise
+        multiplies the speed noise by ``tau`` over the derivative's window (x10 at
+        5 ms); instead the whole stick phase is used: while stuck, ``w = w_s + A(t)``
+        with ``A`` the integrated measured acceleration, so the sensor shows
+        ``y = w_s + lag(A) + d*exp(-(t - t_s)/tau)`` (the filter's memory of the slip
+        before), a linear regression in ``w_s`` and ``d`` over the phase."""
+        rec = self.record
+        seg = self.segments
+        dt = rec.dt
+        acc = rec.angular_acceleration
+        fallback = self._speed_start + tau * self._speed_slope[seg.start]
+        if seg.run_start is None or seg.run_stop is None:
+            return fallback
+        out = fallback.copy()
+        alpha = math.exp(-dt / tau)
+        c_hold = (1.0 - alpha) * tau / dt
+        for k, (i, ra, rb) in enumerate(zip(seg.start, seg.run_start, seg.run_stop, strict=True)):
+            lo = int(ra) + CHAMBER_HALF
+            hi = int(rb) - CHAMBER_HALF
+            if hi - lo < 10 or not lo <= int(i) < hi:
+                continue
+            a = acc[lo:hi]
+            big_a = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+            lag_a = np.empty(big_a.size)
+            zero = np.zeros(1, np.int64)
+            lag_segments(big_a, zero, zero + big_a.size, np.zeros(1), alpha, lag_a, c_hold)
+            z = rec.speed[lo:hi] - lag_a
+            x = np.column_stack((np.ones(z.size), alpha ** np.arange(z.size)))
+            try:
+                coef, *_ = np.linalg.lstsq(x, z, rcond=None)
+            except np.linalg.LinAlgError:
+                continue
+            out[k] = float(coef[0]) + float(big_a[int(i) - lo])
+        return out
 
     def _fit_drive(
         self,
@@ -661,13 +701,15 @@ class Problem:
         out = w2.copy()
         if tau > 0.0:
             seg = self.segments
+            a = math.exp(-self.record.dt / tau)
             lag_segments(
                 w2,
                 seg.start[sel],
                 seg.stop[sel],
                 self._speed_start[sel] - off,
-                math.exp(-self.record.dt / tau),
+                a,
                 out,
+                (1.0 - a) * tau / self.record.dt,
             )
         return out + off
 
