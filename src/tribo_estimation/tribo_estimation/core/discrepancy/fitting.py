@@ -40,6 +40,7 @@ from tribo_estimation.core.shooting import (
     lag_segments,
     local_cubic,
     shoot,
+    sliding_states,
     stuck_states,
     window_mean,
 )
@@ -156,6 +157,8 @@ class Segments:
     block: IntArray
     run_start: IntArray | None = None
     run_stop: IntArray | None = None
+    #: True: the record has no stick-slip; every segment starts while sliding
+    sliding: bool = False
 
     @property
     def n(self) -> int:
@@ -246,10 +249,7 @@ def make_segments(
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
     ]
     if len(cand) < 3:
-        raise TooShortError(
-            f'found {len(cand)} stick phases in the record; the discrepancy workflow '
-            'needs a stick-slip record with at least 3'
-        )
+        return _sliding_segments(record, block_time)
     min_len = round(min_length * fs)
     chosen = [cand[0]]
     for c in cand[1:]:
@@ -275,6 +275,36 @@ def make_segments(
         block.astype(np.int64),
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
+    )
+
+
+#: Local-fit window at sliding segment starts [samples] (odd).
+_SLIDE_WIN = 51
+
+
+def _sliding_segments(record: Record, block_time: float) -> Segments:
+    """Segments of a record without stick-slip (slip-slip, steady sliding): one per
+    ``block_time`` [s], each starting from the measured sliding state (see
+    :meth:`Problem.simulate`). Raises :class:`TooShortError` below two blocks."""
+    fs = record.fs
+    n = record.time.size
+    length = max(round(block_time * fs), 100)
+    edge = _SLIDE_WIN  # the local fits at a start need samples on both sides
+    starts = np.arange(edge, n - length // 2, length, dtype=np.int64)
+    if starts.size < 2:
+        raise TooShortError(
+            f'record of {n / fs:.3g} s without stick phases: the discrepancy workflow needs '
+            f'at least {2 * block_time:.3g} s of sliding'
+        )
+    stops = np.append(starts[1:], n).astype(np.int64)
+    return Segments(
+        starts,
+        stops,
+        np.zeros(starts.size),
+        np.arange(starts.size, dtype=np.int64),
+        None,
+        None,
+        True,
     )
 
 
@@ -540,9 +570,13 @@ class Problem:
             (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
-        states = stuck_states(
-            p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time, dk.speed
-        )
+        if seg.sliding:
+            states = self._sliding_states(p, sel, m_true)
+        else:
+            states = stuck_states(
+                p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time,
+                dk.speed,
+            )  # fmt: skip
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
@@ -605,6 +639,35 @@ class Problem:
         self._meas['chamber_speed'] = w1
         self._fit_drive(tau, offset, ripple, torque)
 
+    def _sliding_states(
+        self, p: FloatArray, sel: npt.NDArray[np.bool_], m_true: FloatArray
+    ) -> FloatArray:
+        """Kernel states at sliding segment starts, all from the measured channels:
+        ``phi1 = M_t/C1``, the chamber speed ``w1 = (dM_t/dt)/C1`` (Equ. 4), the shaft
+        speed w2 (speed channel, sensor inverted) and its slope, and the friction
+        moment from the chamber's balance ``M = I1*w1' - Q1`` (Equ. 1, the measured
+        acceleration); the belt deflection then follows from the shaft's (Equ. 2)."""
+        from scipy.signal import savgol_filter
+
+        rig_c1 = float(p[kn.P_C1])
+        rec = self.record
+        i0 = self.segments.start[sel]
+        # a sliding state's chamber speed sets the amplitude of the contact's lightly
+        # damped oscillation for the whole segment: a local cubic over 5 ms (not
+        # 1.5 ms) keeps its noise at ~4e-3 rad/s (config/rig.yaml noise)
+        win = min(_SLIDE_WIN, rec.time.size - (1 - rec.time.size % 2))
+        w1 = savgol_filter(rec.torsion_moment, win, 3, deriv=1, delta=rec.dt)[i0] / rig_c1
+        a1 = window_mean(rec.angular_acceleration, i0, _SLIDE_WIN // 2)
+        moment = np.empty(w1.size)
+        for k in range(w1.size):
+            q1 = kn.chamber_moment(p, float(m_true[k]) / rig_c1, float(w1[k]))
+            moment[k] = float(p[kn.P_I1]) * float(a1[k]) - q1
+        dk = self._knots
+        w2_dot = self._speed_slope[self.segments.start[sel]]
+        t0 = self._t0[sel]
+        w2 = self._w_start[sel]
+        return np.asarray(sliding_states(p, t0, m_true, w1, w2, w2_dot, moment, dk.time, dk.speed))
+
     def _stuck_speed_through_lag(self, tau: float) -> FloatArray:
         """Shaft speed [rad/s] at the segment starts behind a first-order speed sensor
         of lag ``tau`` [s] (offset not removed). Inverting ``w = y + tau*y'`` pointwise
@@ -656,6 +719,10 @@ class Problem:
         off the torsion moment and the model's drive-speed ripple (its angle) taken out.
         ``place``: search the profile's corner times (else keep the last ones)."""
         rec = self.record
+        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
+            self.drive_estimate = self._drive_speed0
+            self._knots = DriveKnots.from_estimate(self.drive_estimate)
+            return
         # drive angle while stuck = shaft angle (integral of the speed channel, less
         # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
         # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
