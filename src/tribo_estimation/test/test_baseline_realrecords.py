@@ -97,3 +97,27 @@ def test_record_without_sticks_is_analysed() -> None:
     assert res.baseline.rms <= 1.5 * FLOOR
     assert res.baseline.params['mu_inf'] == pytest.approx(0.10, rel=0.02)
     assert np.isfinite(res.baseline.cv_rms)
+
+
+def test_record_from_rest_tells_torque_offset_drift_from_friction_drift() -> None:
+    # a record that begins at the drive start (config/rig.yaml: 0.5 s ramp from rest):
+    # the drive speed at the first knot is pinned to 0, so a torque-offset drift is
+    # not taken for a drift of mu0 and mu_inf (test_discrepancy_workflow starts its
+    # records 0.25 s into the ramp)
+    from tribo_estimation.core.model import Extensions
+    from tribo_estimation.core.simulate import NoiseSpec, simulate
+
+    truth = {'torque_offset': 0.5, 'torque_offset_drift': 0.5}
+    r = simulate(
+        CFG.rig, CFG.friction, CFG.drive, 1.0, extensions=Extensions(**truth),
+        noise=NoiseSpec(torque=0.05, accel=2.0, speed=0.005), seed=105,
+    )  # fmt: skip
+    rec = Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+    res = run_discrepancy(
+        rec, CFG.rig, CFG.drive, k=CFG.friction.k, settings=SelectionSettings(max_effects=1)
+    )
+    assert res.traces.problem.drive_estimate.knot_speed[0] == 0.0
+    assert res.added and res.added[0].effect == 'torque_offset'
+    drift = res.added[0].params['torque_offset_drift']
+    assert drift == pytest.approx(0.5, rel=0.2)
+    assert res.final.rms <= 0.5 * res.baseline.rms

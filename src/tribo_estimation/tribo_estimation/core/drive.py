@@ -232,13 +232,20 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
     return out
 
 
-def _solve_speeds(tk: FloatArray, tt: FloatArray, ph: FloatArray) -> tuple[FloatArray, float]:
+def _solve_speeds(
+    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None = None
+) -> tuple[FloatArray, float]:
     """Knot speeds [rad/s] of the least-squares fit ``c + integral of w0`` to the
     angles ``ph`` [rad] at ``tt`` [s] (weak second-difference penalty on the knot
-    speeds), and the data's sum of squared residuals [rad^2]."""
+    speeds), and the data's sum of squared residuals [rad^2]. ``start``: the first
+    knot's speed [rad/s] when known (a drive starting from rest)."""
     k = tk.size
     basis = np.column_stack((np.ones_like(tt), _angle_basis(tk, tt)))
     rhs = ph
+    if start is not None:  # known: its column moves to the right-hand side
+        rhs = ph - start * basis[:, 1]
+        basis = basis.copy()
+        basis[:, 1] = 0.0
     if k >= 3:
         # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
         # closely spaced knots with few samples between them from oscillating
@@ -248,7 +255,9 @@ def _solve_speeds(tk: FloatArray, tt: FloatArray, ph: FloatArray) -> tuple[Float
         basis = np.vstack((basis, d2))
         rhs = np.concatenate((ph, np.zeros(k - 2)))
     sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
-    r = basis[: tt.size] @ sol - ph
+    r = basis[: tt.size] @ sol - rhs[: tt.size]
+    if start is not None:
+        sol[1] = start
     return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
 
 
@@ -275,7 +284,11 @@ def _corners(inner: FloatArray) -> FloatArray:
 
 
 def _place(
-    tk: FloatArray, free: npt.NDArray[np.bool_], tt: FloatArray, ph: FloatArray
+    tk: FloatArray,
+    free: npt.NDArray[np.bool_],
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None = None,
 ) -> FloatArray:
     """Free knot times moved to the least-squares angle fit. The angles fix the
     *mean* time of a transition's two corners far better than their spread (a
@@ -283,7 +296,7 @@ def _place(
     shifted, both spread apart; each a coarse grid within +-:data:`SMOOTH_TIME`,
     then a fine grid around the best, repeated :data:`_CORNER_SWEEPS` times."""
     tk = tk.copy()
-    _, best = _solve_speeds(tk, tt, ph)
+    _, best = _solve_speeds(tk, tt, ph, start)
     idx = np.flatnonzero(free).tolist()
     moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
     for j in idx:
@@ -301,7 +314,7 @@ def _place(
                     trial[ks] += d * dirs
                     if not np.all(np.diff(trial) > _MIN_PIECE):
                         continue
-                    _, sse = _solve_speeds(trial, tt, ph)
+                    _, sse = _solve_speeds(trial, tt, ph, start)
                     if sse < best:
                         best, tk = sse, trial
     return tk
@@ -314,6 +327,7 @@ def refine_with_angles(
     hint_knots: FloatArray | None = None,
     *,
     place: bool = True,
+    start_speed: float | None = None,
 ) -> DriveEstimate:
     """The drive profile ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
     at times ``t`` [s] (least squares of ``c + integral of w0``). The drive angle at
@@ -330,7 +344,9 @@ def refine_with_angles(
     keeps the knot times of ``drive`` (a profile placed before) and re-fits the
     speeds only. ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up
     ramp end); a detected knot within :data:`SMOOTH_TIME` of one moves onto it and
-    stays there."""
+    stays there. ``start_speed`` [rad/s]: the drive speed at the record's start when
+    known (0 for a record that begins at the drive's start from rest): the angles
+    alone leave it ~4e-4 rad/s off, which a torque-offset drift then absorbs."""
     t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
     tt = np.asarray(t, dtype=np.float64)
     ph = np.asarray(phi0, dtype=np.float64)
@@ -359,12 +375,12 @@ def refine_with_angles(
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
         if free.any():
-            tk = _place(tk, free, tt, ph)
+            tk = _place(tk, free, tt, ph, start_speed)
     else:
         tk = drive.knot_time.copy()
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
-    vk, _ = _solve_speeds(tk, tt, ph)
+    vk, _ = _solve_speeds(tk, tt, ph, start_speed)
     if not np.all(np.isfinite(vk)):
         return drive
     grid2 = np.linspace(tk[0], tk[-1], 512)

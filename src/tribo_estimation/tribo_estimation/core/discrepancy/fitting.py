@@ -26,7 +26,12 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_estimation.core import kernel as kn
-from tribo_estimation.core.drive import DriveEstimate, estimate_drive, refine_with_angles
+from tribo_estimation.core.drive import (
+    DriveEstimate,
+    estimate_drive,
+    refine_with_angles,
+    tolerance,
+)
 from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.model import (
     DriveProfile,
@@ -467,6 +472,16 @@ class Problem:
         fs = record.fs
         self._t0 = record.time[i].astype(np.float64)
         self._drive_speed0 = self.drive_estimate
+        # a record that begins at the drive's start (RIG.yaml ramp from t = 0, and the
+        # measured speed there at rest within the profile tolerance): w0 = 0 at t0
+        n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
+        at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(
+            self.drive_estimate.level, 0.0
+        )
+        self._start_speed: float | None = (
+            0.0 if drive.ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+            else None
+        )  # fmt: skip
         sp = record.speed
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
@@ -750,8 +765,9 @@ class Problem:
         for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
-                drive, t, phi2 - defl - ripple_angle, hints, place=place and it == 0
-            )
+                drive, t, phi2 - defl - ripple_angle, hints, place=place and it == 0,
+                start_speed=self._start_speed,
+            )  # fmt: skip
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
