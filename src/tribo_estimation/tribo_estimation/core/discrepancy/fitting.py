@@ -372,7 +372,7 @@ def identify_speed_sensor(
     # y' from the speed channel itself (during a stick it follows w' through the lag,
     # and before it the shaft's own acceleration)
     acc = speed_slope(record.speed, record.dt)
-    guard = 2 * CHAMBER_HALF + 3
+    guard = CHAMBER_HALF + 3
     idx_l: list[IntArray] = []
     cl_l: list[IntArray] = []
     for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
