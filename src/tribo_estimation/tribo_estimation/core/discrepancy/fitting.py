@@ -6,7 +6,9 @@ where the state is known from the measurements (the discs move together:
 deflection from the stuck system's moment balance, Equ. 6). Each segment is
 simulated with the compiled kernel (:func:`tribo_estimation.core.kernel.integrate`,
 Equ. 1-3, 6, 8 plus the :class:`~tribo_estimation.core.model.Extensions`) from
-that re-initialised state, so long records do not drift. Segments are grouped
+that re-initialised state, so long records do not drift. A record without
+stick-slip starts its segments from the measured sliding state instead
+(:meth:`Problem._sliding_states`). Segments are grouped
 into time blocks, which the cross validation holds out.
 
 The fitted values are a mapping ``name -> value`` of ``mu0``, ``mu_inf`` (Equ. 8,
@@ -243,8 +245,8 @@ def make_segments(
     Each segment runs to the next segment start (at least ``min_length`` s
     later); segments are numbered into time blocks of about ``block_time`` s.
     ``runs`` (first, stop sample, start time [s] of each stick phase) default to
-    :func:`stick_runs`. Raises :class:`TooShortError` when the record has fewer
-    than 3 stick phases (the workflow needs stick-slip).
+    :func:`stick_runs`. A record with fewer than 3 stick phases (slip-slip, steady
+    sliding) gets sliding segments instead (:func:`_sliding_segments`).
     """
     s_start, s_stop, onset = runs if runs is not None else stick_runs(record, rig)
     fs = record.fs
