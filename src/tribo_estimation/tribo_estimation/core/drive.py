@@ -205,63 +205,182 @@ __all__ = ['MISMATCH_LIMIT', 'SMOOTH_TIME', 'DriveEstimate', 'estimate_drive', '
 #: Weight of the knot-speed smoothness penalty of :func:`refine_with_angles` [s].
 _KNOT_SMOOTH = 1e-4
 
+#: Corner-time search of :func:`refine_with_angles`: coarse grid points, sweeps [-].
+_CORNER_GRID = 41
+_CORNER_SWEEPS = 3
 
-def refine_with_angles(
-    drive: DriveEstimate, t: FloatArray, phi0: FloatArray, hint_knots: FloatArray | None = None
-) -> DriveEstimate:
-    """The knot speeds of ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
-    at times ``t`` [s] (least squares of ``c + integral of w0``; the knot times
-    stay). The drive angle at a stick follows from the shaft angle (integral of
-    w2) and the belt deflection of Equ. 2, which is known while the discs stick;
-    the angle pins the mean drive speed between sticks to the noise of that
-    deflection (~1e-3 rad/s), far better than the smoothed shaft speed.
-    ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up ramp end); a
-    detected knot within :data:`SMOOTH_TIME` of one moves onto it."""
-    # the smoothing blurs a corner over +-SMOOTH_TIME/2: extra knots around each
-    # interior knot let the angles place it
-    # interior knots next to a hinted corner (e.g. the end of RIG.yaml's start-up ramp)
-    # move onto it; the others get the extra knots
-    inner = drive.knot_time[1:-1]
-    t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
-    hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
-    hints = hints[(hints > t_lo + 0.01) & (hints < t_hi - 0.01)]
-    if hints.size and inner.size:
-        dist = np.abs(inner[:, None] - hints[None, :])
-        hinted = (dist <= SMOOTH_TIME).any(axis=1)
-        moved = hints[np.argmin(dist, axis=1)][hinted]
-        inner = inner[~hinted]
-    else:
-        moved = np.zeros(0)
-    extra = (inner[:, None] + SMOOTH_TIME * np.array([-0.5, -0.25, 0.25, 0.5])[None, :]).ravel()
-    extra = extra[(extra > t_lo + 0.01) & (extra < t_hi - 0.01)]
-    tk = np.unique(np.concatenate(([t_lo, t_hi], inner, moved, extra)))
-    tt = np.asarray(t, dtype=np.float64)
-    ph = np.asarray(phi0, dtype=np.float64)
-    ok = np.isfinite(tt) & np.isfinite(ph)
-    tt, ph = tt[ok], ph[ok]
-    if tt.size < tk.size + 2 or tk.size < 2:
-        return drive
-    # integral from tk[0] of each hat function, on a fine grid, interpolated at tt
-    grid = np.unique(np.concatenate((np.linspace(tk[0], tk[-1], 4096), tk)))
-    cols = [np.ones_like(tt)]
-    for j in range(tk.size):
-        e = np.zeros(tk.size)
-        e[j] = 1.0
-        hat = np.interp(grid, tk, e)
-        cum = np.concatenate(([0.0], np.cumsum(0.5 * (hat[1:] + hat[:-1]) * np.diff(grid))))
-        cols.append(np.interp(tt, grid, cum))
-    basis = np.column_stack(cols)
-    # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
-    # closely spaced knots with few samples between them from oscillating
+#: Shortest linear piece of a refined profile [s].
+_MIN_PIECE = 2e-3
+
+
+def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
+    """Integral from ``tk[0]`` to ``tt`` [s] of each hat function of the knots ``tk``
+    (exact for a continuous piecewise-linear w0): shape ``(tt.size, tk.size)`` [s]."""
     k = tk.size
+    out = np.zeros((tt.size, k))
+    h = np.diff(tk)
+    for j in range(k):
+        col = out[:, j]
+        if j > 0:
+            s = np.clip(tt, tk[j - 1], tk[j]) - tk[j - 1]
+            col += s * s / (2.0 * h[j - 1])
+        if j < k - 1:
+            s = np.clip(tt, tk[j], tk[j + 1]) - tk[j]
+            col += s - s * s / (2.0 * h[j])
+        else:  # w0 held constant after the last knot
+            col += np.maximum(tt - tk[j], 0.0)
+    return out
+
+
+def _solve_speeds(
+    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None = None
+) -> tuple[FloatArray, float]:
+    """Knot speeds [rad/s] of the least-squares fit ``c + integral of w0`` to the
+    angles ``ph`` [rad] at ``tt`` [s] (weak second-difference penalty on the knot
+    speeds), and the data's sum of squared residuals [rad^2]. ``start``: the first
+    knot's speed [rad/s] when known (a drive starting from rest)."""
+    k = tk.size
+    basis = np.column_stack((np.ones_like(tt), _angle_basis(tk, tt)))
+    rhs = ph
+    if start is not None:  # known: its column moves to the right-hand side
+        rhs = ph - start * basis[:, 1]
+        basis = basis.copy()
+        basis[:, 1] = 0.0
     if k >= 3:
+        # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
+        # closely spaced knots with few samples between them from oscillating
         d2 = np.zeros((k - 2, k + 1))
         for i in range(k - 2):
             d2[i, 1 + i : 4 + i] = (_KNOT_SMOOTH, -2.0 * _KNOT_SMOOTH, _KNOT_SMOOTH)
         basis = np.vstack((basis, d2))
-        ph = np.concatenate((ph, np.zeros(k - 2)))
-    sol, *_ = np.linalg.lstsq(basis, ph, rcond=None)
-    vk = np.asarray(sol[1:], dtype=np.float64)
+        rhs = np.concatenate((ph, np.zeros(k - 2)))
+    sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
+    r = basis[: tt.size] @ sol - rhs[: tt.size]
+    if start is not None:
+        sol[1] = start
+    return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
+
+
+def _corners(inner: FloatArray) -> FloatArray:
+    """Initial corners of the transitions: interior knots closer than 2 x
+    :data:`SMOOTH_TIME` form one transition (a step or a ramp blurred by the
+    smoothing), represented by its first and last knot moved outwards by half the
+    smoothing width; a lone knot is one corner."""
+    if inner.size == 0:
+        return inner
+    groups: list[list[float]] = [[float(inner[0])]]
+    for x in inner[1:].tolist():
+        if x - groups[-1][-1] < 2.0 * SMOOTH_TIME:
+            groups[-1].append(x)
+        else:
+            groups.append([x])
+    out: list[float] = []
+    for g in groups:
+        if len(g) == 1:
+            out.append(g[0])
+        else:
+            out.extend((g[0] + 0.25 * SMOOTH_TIME, g[-1] - 0.25 * SMOOTH_TIME))
+    return np.asarray(sorted(out), dtype=np.float64)
+
+
+def _place(
+    tk: FloatArray,
+    free: npt.NDArray[np.bool_],
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None = None,
+) -> FloatArray:
+    """Free knot times moved to the least-squares angle fit. The angles fix the
+    *mean* time of a transition's two corners far better than their spread (a
+    narrow valley of the cost), so the moves are: one corner, both corners
+    shifted, both spread apart; each a coarse grid within +-:data:`SMOOTH_TIME`,
+    then a fine grid around the best, repeated :data:`_CORNER_SWEEPS` times."""
+    tk = tk.copy()
+    _, best = _solve_speeds(tk, tt, ph, start)
+    idx = np.flatnonzero(free).tolist()
+    moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
+    for j in idx:
+        if j + 1 in idx:
+            moves.append(([j, j + 1], np.array([1.0, 1.0])))
+            moves.append(([j, j + 1], np.array([-1.0, 1.0])))
+    coarse = np.linspace(-SMOOTH_TIME, SMOOTH_TIME, _CORNER_GRID)
+    fine = np.linspace(-1.0, 1.0, 11) * float(coarse[1] - coarse[0])
+    for _ in range(_CORNER_SWEEPS):
+        for ks, dirs in moves:
+            for grid in (coarse, fine):
+                base = tk.copy()
+                for d in grid.tolist():
+                    trial = base.copy()
+                    trial[ks] += d * dirs
+                    if not np.all(np.diff(trial) > _MIN_PIECE):
+                        continue
+                    _, sse = _solve_speeds(trial, tt, ph, start)
+                    if sse < best:
+                        best, tk = sse, trial
+    return tk
+
+
+def refine_with_angles(
+    drive: DriveEstimate,
+    t: FloatArray,
+    phi0: FloatArray,
+    hint_knots: FloatArray | None = None,
+    *,
+    place: bool = True,
+    start_speed: float | None = None,
+) -> DriveEstimate:
+    """The drive profile ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
+    at times ``t`` [s] (least squares of ``c + integral of w0``). The drive angle at
+    a stick follows from the shaft angle (integral of w2) and the belt deflection of
+    Equ. 2, which is known while the discs stick; the angle pins the mean drive
+    speed between sticks to the noise of that deflection (~1e-3 rad/s), far better
+    than the smoothed shaft speed.
+
+    ``place``: the smoothing of :func:`estimate_drive` blurs each corner (a 50 ms
+    speed step spreads over 150 ms), so its interior knots only say *where* the
+    speed changes; each transition becomes two corners (one for a lone knot) whose
+    times are searched within +-:data:`SMOOTH_TIME` for the best angle fit, the
+    knot speeds solved by linear least squares at every trial. ``place=False``
+    keeps the knot times of ``drive`` (a profile placed before) and re-fits the
+    speeds only. ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up
+    ramp end); a detected knot within :data:`SMOOTH_TIME` of one moves onto it and
+    stays there. ``start_speed`` [rad/s]: the drive speed at the record's start when
+    known (0 for a record that begins at the drive's start from rest): the angles
+    alone leave it ~4e-4 rad/s off, which a torque-offset drift then absorbs."""
+    t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
+    tt = np.asarray(t, dtype=np.float64)
+    ph = np.asarray(phi0, dtype=np.float64)
+    ok = np.isfinite(tt) & np.isfinite(ph)
+    tt, ph = tt[ok], ph[ok]
+    if place:
+        inner = drive.knot_time[1:-1]
+        hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
+        hints = hints[(hints > t_lo + 0.01) & (hints < t_hi - 0.01)]
+        if hints.size and inner.size:
+            dist = np.abs(inner[:, None] - hints[None, :])
+            hinted = (dist <= SMOOTH_TIME).any(axis=1)
+            moved = np.unique(hints[np.argmin(dist, axis=1)][hinted])
+            inner = inner[~hinted]
+        else:
+            moved = np.zeros(0)
+        corners = _corners(inner)
+        corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
+        tk = np.concatenate(([t_lo, t_hi], moved, corners))
+        n_fixed = 2 + moved.size
+        free = np.concatenate((np.zeros(n_fixed, bool), np.ones(corners.size, bool)))
+        order = np.argsort(tk, kind='stable')
+        tk, free = tk[order], free[order]
+        keep = np.concatenate(([True], np.diff(tk) > _MIN_PIECE))
+        tk, free = tk[keep], free[keep]
+        if tt.size < tk.size + 2 or tk.size < 2:
+            return drive
+        if free.any():
+            tk = _place(tk, free, tt, ph, start_speed)
+    else:
+        tk = drive.knot_time.copy()
+        if tt.size < tk.size + 2 or tk.size < 2:
+            return drive
+    vk, _ = _solve_speeds(tk, tt, ph, start_speed)
     if not np.all(np.isfinite(vk)):
         return drive
     grid2 = np.linspace(tk[0], tk[-1], 512)

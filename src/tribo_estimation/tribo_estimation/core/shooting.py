@@ -241,13 +241,20 @@ def lag_segments(
     y_prev: np.ndarray,
     a: float,
     out: np.ndarray,
+    c: float = -1.0,
 ) -> None:
-    """First-order sensor lag ``y[n] = a*y[n-1] + (1 - a)*x[n]`` (``a = exp(-dt/tau)``)
-    per segment, each started from its filter state ``y_prev``; written into ``out``."""
+    """First-order sensor lag per segment, each started from its filter state
+    ``y_prev``; written into ``out``. ``a = exp(-dt/tau)``; ``c < 0``:
+    ``y[n] = a*y[n-1] + (1 - a)*x[n]``; else the exact form of a continuous sensor
+    for an input linear between samples, ``y[n] = a*y[n-1] + (1 - c)*x[n] +
+    (c - a)*x[n-1]`` with ``c = (1 - a)*tau/dt`` (the other lags by dt/2 less)."""
+    cc = a if c < 0.0 else c
     for k in range(starts.shape[0]):
         y = y_prev[k]
+        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
         for i in range(starts[k], stops[k]):
-            y = a * y + (1.0 - a) * x[i]
+            y = a * y + (1.0 - cc) * x[i] + (cc - a) * x_prev
+            x_prev = x[i]
             out[i] = y
 
 

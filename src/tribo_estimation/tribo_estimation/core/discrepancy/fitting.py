@@ -6,7 +6,9 @@ where the state is known from the measurements (the discs move together:
 deflection from the stuck system's moment balance, Equ. 6). Each segment is
 simulated with the compiled kernel (:func:`tribo_estimation.core.kernel.integrate`,
 Equ. 1-3, 6, 8 plus the :class:`~tribo_estimation.core.model.Extensions`) from
-that re-initialised state, so long records do not drift. Segments are grouped
+that re-initialised state, so long records do not drift. A record without
+stick-slip starts its segments from the measured sliding state instead
+(:meth:`Problem._sliding_states`). Segments are grouped
 into time blocks, which the cross validation holds out.
 
 The fitted values are a mapping ``name -> value`` of ``mu0``, ``mu_inf`` (Equ. 8,
@@ -26,7 +28,12 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_estimation.core import kernel as kn
-from tribo_estimation.core.drive import DriveEstimate, estimate_drive, refine_with_angles
+from tribo_estimation.core.drive import (
+    DriveEstimate,
+    estimate_drive,
+    refine_with_angles,
+    tolerance,
+)
 from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.model import (
     DriveProfile,
@@ -40,6 +47,7 @@ from tribo_estimation.core.shooting import (
     lag_segments,
     local_cubic,
     shoot,
+    sliding_states,
     stuck_states,
     window_mean,
 )
@@ -156,6 +164,8 @@ class Segments:
     block: IntArray
     run_start: IntArray | None = None
     run_stop: IntArray | None = None
+    #: True: the record has no stick-slip; every segment starts while sliding
+    sliding: bool = False
 
     @property
     def n(self) -> int:
@@ -235,8 +245,8 @@ def make_segments(
     Each segment runs to the next segment start (at least ``min_length`` s
     later); segments are numbered into time blocks of about ``block_time`` s.
     ``runs`` (first, stop sample, start time [s] of each stick phase) default to
-    :func:`stick_runs`. Raises :class:`TooShortError` when the record has fewer
-    than 3 stick phases (the workflow needs stick-slip).
+    :func:`stick_runs`. A record with fewer than 3 stick phases (slip-slip, steady
+    sliding) gets sliding segments instead (:func:`_sliding_segments`).
     """
     s_start, s_stop, onset = runs if runs is not None else stick_runs(record, rig)
     fs = record.fs
@@ -246,10 +256,7 @@ def make_segments(
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
     ]
     if len(cand) < 3:
-        raise TooShortError(
-            f'found {len(cand)} stick phases in the record; the discrepancy workflow '
-            'needs a stick-slip record with at least 3'
-        )
+        return _sliding_segments(record, block_time)
     min_len = round(min_length * fs)
     chosen = [cand[0]]
     for c in cand[1:]:
@@ -275,6 +282,36 @@ def make_segments(
         block.astype(np.int64),
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
+    )
+
+
+#: Local-fit window at sliding segment starts [samples] (odd).
+_SLIDE_WIN = 51
+
+
+def _sliding_segments(record: Record, block_time: float) -> Segments:
+    """Segments of a record without stick-slip (slip-slip, steady sliding): one per
+    ``block_time`` [s], each starting from the measured sliding state (see
+    :meth:`Problem.simulate`). Raises :class:`TooShortError` below two blocks."""
+    fs = record.fs
+    n = record.time.size
+    length = max(round(block_time * fs), 100)
+    edge = _SLIDE_WIN  # the local fits at a start need samples on both sides
+    starts = np.arange(edge, n - length // 2, length, dtype=np.int64)
+    if starts.size < 2:
+        raise TooShortError(
+            f'record of {n / fs:.3g} s without stick phases: the discrepancy workflow needs '
+            f'at least {2 * block_time:.3g} s of sliding'
+        )
+    stops = np.append(starts[1:], n).astype(np.int64)
+    return Segments(
+        starts,
+        stops,
+        np.zeros(starts.size),
+        np.arange(starts.size, dtype=np.int64),
+        None,
+        None,
+        True,
     )
 
 
@@ -437,6 +474,16 @@ class Problem:
         fs = record.fs
         self._t0 = record.time[i].astype(np.float64)
         self._drive_speed0 = self.drive_estimate
+        # a record that begins at the drive's start (RIG.yaml ramp from t = 0, and the
+        # measured speed there at rest within the profile tolerance): w0 = 0 at t0
+        n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
+        at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(
+            self.drive_estimate.level, 0.0
+        )
+        self._start_speed: float | None = (
+            0.0 if drive.ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+            else None
+        )  # fmt: skip
         sp = record.speed
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
@@ -540,9 +587,13 @@ class Problem:
             (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
-        states = stuck_states(
-            p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time, dk.speed
-        )
+        if seg.sliding:
+            states = self._sliding_states(p, sel, m_true)
+        else:
+            states = stuck_states(
+                p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time,
+                dk.speed,
+            )  # fmt: skip
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
@@ -589,10 +640,13 @@ class Problem:
         same_sensor = self._instrument[:2] == (tau, offset)
         self._instrument = key
         if same_sensor:  # only the model's drive ripple or torque offset changed
-            self._fit_drive(tau, offset, ripple, torque)
+            self._fit_drive(tau, offset, ripple, torque, place=False)
             return
         rec = self.record
-        self._w_start = self._speed_start - offset + tau * self._speed_slope[self.segments.start]
+        if tau > 0.0:
+            self._w_start = self._stuck_speed_through_lag(tau) - offset
+        else:
+            self._w_start = self._speed_start - offset
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
         for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
@@ -602,17 +656,90 @@ class Problem:
         self._meas['chamber_speed'] = w1
         self._fit_drive(tau, offset, ripple, torque)
 
+    def _sliding_states(
+        self, p: FloatArray, sel: npt.NDArray[np.bool_], m_true: FloatArray
+    ) -> FloatArray:
+        """Kernel states at sliding segment starts, all from the measured channels:
+        ``phi1 = M_t/C1``, the chamber speed ``w1 = (dM_t/dt)/C1`` (Equ. 4), the shaft
+        speed w2 (speed channel, sensor inverted) and its slope, and the friction
+        moment from the chamber's balance ``M = I1*w1' - Q1`` (Equ. 1, the measured
+        acceleration); the belt deflection then follows from the shaft's (Equ. 2)."""
+        from scipy.signal import savgol_filter
+
+        rig_c1 = float(p[kn.P_C1])
+        rec = self.record
+        i0 = self.segments.start[sel]
+        # a sliding state's chamber speed sets the amplitude of the contact's lightly
+        # damped oscillation for the whole segment: a local cubic over 5 ms (not
+        # 1.5 ms) keeps its noise at ~4e-3 rad/s (config/rig.yaml noise)
+        win = min(_SLIDE_WIN, rec.time.size - (1 - rec.time.size % 2))
+        w1 = savgol_filter(rec.torsion_moment, win, 3, deriv=1, delta=rec.dt)[i0] / rig_c1
+        a1 = window_mean(rec.angular_acceleration, i0, _SLIDE_WIN // 2)
+        moment = np.empty(w1.size)
+        for k in range(w1.size):
+            q1 = kn.chamber_moment(p, float(m_true[k]) / rig_c1, float(w1[k]))
+            moment[k] = float(p[kn.P_I1]) * float(a1[k]) - q1
+        dk = self._knots
+        w2_dot = self._speed_slope[self.segments.start[sel]]
+        t0 = self._t0[sel]
+        w2 = self._w_start[sel]
+        return np.asarray(sliding_states(p, t0, m_true, w1, w2, w2_dot, moment, dk.time, dk.speed))
+
+    def _stuck_speed_through_lag(self, tau: float) -> FloatArray:
+        """Shaft speed [rad/s] at the segment starts behind a first-order speed sensor
+        of lag ``tau`` [s] (offset not removed). Inverting ``w = y + tau*y'`` pointwise
+        multiplies the speed noise by ``tau`` over the derivative's window (x10 at
+        5 ms); instead the whole stick phase is used: while stuck, ``w = w_s + A(t)``
+        with ``A`` the integrated measured acceleration, so the sensor shows
+        ``y = w_s + lag(A) + d*exp(-(t - t_s)/tau)`` (the filter's memory of the slip
+        before), a linear regression in ``w_s`` and ``d`` over the phase."""
+        rec = self.record
+        seg = self.segments
+        dt = rec.dt
+        acc = rec.angular_acceleration
+        fallback = self._speed_start + tau * self._speed_slope[seg.start]
+        if seg.run_start is None or seg.run_stop is None:
+            return fallback
+        out = fallback.copy()
+        alpha = math.exp(-dt / tau)
+        c_hold = (1.0 - alpha) * tau / dt
+        for k, (i, ra, rb) in enumerate(zip(seg.start, seg.run_start, seg.run_stop, strict=True)):
+            lo = int(ra) + CHAMBER_HALF
+            hi = int(rb) - CHAMBER_HALF
+            if hi - lo < 10 or not lo <= int(i) < hi:
+                continue
+            a = acc[lo:hi]
+            big_a = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+            lag_a = np.empty(big_a.size)
+            zero = np.zeros(1, np.int64)
+            lag_segments(big_a, zero, zero + big_a.size, np.zeros(1), alpha, lag_a, c_hold)
+            z = rec.speed[lo:hi] - lag_a
+            x = np.column_stack((np.ones(z.size), alpha ** np.arange(z.size)))
+            try:
+                coef, *_ = np.linalg.lstsq(x, z, rcond=None)
+            except np.linalg.LinAlgError:
+                continue
+            out[k] = float(coef[0]) + float(big_a[int(i) - lo])
+        return out
+
     def _fit_drive(
         self,
         tau: float,
         offset: float,
         ripple: tuple[float, float, float],
         torque: tuple[float, float],
+        *,
+        place: bool = True,
     ) -> None:
         """The drive profile from the drive angles at the stick samples, with the
         speed sensor inverted, the model's torque offset and drift [N m, N m/s] taken
-        off the torsion moment and the model's drive-speed ripple (its angle) taken out."""
+        off the torsion moment and the model's drive-speed ripple (its angle) taken out.
+        ``place``: search the profile's corner times (else keep the last ones)."""
         rec = self.record
+        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
+            self.drive_estimate = self._drive_speed0
+            self._knots = DriveKnots.from_estimate(self.drive_estimate)
+            return
         # drive angle while stuck = shaft angle (integral of the speed channel, less
         # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
         # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
@@ -636,10 +763,13 @@ class Problem:
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
         # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
         # more with the profile from the angles
-        drive = self._drive_speed0
-        for _ in range(2):
+        drive = self._drive_speed0 if place else self.drive_estimate
+        for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
-            drive = refine_with_angles(self._drive_speed0, t, phi2 - defl - ripple_angle, hints)
+            drive = refine_with_angles(
+                drive, t, phi2 - defl - ripple_angle, hints, place=place and it == 0,
+                start_speed=self._start_speed,
+            )  # fmt: skip
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
@@ -656,13 +786,15 @@ class Problem:
         out = w2.copy()
         if tau > 0.0:
             seg = self.segments
+            a = math.exp(-self.record.dt / tau)
             lag_segments(
                 w2,
                 seg.start[sel],
                 seg.stop[sel],
                 self._speed_start[sel] - off,
-                math.exp(-self.record.dt / tau),
+                a,
                 out,
+                (1.0 - a) * tau / self.record.dt,
             )
         return out + off
 

@@ -494,7 +494,7 @@ def fit_baseline(
         else None,
     )
     used = sensor.values()
-    instrument = {
+    instrument: dict[str, Any] = {
         'speed_lag_tau': {
             'value': sensor.tau,
             'se': sensor.tau_se,
@@ -528,7 +528,14 @@ def fit_baseline(
     pb.set_residual_weights(base_sim, floors)
     # the instrument model (speed-sensor lag and offset) joins the baseline before
     # any effect is tried; the effects' fits hold it fixed
-    base_vals = pb.fit([MU0, MU_INF], base_vals, max_nfev=st.max_nfev).values
+    # (with a significant speed-sensor lag, lag and offset are refined jointly: the
+    # stick regression's lag is ~2 % off and its offset, correlated with it, biased)
+    lag_free = [SPEED_LAG, SPEED_OFFSET] if used['speed_lag_tau'] > 0.0 else []
+    base_fit = pb.fit([MU0, MU_INF, *lag_free], base_vals, max_nfev=st.max_nfev)
+    base_vals = base_fit.values
+    for p in lag_free:
+        instrument[p.name]['used'] = base_vals[p.name]
+        instrument[p.name]['se_joint'] = base_fit.se.get(p.name, math.nan)
     base_sim = pb.simulate(base_vals)
     return base_vals, base_sim, instrument
 

@@ -1,0 +1,123 @@
+"""Discrepancy baseline on no-effect records of the independent generator: a speed
+step (corners of the drive profile placed by the drive-angle fit), a 5 ms speed-sensor
+lag (continuous sensor model, joint lag/offset refinement) and a record without sticks
+(sliding segment starts). Seeded noise of config/rig.yaml (torsion 0.05 N m).
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tribo_estimation.core.config import load_rig_config
+from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
+from tribo_estimation.core.discrepancy.fitting import MU0, MU_INF, Problem, Record
+from tribo_estimation.core.model import DriveProfile, FrictionLaw
+from tribo_estimation.core.reference import SpeedProfile
+from tribo_estimation.core.reference_records import (
+    RecordSpec,
+    RecordTruth,
+    make_record,
+    rig_channels,
+    rpm,
+)
+
+RIG_YAML = Path(__file__).resolve().parents[3] / 'config' / 'rig.yaml'
+CFG = load_rig_config(RIG_YAML)
+FLOOR = 0.05  # torsion-moment noise of config/rig.yaml [N m]
+BASELINE_ONLY = SelectionSettings(max_effects=0, propose_terms=False)
+
+
+@cache
+def _rec(kind: str) -> RecordTruth:
+    law = CFG.friction
+    drive = SpeedProfile.startup(rpm(25), 0.2)
+    lag = 0.0
+    if kind == 'step':  # 12 -> 30 rpm in 50 ms at 1.5 s test time (1.0 s record time)
+        drive = SpeedProfile.steps([rpm(12), rpm(30)], [1.5], ramp=0.2, transition=0.05)
+    elif kind == 'lag5':
+        lag = 0.005
+    elif kind == 'sliding':  # no falling friction: steady sliding, no sticks
+        law = FrictionLaw(0.10, 0.10, law.k)
+    tq, ac, sp = rig_channels(1.0, speed_lag=lag)
+    spec = RecordSpec(
+        CFG.rig, law, drive, torsion=tq, accel=ac, speed=sp, seed=4, duration=2.5,
+        start_offset=0.5,
+    )  # fmt: skip
+    return make_record(spec)
+
+
+def _record(r: RecordTruth) -> Record:
+    return Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+
+
+def test_speed_step_corners_placed_and_baseline_near_the_floor() -> None:
+    r = _rec('step')
+    pb = Problem(_record(r), CFG.rig, DriveProfile(rpm(12)), k=CFG.friction.k)
+    fit = pb.fit([MU0, MU_INF], {'mu0': 0.13, 'mu_inf': 0.10})
+    sim = pb.simulate(fit.values)
+    d = pb.drive_estimate
+    inner = d.knot_time[1:-1]
+    # the step's two corners (1.0 s and 1.05 s record time) within 1 ms
+    assert inner.size == 2
+    assert inner[0] == pytest.approx(1.0, abs=1e-3)
+    assert inner[1] == pytest.approx(1.05, abs=1e-3)
+    assert float(d.speed(0.5)) == pytest.approx(rpm(12), rel=1e-3)
+    assert float(d.speed(2.0)) == pytest.approx(rpm(30), rel=1e-3)
+    # issue 11: within 1.3x the noise floor (5.1x before the corner search)
+    assert pb.torque_rms(sim) <= 1.3 * FLOOR
+    assert fit.values['mu_inf'] == pytest.approx(0.10, rel=0.005)
+
+
+def test_speed_sensor_lag_5ms_baseline_near_the_floor() -> None:
+    r = _rec('lag5')
+    res = run_discrepancy(
+        _record(r), CFG.rig, DriveProfile(rpm(25)), k=CFG.friction.k, settings=BASELINE_ONLY
+    )
+    # issue 11: within 1.3x the noise floor (1.58x with the sample-lagged sensor model)
+    assert res.baseline.rms <= 1.3 * FLOOR
+    inst = res.instrument
+    assert inst['speed_lag_tau']['used'] == pytest.approx(0.005, rel=0.03)
+    # the true offset is 0: the jointly refined one stays within 3e-3 rad/s
+    assert abs(inst['speed_offset']['used']) < 3e-3
+    assert res.baseline.params['mu0'] == pytest.approx(0.13, rel=0.005)
+
+
+def test_record_without_sticks_is_analysed() -> None:
+    r = _rec('sliding')
+    assert not r.sticks  # the generator's truth: steady sliding
+    res = run_discrepancy(
+        _record(r), CFG.rig, DriveProfile(rpm(25)), k=CFG.friction.k, settings=BASELINE_ONLY
+    )
+    assert res.traces.problem.segments.sliding
+    # issue 12 item 4: baseline within 1.5x the floor, mu_inf within 2 %
+    assert res.baseline.rms <= 1.5 * FLOOR
+    assert res.baseline.params['mu_inf'] == pytest.approx(0.10, rel=0.02)
+    assert np.isfinite(res.baseline.cv_rms)
+
+
+def test_record_from_rest_tells_torque_offset_drift_from_friction_drift() -> None:
+    # a record that begins at the drive start (config/rig.yaml: 0.5 s ramp from rest):
+    # the drive speed at the first knot is pinned to 0, so a torque-offset drift is
+    # not taken for a drift of mu0 and mu_inf (test_discrepancy_workflow starts its
+    # records 0.25 s into the ramp)
+    from tribo_estimation.core.model import Extensions
+    from tribo_estimation.core.simulate import NoiseSpec, simulate
+
+    truth = {'torque_offset': 0.5, 'torque_offset_drift': 0.5}
+    r = simulate(
+        CFG.rig, CFG.friction, CFG.drive, 1.0, extensions=Extensions(**truth),
+        noise=NoiseSpec(torque=0.05, accel=2.0, speed=0.005), seed=105,
+    )  # fmt: skip
+    rec = Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+    res = run_discrepancy(
+        rec, CFG.rig, CFG.drive, k=CFG.friction.k, settings=SelectionSettings(max_effects=1)
+    )
+    assert res.traces.problem.drive_estimate.knot_speed[0] == 0.0
+    assert res.added and res.added[0].effect == 'torque_offset'
+    drift = res.added[0].params['torque_offset_drift']
+    assert drift == pytest.approx(0.5, rel=0.2)
+    assert res.final.rms <= 0.5 * res.baseline.rms
