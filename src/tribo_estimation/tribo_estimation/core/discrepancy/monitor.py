@@ -151,8 +151,9 @@ class WindowResult:
     acceleration in rad/s^2, speeds in rad/s; ``params``/``units`` of the
     candidate as in :mod:`.candidates`; ``candidate`` is '' when no candidate
     was tried or none lowered the rms by ``min_gain`` (then ``candidate_rms``
-    is NaN); ``quality`` 'ok' or ';'-separated flags (``no_sticks``: too few
-    stick phases to fit, ``over_budget``: the window took longer than the
+    is NaN); ``quality`` 'ok' or ';'-separated flags (``no_sticks``: no stick
+    phase in the window: fitted from sliding states, ``mu0`` NaN; also when the
+    window cannot be cut into segments at all, ``over_budget``: the window took longer than the
     hop, ``fit_failed``, ``partial``: the named candidate leaves more than
     ``partial_ratio`` noise floors).
     """
@@ -537,6 +538,12 @@ class WindowMonitor:
             )
         elapsed = _time.perf_counter() - t0
         flags = []
+        if segs.sliding:
+            # no stick phase in the window: analysed from measured sliding states
+            # (slip-slip, steady sliding); mu0 acts only at breakaways and is not
+            # determined
+            flags.append('no_sticks')
+            base = {**base, 'mu0': math.nan}
         if name and c_rms > cfg.partial_ratio * sigma:
             flags.append('partial')
         if elapsed > cfg.hop:
