@@ -1,4 +1,4 @@
-"""Benchmark of the missing-physics workflow (issue 7).
+"""Benchmark of the missing-physics workflow.
 
 Every candidate effect hidden in turn (config/rig_hidden_<effect>.yaml, realistic
 magnitudes) in a 6 s, 10 kHz simulated record with the sensor noise of
@@ -35,7 +35,7 @@ NOT_IDENTIFIABLE = {'torque_offset'}
 
 def _baseline_timing(rec: Record, base: Any) -> None:
     """Wall time of the baseline alone (segments, drive profile, speed sensor,
-    mu0/mu_inf fit) on the no-effect record (issue 11 target: <= 3 s for 6 s)."""
+    mu0/mu_inf fit) on the no-effect record (target: <= 3 s for 6 s)."""
     from tribo_estimation.core.discrepancy.fitting import (
         MU0,
         MU_INF,
@@ -114,7 +114,7 @@ def main() -> int:
         if res.unexplained:
             for u in res.unexplained:
                 print(f'{"":<22s} unexplained: {u.kind} ({u.where}) {u.size:.3g} N m')
-    print(f'{n_ok}/{len(names)} records meet the issue-7 criteria')
+    print(f'{n_ok}/{len(names)} records meet the workflow criteria')
     return 0 if n_ok == len(names) else 1
 
 

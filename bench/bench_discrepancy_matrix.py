@@ -1,4 +1,4 @@
-"""Confusion matrix of the missing-physics workflow on independent records (issue 12).
+"""Confusion matrix of the missing-physics workflow on independent records.
 
 Records come from the independent reference simulator (core/reference_records.py:
 its own equations, instrument model with the noise of config/rig.yaml) with one

@@ -1,4 +1,4 @@
-"""Benchmark of the block-wise friction estimation (issue 4).
+"""Benchmark of the block-wise friction estimation.
 
 Prints:
 1. accuracy per block at 10, 30 and 60 rpm with the issue's noise (0.05 N m,

@@ -1,4 +1,4 @@
-"""Benchmark of the live model monitor (issue 12): processing time of one 6 s window.
+"""Benchmark of the live model monitor: processing time of one 6 s window.
 
 A 10 kHz record of config/rig.yaml (no effect) and of
 config/rig_hidden_<effect>.yaml (default: viscous friction) with the sensor

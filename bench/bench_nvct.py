@@ -1,4 +1,4 @@
-"""nVCT benchmark: the issue-5 figures over seeds, detection limits, Hertz table (Fig. 9).
+"""nVCT benchmark: the wear figures over seeds, detection limits, Hertz table (Fig. 9).
 
 Run: .venv/bin/python bench/bench_nvct.py [--seeds 200]
 Prints, for the shipped config/sim_detector.yaml test (240 min, 60 s dwell,

@@ -1,4 +1,4 @@
-"""nVCT coverage benchmark: bias and interval coverage of the wear figures (issue 16).
+"""nVCT coverage benchmark: bias and interval coverage of the wear figures.
 
 Run: .venv/bin/python bench/bench_nvct_coverage.py [--tests 150] [--replicas 200] [--seed 1]
 
@@ -12,7 +12,7 @@ evaluator). Printed, for the total volume at 180 min and the progressive rate
 tests whose truth lies within 1 and 2 combined SE (counting + profile), the
 same with the counting SE alone, and the worst relative error, overall and at
 0.3 % layer-removal noise.
-Targets (issue 16): |bias| <= 0.3 %, 2-SE coverage 90-98 %, worst <= 1 % at 0.3 %.
+Targets: |bias| <= 0.3 %, 2-SE coverage 90-98 %, worst <= 1 % at 0.3 %.
 """
 
 from __future__ import annotations

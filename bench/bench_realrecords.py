@@ -1,4 +1,4 @@
-"""Benchmark matrix on realistic records of the independent generator (issue 11).
+"""Benchmark matrix on realistic records of the independent generator.
 
 Records come from :mod:`tribo_estimation.core.reference_records` (the scipy
 reference simulator with its own equations, plus an instrument model), never from

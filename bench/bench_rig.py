@@ -1,4 +1,4 @@
-"""Rig physics benchmark: simulator accuracy and speed, free-decay accuracy (issue 2).
+"""Rig physics benchmark: simulator accuracy and speed, free-decay accuracy.
 
 Run: .venv/bin/python bench/bench_rig.py [--repeats 21] [--seeds 10]
 
@@ -11,7 +11,7 @@ mu0 = 0.13, mu_inf = 0.10) at 10, 30 and 60 rpm, 1 s of stick-slip at 10 kHz:
   JIT warm-up), the real-time factor and the scipy reference time side by side;
 and free-decay identification errors on noisy records (0.05 N m, 2 rad/s^2 at
 10 kHz) for the non-Tab.-1 chamber of config/rig_decay_example.yaml over seeds.
-Targets (issue 2): rel. RMS <= 1e-3; <= 2 ms per simulated second (>= 500x
+Targets: rel. RMS <= 1e-3; <= 2 ms per simulated second (>= 500x
 real time); I1, C1 within 1 %, K1 within 10 %.
 """
 

@@ -1,4 +1,4 @@
-"""The benchmark matrix of issue 11 runs (``--quick``: three conditions of 2 s) and
+"""The real-records benchmark matrix runs (``--quick``: three conditions of 2 s) and
 its stick-detector columns meet the issue's target on the generator's records."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The model_monitor node on a replayed bag publishes its windows in time (issue 12).
+"""The model_monitor node on a replayed bag publishes its windows in time.
 
 A 10 s bag of the simulated rig (config/rig.yaml, seeded noise) is replayed in
 real time with `tribo replay` into the ``model_monitor`` executable on this

@@ -66,7 +66,7 @@ def test_csv_run_writes_blocks_and_figures(tmp_path: Path) -> None:
     for i in (1, 2):
         assert tab['quality'][i] == 'ok'
         assert tab['motion'][i] == 'stick-slip'
-        # issue 4 tolerances: mu0 2 %, mu_inf 1 %
+        # target tolerances: mu0 2 %, mu_inf 1 %
         assert abs(tab['mu0'][i] - TRUTH.mu0) < 0.02 * TRUTH.mu0
         assert abs(tab['mu_inf'][i] - TRUTH.mu_inf) < 0.01 * TRUTH.mu_inf
     for name in ('blocks.png', 'mu_slip.png', 'detail.png'):

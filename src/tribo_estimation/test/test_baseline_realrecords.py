@@ -67,7 +67,7 @@ def test_speed_step_corners_placed_and_baseline_near_the_floor() -> None:
     assert inner[1] == pytest.approx(1.05, abs=1e-3)
     assert float(d.speed(0.5)) == pytest.approx(rpm(12), rel=1e-3)
     assert float(d.speed(2.0)) == pytest.approx(rpm(30), rel=1e-3)
-    # issue 11: within 1.3x the noise floor (5.1x before the corner search)
+    # target: within 1.3x the noise floor (5.1x before the corner search)
     assert pb.torque_rms(sim) <= 1.3 * FLOOR
     assert fit.values['mu_inf'] == pytest.approx(0.10, rel=0.005)
 
@@ -77,7 +77,7 @@ def test_speed_sensor_lag_5ms_baseline_near_the_floor() -> None:
     res = run_discrepancy(
         _record(r), CFG.rig, DriveProfile(rpm(25)), k=CFG.friction.k, settings=BASELINE_ONLY
     )
-    # issue 11: within 1.3x the noise floor (1.58x with the sample-lagged sensor model)
+    # target: within 1.3x the noise floor (1.58x with the sample-lagged sensor model)
     assert res.baseline.rms <= 1.3 * FLOOR
     inst = res.instrument
     assert inst['speed_lag_tau']['used'] == pytest.approx(0.005, rel=0.03)
@@ -93,7 +93,7 @@ def test_record_without_sticks_is_analysed() -> None:
         _record(r), CFG.rig, DriveProfile(rpm(25)), k=CFG.friction.k, settings=BASELINE_ONLY
     )
     assert res.traces.problem.segments.sliding
-    # issue 12 item 4: baseline within 1.5x the floor, mu_inf within 2 %
+    # target: baseline within 1.5x the floor, mu_inf within 2 %
     assert res.baseline.rms <= 1.5 * FLOOR
     assert res.baseline.params['mu_inf'] == pytest.approx(0.10, rel=0.02)
     assert np.isfinite(res.baseline.cv_rms)

@@ -92,7 +92,7 @@ def test_recovers_mu0_mu_inf_after_startup(rpm: float) -> None:
         assert res.ok, res.quality
         assert res.motion == 'stick-slip'
         assert res.n_sticks > 5
-        # issue 4: mu0 within 2 %, mu_inf within 1 % per block after start-up
+        # target: mu0 within 2 %, mu_inf within 1 % per block after start-up
         assert abs(res.mu0 - TRUTH.mu0) < 0.02 * TRUTH.mu0
         assert abs(res.mu_inf - TRUTH.mu_inf) < 0.01 * TRUTH.mu_inf
         # the torsion moment spans the stick-slip cycle around the friction level

@@ -1,4 +1,4 @@
-"""Identifiability verdicts and joint fits of several records (issue 12, items 2 and 3).
+"""Identifiability verdicts and joint fits of several records.
 
 Dwell-time stiction at one constant drive speed comes from the independent record
 generator (core/reference_records.py, rig noise); the joint two-speed fit from the

@@ -77,7 +77,7 @@ def test_noise_free_profiles_have_no_surface_bias(shape: str) -> None:
 
 
 def test_seeded_noise_surface_unbiased_and_bootstrap_honest() -> None:
-    # 0.3 % noise on the remaining activity of the PTLA-like profile (issue 16's case):
+    # 0.3 % noise on the remaining activity of the PTLA-like profile (the reference pin's case):
     # F at 85 nm (the worn depth at 180 min) over 40 seeds.
     h = np.array([0.085e-6])
     z = np.round(np.arange(0.0, 5.0001e-6, 0.1e-6), 12)

@@ -1,4 +1,4 @@
-"""Missing-physics (discrepancy) workflow (issue 7).
+"""Missing-physics (discrepancy) workflow.
 
 Find where the rig model (the paper's Equ. 1-8) and a measured record disagree,
 name the missing effect from a library of nested model extensions, add it, and
