@@ -264,12 +264,8 @@ def check_channels(
             if whole_record:
                 raise UnitError(msg)
             warnings.append(msg.replace('is at rest', 'is at rest at the start'))
-        elif abs(ratio - 1.0) > SPEED_WARN:
-            warnings.append(
-                f'{source}: speed channel median {med:.4g} rad/s differs from nominal_speed '
-                f'{scales.speed:.4g} rad/s by {100.0 * (ratio - 1.0):+.0f} %: the rig config '
-                'may describe another run (--tacho-speed drives the fit at the measured speed)'
-            )
+        # a drive speed other than nominal_speed is not checked here: the fits measure
+        # the drive profile and warn about it once (core.drive, drive_mismatch)
     return warnings
 
 
