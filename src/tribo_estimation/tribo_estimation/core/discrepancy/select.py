@@ -597,7 +597,13 @@ def run_discrepancy(
         if not scores:
             break
         if rnd == 0:
-            verdicts = judge_candidates(pb, base_sim, {s.effect: s.model.params for s in scores})
+            floor0 = noise_floor(torque_residual(pb, base_sim)[base_sim.covered])
+            verdicts = judge_candidates(
+                pb,
+                base_sim,
+                {s.effect: s.model.params for s in scores},
+                evidence={s.effect: (s.gain, s.model.rms / floor0) for s in scores},
+            )
             for n, v in verdicts.items():
                 say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
         # eligible: clearly better on held-out blocks AND by BIC; among those the
@@ -726,12 +732,15 @@ def judge_candidates(
     fits: Mapping[str, Mapping[str, float]],
     *,
     corr_time: float = 1e-3,
+    evidence: Mapping[str, tuple[float, float]] | None = None,
 ) -> dict[str, Identifiability]:
     """The identifiability verdict (:func:`.identify.identifiability`) of every
     candidate in ``fits`` (name -> its fitted values: mu0, mu_inf, the candidate's
     parameters and the fixed instrument model), from the Gauss-Newton linearisation
     of its fit (with the speed-sensor terms when the model uses them) and the
-    record's stick durations, drive speeds and length."""
+    record's stick durations, drive speeds and length; ``evidence`` (name -> the
+    candidate's cross-validated relative cost reduction [-] and its torque rms over
+    the noise floor [-]) lets a decisive fit overrule the stick-duration proxy."""
     durations, speeds, length = record_facts(pb, base_sim)
     out: dict[str, Identifiability] = {}
     for name, vals in fits.items():
@@ -741,7 +750,14 @@ def judge_candidates(
         specs += list(c.params)
         gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
         out[name] = identifiability(
-            name, c.param_names, gn, durations, drive_speeds=speeds, duration=length
+            name,
+            c.param_names,
+            gn,
+            durations,
+            drive_speeds=speeds,
+            duration=length,
+            gain=evidence[name][0] if evidence and name in evidence else None,
+            rms_ratio=evidence[name][1] if evidence and name in evidence else None,
         )
     return out
 
