@@ -123,13 +123,14 @@ def test_joint_fit_of_two_speeds_finds_viscous_friction() -> None:
 
 
 def test_decisive_fit_overrules_the_stick_duration_proxy() -> None:
-    """Equal sticks make dwell-time stiction suspect, but a fit that removes most of
-    the baseline's cost and leaves only noise shows mu0 did not absorb it (the demo's
-    case: 28x -> 1.25x the noise floor); a fit that leaves 10x the floor does not."""
+    """Equal sticks make dwell-time stiction suspect, but a fit that removes nearly all
+    of the baseline's cross-validated cost shows mu0 did not absorb it (the demo's
+    case: gain 0.97, 28x -> 2.5x the noise floor); a gain of 0.80 (the one-speed
+    record above) is not decisive."""
     st = ('mu0', 'mu_inf', 'stiction_gain', 'stiction_tau')
     gn = GaussNewton(st, (0.13, 0.1, 0.02, 0.005), (1e-4, 1e-4, 1e-4, 1e-4), np.eye(4), ())
     equal = np.full(10, 0.010)
     assert not identifiability('dwell_time_stiction', st[2:], gn, equal).ok
-    assert identifiability('dwell_time_stiction', st[2:], gn, equal, gain=0.97, rms_ratio=1.25).ok
-    weak = identifiability('dwell_time_stiction', st[2:], gn, equal, gain=0.80, rms_ratio=9.6)
+    assert identifiability('dwell_time_stiction', st[2:], gn, equal, gain=0.97).ok
+    weak = identifiability('dwell_time_stiction', st[2:], gn, equal, gain=0.80)
     assert not weak.ok and 'confounded with mu0' in weak.reason

@@ -210,9 +210,7 @@ def identifiability(
     min_spread: float = 0.1,
     min_drift_duration: float = 0.5,
     gain: float | None = None,
-    rms_ratio: float | None = None,
-    decisive_gain: float = 0.5,
-    decisive_ratio: float = 1.5,
+    decisive_gain: float = 0.9,
 ) -> Identifiability:
     """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)
     and the instrument model?
@@ -227,10 +225,9 @@ def identifiability(
       below ``min_spread`` (-; at one constant drive speed every stick lasts as
       long as the next) it is confounded with mu0 -- unless the candidate's fit
       itself is decisive: it removed at least ``decisive_gain`` (-) of the
-      baseline's cross-validated cost (``gain``) and leaves at most
-      ``decisive_ratio`` noise floors (``rms_ratio``, torque rms / noise floor):
-      then mu0 demonstrably did not absorb it (stiction raises only the breakaway
-      threshold, not the sliding curve of Equ. 8, so it can show at one speed);
+      baseline's cross-validated cost (``gain``): then mu0 demonstrably did not
+      absorb it (stiction raises only the breakaway threshold, not the sliding
+      curve of Equ. 8, so it can show at one speed);
     * for drifts (``friction_drift``, ``torque_offset``) the record ``duration`` [s]
       must reach ``min_drift_duration``;
     * a parameter the simulation does not depend on is not identifiable;
@@ -260,13 +257,7 @@ def identifiability(
             lo_w, hi_w = float(np.min(ds)), float(np.max(ds))
             if (hi_w - lo_w) / float(np.mean(ds)) < min_spread:
                 speed_txt = f' (all at one drive speed, {lo_w:.3g}-{hi_w:.3g} rad/s)'
-    decided_by_fit = (
-        gain is not None
-        and rms_ratio is not None
-        and math.isfinite(gain)
-        and gain >= decisive_gain
-        and rms_ratio <= decisive_ratio
-    )
+    decided_by_fit = gain is not None and math.isfinite(gain) and gain >= decisive_gain
     if candidate == 'dwell_time_stiction' and not decided_by_fit:
         d = np.asarray(stick_durations_s, dtype=np.float64)
         d = d[np.isfinite(d)]

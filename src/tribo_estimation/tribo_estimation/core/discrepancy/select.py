@@ -597,12 +597,11 @@ def run_discrepancy(
         if not scores:
             break
         if rnd == 0:
-            floor0 = noise_floor(torque_residual(pb, base_sim)[base_sim.covered])
             verdicts = judge_candidates(
                 pb,
                 base_sim,
                 {s.effect: s.model.params for s in scores},
-                evidence={s.effect: (s.gain, s.model.rms / floor0) for s in scores},
+                gains={s.effect: s.gain for s in scores},
             )
             for n, v in verdicts.items():
                 say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
@@ -732,15 +731,15 @@ def judge_candidates(
     fits: Mapping[str, Mapping[str, float]],
     *,
     corr_time: float = 1e-3,
-    evidence: Mapping[str, tuple[float, float]] | None = None,
+    gains: Mapping[str, float] | None = None,
 ) -> dict[str, Identifiability]:
     """The identifiability verdict (:func:`.identify.identifiability`) of every
     candidate in ``fits`` (name -> its fitted values: mu0, mu_inf, the candidate's
     parameters and the fixed instrument model), from the Gauss-Newton linearisation
     of its fit (with the speed-sensor terms when the model uses them) and the
-    record's stick durations, drive speeds and length; ``evidence`` (name -> the
-    candidate's cross-validated relative cost reduction [-] and its torque rms over
-    the noise floor [-]) lets a decisive fit overrule the stick-duration proxy."""
+    record's stick durations, drive speeds and length; ``gains`` (name -> the
+    candidate's cross-validated relative cost reduction [-]) let a decisive fit
+    overrule the stick-duration proxy."""
     durations, speeds, length = record_facts(pb, base_sim)
     out: dict[str, Identifiability] = {}
     for name, vals in fits.items():
@@ -756,8 +755,7 @@ def judge_candidates(
             durations,
             drive_speeds=speeds,
             duration=length,
-            gain=evidence[name][0] if evidence and name in evidence else None,
-            rms_ratio=evidence[name][1] if evidence and name in evidence else None,
+            gain=None if gains is None else gains.get(name),
         )
     return out
 
