@@ -89,6 +89,11 @@ def register(sub: Any) -> None:
         metavar='F',
         help='relative held-out improvement needed to add an effect (0.25)',
     )
+    p.add_argument(
+        '--no-torsion-lag',
+        action='store_true',
+        help='no torsion-amplifier lag in the instrument model (left to torque_sensor_lag)',
+    )
     p.add_argument('--no-plots', action='store_true', help='write only discrepancy.json')
     p.set_defaults(func=run)
 
@@ -214,7 +219,10 @@ def run(args: argparse.Namespace) -> int:
     names = _candidate_names(args)
     cfg = load_rig_config(args.rig)
     settings = SelectionSettings(
-        min_gain=args.min_gain, max_effects=args.max_effects, candidates=names
+        min_gain=args.min_gain,
+        max_effects=args.max_effects,
+        candidates=names,
+        torsion_lag=not args.no_torsion_lag,
     )
     record, truncated = _load_record(Path(args.input[0]), args, cfg)
     result = run_discrepancy(
@@ -257,7 +265,9 @@ def _run_joint(args: argparse.Namespace) -> int:
         if truncated is not None:
             raise truncated  # a joint fit needs every record whole
         records.append(record)
-    settings = SelectionSettings(min_gain=args.min_gain, candidates=names)
+    settings = SelectionSettings(
+        min_gain=args.min_gain, candidates=names, torsion_lag=not args.no_torsion_lag
+    )
     res = run_joint_discrepancy(
         records,
         cfg.rig,

@@ -20,6 +20,7 @@ moment (N m), the angular acceleration (rad/s^2) and the shaft speed (rad/s).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
@@ -53,7 +54,14 @@ from tribo_estimation.core.shooting import (
 )
 from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
 from tribo_estimation.core.simulate import sensor_lag, sensor_offset
-from tribo_estimation.core.sticks import detect_sticks
+from tribo_estimation.core.sticks import (
+    MAX_TORSION_LAG,
+    chamber_speed_integral,
+    detect_sticks,
+    drive_speed_level,
+    estimate_torsion_lag,
+    torsion_lag_compensated,
+)
 from tribo_estimation.errors import (
     EstimationError,
     InvalidDataError,
@@ -324,6 +332,98 @@ def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
     if speed.size < win:
         return np.zeros(speed.size)
     return np.asarray(savgol_filter(speed, win, 3, deriv=1, delta=dt), dtype=np.float64)
+
+
+#: Length of the record pieces the torsion lag is estimated on [s] (the spread of
+#: the pieces' estimates gives its standard error) and the window of the local
+#: mean that fixes the compensation's constant and drift [s].
+_TQ_LAG_PIECE = 1.0
+_TQ_LAG_MEAN_WIN = 0.005
+#: Smallest torsion lag taken as real [s] (the block fit's threshold).
+MIN_TORSION_LAG = 1e-4
+
+
+@dataclass(frozen=True)
+class TorsionLag:
+    """Identified first-order lag of the torsion amplifier ``tau`` [s] with its
+    standard error ``se`` [s] (spread of the estimates on ``n`` record pieces)
+    and the lag compensated (``used`` [s], 0 = none)."""
+
+    tau: float
+    se: float
+    n: int
+    used: float
+
+    def report(self) -> dict[str, float | int | str]:
+        """The ``instrument`` entry of discrepancy.json."""
+        return {'value': self.tau, 'se': self.se, 'unit': 's', 'used': self.used, 'pieces': self.n}
+
+
+def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True) -> TorsionLag:
+    """The torsion amplifier's first-order lag from the record, friction-free.
+
+    :func:`sticks.estimate_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
+    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s; the median is the lag, the
+    pieces' spread its standard error. Used (compensated) when at least
+    :data:`MIN_TORSION_LAG`, beyond 3 standard errors and inside the estimator's
+    range (an estimate at the range's end, 3 ms, is left to the workflow's
+    ``torque_sensor_lag`` candidate); ``enabled=False`` estimates nothing."""
+    if not enabled:
+        return TorsionLag(math.nan, math.nan, 0, 0.0)
+    fs = record.fs
+    n = record.time.size
+    # ~1 s pieces; at least 4 (of >= 0.2 s) on a shorter record for the spread
+    m = max(1, int(n // round(_TQ_LAG_PIECE * fs)), min(4, int(n // round(0.2 * fs))))
+    edges = np.linspace(0, n, m + 1).astype(int)
+    est: list[float] = []
+    for a, b in itertools.pairwise(edges.tolist()):
+        try:
+            tau = float(
+                estimate_torsion_lag(
+                    record.torsion_moment[a:b], record.angular_acceleration[a:b], fs, rig.C1
+                )
+            )
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if math.isfinite(tau):
+            est.append(tau)
+    if not est:
+        return TorsionLag(math.nan, math.nan, 0, 0.0)
+    arr = np.asarray(est)
+    tau = float(np.median(arr))
+    se = float(1.2533 * np.std(arr, ddof=1) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    ok = (
+        tau >= MIN_TORSION_LAG
+        and tau < 0.98 * MAX_TORSION_LAG
+        and (not math.isfinite(se) or tau > 3.0 * se)
+    )
+    return TorsionLag(tau, se, arr.size, tau if ok else 0.0)
+
+
+def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Record:
+    """The record with the torsion amplifier's first-order lag ``tau`` [s] taken
+    out of its torsion moment (:func:`sticks.torsion_lag_compensated`, exact:
+    ``M_t = y + tau*C1*lag(w1)``, Equ. 4). The integrated acceleration gives
+    ``w1`` up to a constant and a drift (the trapezoid's error at the
+    acceleration's jumps); the correction's local mean (5 ms: shorter than the
+    stick and slip phases between the jumps) is therefore replaced by its true
+    value, the local mean of ``tau*y'`` (a difference quotient of the measured
+    ``y``: noise ~0.015 N m for a 1 ms lag at config/rig.yaml)."""
+    if tau <= 0.0:
+        return record
+    fs = record.fs
+    dt = record.dt
+    y = record.torsion_moment
+    w = chamber_speed_integral(record.angular_acceleration, dt)
+    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1) - y
+    n = y.size
+    h = max(1, min(n // 2, round(0.5 * _TQ_LAG_MEAN_WIN * fs)))
+    i = np.arange(n)
+    lo = np.maximum(0, i - h)
+    hi = np.minimum(n - 1, i + h)
+    mean_slope = (y[hi] - y[lo]) / ((hi - lo) * dt)  # local mean of y' [N m/s]
+    corr = corr - drive_speed_level(corr, fs, _TQ_LAG_MEAN_WIN) + tau * mean_slope
+    return replace(record, torsion_moment=np.asarray(y + corr, dtype=np.float64))
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from .select import (
     SelectionSettings,
     _start_context,
     fit_baseline,
+    instrument_record,
     record_facts,
 )
 from .stats import FloatArray, noise_floor
@@ -207,8 +208,10 @@ def run_joint_discrepancy(
     problems, fixed, bases, sims, instruments = [], [], [], [], []
     for i, (rec, drv) in enumerate(zip(records, drives, strict=True)):
         say(f'record {i}: baseline')
+        rec, tq_lag = instrument_record(rec, rig, st, say)
         pb = Problem(rec, rig, drv, k=k, segments=make_segments(rec, rig, block_time=st.block_time))
         vals, sim, instr = fit_baseline(pb, st, say)
+        instr['torsion_lag_tau'] = tq_lag.report()
         problems.append(pb)
         fixed.append({n: v for n, v in vals.items() if n not in ('mu0', 'mu_inf')})
         bases.append(vals)

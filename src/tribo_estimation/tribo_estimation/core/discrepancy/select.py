@@ -56,8 +56,11 @@ from .fitting import (
     Problem,
     Record,
     SimulatedRecord,
+    TorsionLag,
     identify_speed_sensor,
+    identify_torsion_lag,
     make_segments,
+    torsion_compensated_record,
 )
 from .identify import Identifiability, gauss_newton, identifiability
 from .localise import localise, shaft_angle, torque_residual, variable
@@ -87,7 +90,10 @@ class SelectionSettings:
     ``block_time`` length of a cross-validation block [s]; ``corr_time``
     residual correlation time for the BIC sample count [s]; ``max_nfev``
     evaluations per whole-record fit; ``candidates`` names to try (None = all
-    registered); ``propose_terms`` run the sparse regression on what remains.
+    registered); ``propose_terms`` run the sparse regression on what remains;
+    ``torsion_lag`` identify the torsion amplifier's lag as part of the instrument
+    model and compensate it (:func:`.fitting.identify_torsion_lag`; off: the lag is
+    left to the ``torque_sensor_lag`` candidate).
     """
 
     min_gain: float = 0.25
@@ -102,6 +108,7 @@ class SelectionSettings:
     parsimony: float = 0.03
     candidates: tuple[str, ...] | None = None
     propose_terms: bool = True
+    torsion_lag: bool = True
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.min_gain < 1.0:
@@ -473,6 +480,21 @@ def propose_terms(
 # --------------------------------------------------------------------------- entry
 
 
+def instrument_record(
+    record: Record, rig: RigParams, st: SelectionSettings, say: Progress
+) -> tuple[Record, TorsionLag]:
+    """The record with the torsion amplifier's lag identified and compensated
+    (the instrument model's torsion part, before the segments' states are built;
+    :func:`.fitting.identify_torsion_lag`) and that identification."""
+    tq = identify_torsion_lag(record, rig, enabled=st.torsion_lag)
+    if st.torsion_lag:
+        say(
+            f'torsion amplifier: lag {1e3 * tq.tau:.3g} +- {1e3 * tq.se:.2g} ms'
+            + (' (compensated)' if tq.used > 0.0 else ' (not used)')
+        )
+    return torsion_compensated_record(record, rig, tq.used), tq
+
+
 def fit_baseline(
     pb: Problem, st: SelectionSettings, say: Progress
 ) -> tuple[dict[str, float], SimulatedRecord, dict[str, Any]]:
@@ -557,11 +579,13 @@ def run_discrepancy(
     st = settings or SelectionSettings()
     say: Progress = progress or (lambda _msg: None)
     t_start = _time.perf_counter()
+    record, tq_lag = instrument_record(record, rig, st, say)
     pb = Problem(
         record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
     )
     sel = _Selector(pb, st, say)
     base_vals, base_sim, instrument = fit_baseline(pb, st, say)
+    instrument['torsion_lag_tau'] = tq_lag.report()
     current = sel.score((), base_vals)
     baseline = current
     say(
@@ -795,6 +819,7 @@ __all__ = [
     'Unexplained',
     'describe_unexplained',
     'fit_baseline',
+    'instrument_record',
     'judge_candidates',
     'record_facts',
     'run_discrepancy',
