@@ -10,7 +10,8 @@ pattern it is expected to explain.
 
 Register a new candidate with :func:`register`; the selection
 (:mod:`.select`) tries every registered candidate that the model's
-``Extensions`` supports.
+``Extensions`` supports. New candidates go in one module each under
+:mod:`.effects` (auto-discovered: importing this module imports that package).
 """
 
 from __future__ import annotations
@@ -102,7 +103,9 @@ class Candidate:
     ``params`` are the fitted ``Extensions`` fields; ``localiser`` the variable
     its residual signature shows against (one of :data:`LOCALISERS`);
     ``starts`` computes extra data-driven start points (each a full mapping of
-    parameter name to value) tried besides the defaults.
+    parameter name to value) tried besides the defaults; ``demo_effects`` the
+    ``Extensions`` values hidden in the rig by ``tribo demo --effect NAME`` when
+    there is no ``config/rig_hidden_NAME.yaml`` (None: that file must exist).
     """
 
     name: str
@@ -110,6 +113,7 @@ class Candidate:
     params: tuple[ParamSpec, ...]
     localiser: str
     starts: StartFn = field(default=_no_starts)
+    demo_effects: Mapping[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.localiser not in LOCALISERS:
@@ -335,3 +339,8 @@ register(
         _scaled_starts('bearing_moment', (0.02, 0.1)),
     )
 )
+
+
+# --------------------------------------------------------- one module per candidate
+# (at the end: the modules import ``Candidate``/``register`` from this module)
+from . import effects as _effects  # noqa: E402, F401
