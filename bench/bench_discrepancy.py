@@ -28,7 +28,7 @@ from tribo_estimation.core.discrepancy import run_discrepancy  # noqa: E402
 from tribo_estimation.core.discrepancy.fitting import Record  # noqa: E402
 from tribo_estimation.core.simulate import simulate  # noqa: E402
 
-#: Fields not identifiable from the record (see candidates.py: a constant torque
+#: Fields not identifiable from the record (see effects/torque_offset.py: a constant torque
 #: offset is indistinguishable from a common shift of mu0 and mu_inf).
 NOT_IDENTIFIABLE = {'torque_offset'}
 

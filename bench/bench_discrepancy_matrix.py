@@ -2,7 +2,7 @@
 
 Records come from the independent reference simulator (core/reference_records.py:
 its own equations, instrument model with the noise of config/rig.yaml) with one
-effect hidden: every candidate of core/discrepancy/candidates.py in turn at two
+effect hidden: every candidate of core/discrepancy/effects/ in turn at two
 magnitudes (the realistic values of config/rig_hidden_<effect>.yaml and 0.4x),
 the no-effect control and two effects outside the library (core/reference.py
 ``Unmodelled``: a drive backlash, a dead band in the belt deflection of Equ. 2; a
@@ -64,9 +64,13 @@ OUTSIDE = (BACKLASH, C1_DRIFT)
 
 
 def hidden(name: str, scale: float) -> dict[str, float]:
-    """The candidate's non-default Extensions fields of config/rig_hidden_<name>.yaml,
-    magnitudes times ``scale``."""
-    e = load_rig_config(CONFIG / f'rig_hidden_{name}.yaml').extensions
+    """The candidate's non-default Extensions fields of config/rig_hidden_<name>.yaml
+    (else its registered demo values), magnitudes times ``scale``."""
+    path = CONFIG / f'rig_hidden_{name}.yaml'
+    demo = cand_lib.get(name).demo_effects
+    if not path.is_file() and demo is not None:
+        return {k: v if k in SHAPE_FIELDS else v * scale for k, v in demo.items()}
+    e = load_rig_config(path).extensions
     d = Extensions()
     out = {}
     for f in dataclasses.fields(e):

@@ -52,7 +52,7 @@ CASES: dict[str, tuple[dict[str, float], tuple[str, ...]]] = {
         ('ripple_amp', 'ripple_freq', 'ripple_phase'),
     ),
     # the constant offset is indistinguishable from a common mu shift (absorbed
-    # by the baseline, see candidates.py); only its drift is identifiable
+    # by the baseline, see effects/torque_offset.py); only its drift is identifiable
     'torque_offset': ({'torque_offset': 0.5, 'torque_offset_drift': 0.5}, ('torque_offset_drift',)),
     'torque_sensor_lag': ({'torque_lag_tau': 0.0005}, ('torque_lag_tau',)),
     'bearing_friction': ({'bearing_moment': 0.5}, ('bearing_moment',)),

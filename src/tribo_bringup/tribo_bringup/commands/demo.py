@@ -50,9 +50,10 @@ def register(sub: Any) -> None:
     p.add_argument(
         '--effect',
         default='dwell_time_stiction',
-        help='hidden effect switched on in the simulated rig: the rig of '
-        'config/rig_hidden_<EFFECT>.yaml (one per candidate of the discrepancy workflow), '
-        "or 'none' for config/rig.yaml (default %(default)s)",
+        help='hidden effect switched on in the simulated rig, one of the candidates of the '
+        'discrepancy workflow (' + ', '.join(_effect_names()) + '): the rig of '
+        'config/rig_hidden_<EFFECT>.yaml if present, else config/rig.yaml with the '
+        "candidate's demo values; or 'none' for config/rig.yaml (default %(default)s)",
     )
     p.add_argument('--rig', help='run this RIG.yaml (with its own effects) instead of --effect')
     p.add_argument(
@@ -72,8 +73,22 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _effect_names() -> tuple[str, ...]:
+    """The candidate effects of the discrepancy library (the registry)."""
+    from tribo_estimation.core.discrepancy import candidates
+
+    return candidates.names()
+
+
 def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
-    """RIG.yaml contents with the hidden effect, and the file they came from."""
+    """RIG.yaml contents with the hidden effect, and the file they came from.
+
+    ``effect`` names a registered candidate: its ``config/rig_hidden_<effect>.yaml``
+    if present, else ``config/rig.yaml`` with the candidate's ``demo_effects``.
+    """
+    from tribo_estimation.core.discrepancy import candidates
+
+    demo_effects: dict[str, float] | None = None
     if base:
         path = Path(base)
     elif effect == 'none':
@@ -81,11 +96,20 @@ def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
     else:
         path = CONFIG / f'rig_hidden_{effect}.yaml'
         if not path.is_file():
-            known = sorted(p.stem.removeprefix('rig_hidden_') for p in CONFIG.glob('rig_hidden_*'))
-            raise ConfigError(f'unknown effect {effect!r}; known: none, {", ".join(known)}')
+            if effect not in candidates.names():
+                known = ', '.join(candidates.names())
+                raise ConfigError(f'unknown effect {effect!r}; known: none, {known}')
+            spec = candidates.get(effect).demo_effects
+            if spec is None:
+                raise ConfigError(f'effect {effect!r}: no {path.name} and no demo values')
+            demo_effects = dict(spec)
+            path = CONFIG / 'rig.yaml'
     load_rig_config(path)  # validates (names a missing key, a bad value)
-    data = yaml.safe_load(path.read_text(encoding='utf-8'))
-    return dict(data), str(path)
+    data = dict(yaml.safe_load(path.read_text(encoding='utf-8')))
+    if demo_effects is None:
+        return data, str(path)
+    data['effects'] = {**(data.get('effects') or {}), **demo_effects}
+    return data, f'{path} + {effect} demo values'
 
 
 def prepare_out(out: Path) -> None:

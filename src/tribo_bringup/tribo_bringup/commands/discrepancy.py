@@ -25,14 +25,16 @@ from tribo_bringup.argtypes import bounded_float, bounded_int
 
 def register(sub: Any) -> None:
     """Add the ``discrepancy`` subcommand."""
+    from tribo_estimation.core.discrepancy import candidates as cand_lib
+
+    library = ', '.join(c.name for c in cand_lib.all_candidates())
     p = sub.add_parser(
         'discrepancy',
         help='find where model and measurement disagree and name the missing effect',
         description="Fit the paper's rig model (Equ. 1-8) to a record segment by segment, "
         'localise the residual (phase, breakaway, slip speed, stick duration, test time, '
         'shaft angle, spectral lines), try every candidate effect of the library '
-        '(dwell-time stiction, frictional lag, viscous friction, friction drift, drive speed '
-        'ripple, torque offset drift, torque sensor lag, bearing friction), add the best one '
+        f'({library}), add the best one '
         'while it improves held-out blocks clearly (cross validation and BIC), and report '
         'what remains unexplained. Writes DIR/discrepancy.json and PNG plots.',
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -73,7 +75,9 @@ def register(sub: Any) -> None:
         '--candidates',
         default='',
         metavar='A,B,...',
-        help='comma-separated candidate effects to try (default: the whole library)',
+        help='comma-separated candidate effects to try (default: the whole library: '
+        + '; '.join(f'{c.name}: {c.description.split(":")[0]}' for c in cand_lib.all_candidates())
+        + ')',
     )
     p.add_argument(
         '--max-effects',

@@ -72,7 +72,10 @@ P_BEARING = 22  # bearing Coulomb moment on the chamber [N m]
 P_BEARING_REG = 23  # regularisation speed of the bearing moment [rad/s]
 P_W0_RATE = 24  # drive acceleration of a linear drive piece [rad/s^2] (ramp time 0 only)
 P_T_DRIVE = 25  # reference time of the linear drive piece [s]: w0(t) = w0 + rate*(t - t_ref)
-NP = 26
+#: Generic friction-law shape hook: offset of the Stribeck shape exponent from 1 [-],
+#: ``mu = (mu0 - mu_inf)*exp(-(k*|v|)**(1 + shape)) + mu_inf``; 0 gives Equ. 8 exactly.
+P_SHAPE = 26
+NP = 27
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``
@@ -191,12 +194,15 @@ def friction_coefficient(p: np.ndarray, t: float, v_abs: float, peak_passed: boo
     """Friction coefficient of Equ. 8 with the paper's deceleration rule.
 
     ``mu = (mu0 - mu_inf)*exp(-k*|v|) + mu_inf`` while |v| rises within a sliding
-    phase; ``mu = mu_inf`` once the slip-speed peak has passed.
+    phase; ``mu = mu_inf`` once the slip-speed peak has passed. With the shape hook
+    ``P_SHAPE`` = delta - 1 != 0 the exponent is ``(k*|v|)**delta`` (generalised Stribeck).
     """
     mu0, muinf = friction_levels(p, t)
     if peak_passed:
         return muinf
-    return (mu0 - muinf) * math.exp(-p[P_K] * v_abs) + muinf
+    if p[P_SHAPE] == 0.0:
+        return (mu0 - muinf) * math.exp(-p[P_K] * v_abs) + muinf
+    return (mu0 - muinf) * math.exp(-((p[P_K] * v_abs) ** (1.0 + p[P_SHAPE]))) + muinf
 
 
 @njit(
@@ -399,7 +405,14 @@ def slip_rate(p: np.ndarray, t: float, v_abs: float, peak_passed: bool) -> float
     slope = p[P_VISC]
     if not peak_passed and p[P_LAG_TAU] <= 0.0:
         mu0, muinf = friction_levels(p, t)
-        slope += p[P_FN] * p[P_R] * abs(mu0 - muinf) * p[P_K] * math.exp(-p[P_K] * v_abs)
+        if p[P_SHAPE] == 0.0:
+            d = p[P_K] * math.exp(-p[P_K] * v_abs)
+        else:
+            # |d/dv exp(-(k v)^delta)|, with k*v floored so that delta < 1 stays finite at v = 0
+            delta = 1.0 + p[P_SHAPE]
+            kv = max(p[P_K] * v_abs, 1e-3)
+            d = delta * p[P_K] * kv ** (delta - 1.0) * math.exp(-(kv**delta))
+        slope += p[P_FN] * p[P_R] * abs(mu0 - muinf) * d
     return slope * (1.0 / p[P_I1] + 1.0 / p[P_I2])
 
 

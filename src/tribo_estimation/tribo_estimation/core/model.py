@@ -158,6 +158,9 @@ class Extensions:
     - ``drift_mu0``, ``drift_mu_inf`` [1/s]: linear drift of mu0, mu_inf with test time.
     - ``ripple_amp`` [rad/s], ``ripple_freq`` [Hz], ``ripple_phase`` [rad]: drive
       speed ripple ``w0 += amp*sin(2 pi f t + phase)``.
+    - ``stribeck_shape`` [-]: generic friction-law shape hook, the offset of the
+      Stribeck shape exponent from 1: ``mu = (mu0 - mu_inf)*exp(-(k|v|)**delta) + mu_inf``
+      with ``delta = 1 + stribeck_shape`` (0: Equ. 8). Must be > -1.
     - ``bearing_moment`` [N m]: Coulomb moment of the chamber support, regularised as
       ``M_b*w1/sqrt(w1^2 + w_reg^2)`` with ``w_reg`` = ``bearing_reg_speed`` [rad/s].
 
@@ -181,6 +184,7 @@ class Extensions:
     torque_offset: float = 0.0
     torque_offset_drift: float = 0.0
     torque_lag_tau: float = 0.0
+    stribeck_shape: float = 0.0
 
     def __post_init__(self) -> None:
         _check_finite(self)
@@ -194,6 +198,7 @@ class Extensions:
         ):
             _require(getattr(self, name) >= 0.0, self, name, '>= 0')
         _require(self.bearing_reg_speed > 0.0, self, 'bearing_reg_speed', '> 0 rad/s')
+        _require(self.stribeck_shape > -1.0, self, 'stribeck_shape', '> -1 (delta > 0)')
 
     @property
     def is_baseline(self) -> bool:
@@ -311,6 +316,7 @@ def pack_params(
     p[kn.P_RIP_PHASE] = ext.ripple_phase
     p[kn.P_BEARING] = ext.bearing_moment
     p[kn.P_BEARING_REG] = ext.bearing_reg_speed
+    p[kn.P_SHAPE] = ext.stribeck_shape
     return p
 
 

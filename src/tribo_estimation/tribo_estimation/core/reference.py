@@ -238,7 +238,12 @@ class _Model:
 
     def mu_slide(self, t: float, v_abs: float, peak: bool) -> float:
         mu0, muinf = self.levels(t)
-        return muinf if peak else (mu0 - muinf) * math.exp(-self.k * v_abs) + muinf
+        if peak:
+            return muinf
+        shape = self.ext.stribeck_shape  # Stribeck exponent delta = 1 + shape (0: Equ. 8)
+        if shape == 0.0:
+            return (mu0 - muinf) * math.exp(-self.k * v_abs) + muinf
+        return (mu0 - muinf) * math.exp(-((self.k * v_abs) ** (1.0 + shape))) + muinf
 
     def mu_static(self, t: float, t_stick: float) -> float:
         mu0, _ = self.levels(t)

@@ -10,7 +10,8 @@ pattern it is expected to explain.
 
 Register a new candidate with :func:`register`; the selection
 (:mod:`.select`) tries every registered candidate that the model's
-``Extensions`` supports.
+``Extensions`` supports. New candidates go in one module each under
+:mod:`.effects` (auto-discovered: importing this module imports that package).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from tribo_estimation.errors import InvalidParameterError, UnknownCandidateError
 
-from .stats import FloatArray, fit_sinusoid, spectral_lines
+from .stats import FloatArray
 
 #: Localising variables (names used by :mod:`.localise` and the plots).
 LOCALISERS: tuple[str, ...] = (
@@ -102,7 +103,9 @@ class Candidate:
     ``params`` are the fitted ``Extensions`` fields; ``localiser`` the variable
     its residual signature shows against (one of :data:`LOCALISERS`);
     ``starts`` computes extra data-driven start points (each a full mapping of
-    parameter name to value) tried besides the defaults.
+    parameter name to value) tried besides the defaults; ``demo_effects`` the
+    ``Extensions`` values hidden in the rig by ``tribo demo --effect NAME`` when
+    there is no ``config/rig_hidden_NAME.yaml`` (None: that file must exist).
     """
 
     name: str
@@ -110,6 +113,7 @@ class Candidate:
     params: tuple[ParamSpec, ...]
     localiser: str
     starts: StartFn = field(default=_no_starts)
+    demo_effects: Mapping[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.localiser not in LOCALISERS:
@@ -213,125 +217,6 @@ def all_candidates() -> tuple[Candidate, ...]:
     return tuple(_REGISTRY.values())
 
 
-# --------------------------------------------------------------------------- starts
-
-
-def _stiction_starts(ctx: StartContext) -> list[dict[str, float]]:
-    """Stiction time constants around the observed stick durations."""
-    d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
-    if d.size == 0:
-        return []
-    med = float(np.median(d))
-    return [{'stiction_tau': med * f} for f in (0.3, 1.0, 3.0)]
-
-
-def _ripple_starts(ctx: StartContext) -> list[dict[str, float]]:
-    """Ripple frequency/amplitude/phase from the strongest lines of the speed residual.
-
-    A drive speed ripple ``w0 = nominal + a*sin(2*pi*f*t + p)`` shows first in
-    the shaft speed; the strongest line of the speed residual gives f, and,
-    below the belt resonance, about the amplitude and phase.
-    """
-    out: list[dict[str, float]] = []
-    for resid in (ctx.speed, ctx.torque):
-        if resid.size == 0 or not np.all(np.isfinite(resid)):
-            continue
-        for line in spectral_lines(ctx.time, resid, ctx.fs, max_lines=2, min_prominence=10.0):
-            f, a, p = fit_sinusoid(ctx.time, ctx.speed, line.frequency)
-            amp = a if a > 0 else 0.01 * max(ctx.nominal_speed, 1e-3)
-            out.append({'ripple_freq': f, 'ripple_amp': amp, 'ripple_phase': p})
-    return out
-
-
-def _scaled_starts(name: str, values: tuple[float, ...]) -> StartFn:
-    def fn(ctx: StartContext) -> list[dict[str, float]]:
-        return [{name: v * ctx.friction_moment_scale} for v in values]
-
-    return fn
-
-
-# --------------------------------------------------------------------------- library
-
-register(
-    Candidate(
-        'dwell_time_stiction',
-        'static friction grows with the preceding stick duration: '
-        'mu_s = mu0 + gain*(1 - exp(-t_stick/tau))',
-        (
-            ParamSpec('stiction_gain', '-', 0.0, 0.5, 0.01, 0.01),
-            ParamSpec('stiction_tau', 's', 1e-4, 10.0, 1.0, 0.01, log=True),
-        ),
-        'preceding_stick_duration',
-        _stiction_starts,
-    )
-)
-register(
-    Candidate(
-        'frictional_lag',
-        'friction follows the Stribeck curve (Equ. 8) with a first-order lag tau',
-        (ParamSpec('lag_tau', 's', 2e-4, 0.05, 1.0, 1e-3, log=True),),
-        'phase',
-        lambda ctx: [{'lag_tau': v} for v in (3e-4, 4e-3)],
-    )
-)
-register(
-    Candidate(
-        'viscous_friction',
-        'a friction moment proportional to the slip speed: M += c_v*v',
-        (ParamSpec('viscous', 'N m s/rad', 0.0, 100.0, 1.0, 0.0),),
-        'slip_speed',
-    )
-)
-register(
-    Candidate(
-        'friction_drift',
-        'mu0 and mu_inf drift linearly with test time (e.g. thermal)',
-        (
-            ParamSpec('drift_mu0', '1/s', -0.1, 0.1, 1e-3, 0.0),
-            ParamSpec('drift_mu_inf', '1/s', -0.1, 0.1, 1e-3, 0.0),
-        ),
-        'test_time',
-    )
-)
-register(
-    Candidate(
-        'drive_speed_ripple',
-        'periodic drive speed disturbance w0 = w_nom + a*sin(2*pi*f*t + p) (f fitted)',
-        (
-            ParamSpec('ripple_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
-            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0),
-            ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
-        ),
-        'spectrum',
-        _ripple_starts,
-    )
-)
-register(
-    Candidate(
-        'torque_offset',
-        'zero drift of the torsion-moment channel (measurement side): M_t += offset + '
-        'drift*t. A constant offset is indistinguishable from a common shift of mu0 and '
-        'mu_inf by offset/(F_N*R) (the stick-slip dynamics and the acceleration are the '
-        'same), so the baseline absorbs it; only the drift is fitted',
-        (ParamSpec('torque_offset_drift', 'N m/s', -1e3, 1e3, 0.01, 0.0),),
-        'test_time',
-    )
-)
-register(
-    Candidate(
-        'torque_sensor_lag',
-        'first-order lag of the torsion-moment amplifier (measurement side)',
-        (ParamSpec('torque_lag_tau', 's', 1e-6, 0.05, 1.0, 1e-4, log=True),),
-        'breakaway',
-        lambda ctx: [{'torque_lag_tau': v} for v in (1e-5, 1e-3)],
-    )
-)
-register(
-    Candidate(
-        'bearing_friction',
-        'Coulomb friction moment on the test-chamber support: -M_b*sgn(w1) in Equ. 1',
-        (ParamSpec('bearing_moment', 'N m', 0.0, 3.0, 0.1, 0.0),),
-        'chamber_speed',
-        _scaled_starts('bearing_moment', (0.02, 0.1)),
-    )
-)
+# --------------------------------------------------------- one module per candidate
+# (at the end: the modules import ``Candidate``/``register`` from this module)
+from . import effects as _effects  # noqa: E402, F401

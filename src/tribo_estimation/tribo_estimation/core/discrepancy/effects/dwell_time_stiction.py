@@ -1,0 +1,35 @@
+"""Candidate ``dwell_time_stiction``: static friction grows with the stick duration.
+
+``mu_s = mu0 + gain*(1 - exp(-t_stick/tau))`` [-] (t_stick the duration of the
+current stick [s]); enters the breakaway test (kernel ``P_ST_GAIN``, ``P_ST_TAU``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..candidates import Candidate, ParamSpec, StartContext, register
+
+
+def _starts(ctx: StartContext) -> list[dict[str, float]]:
+    """Stiction time constants around the observed stick durations."""
+    d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
+    if d.size == 0:
+        return []
+    med = float(np.median(d))
+    return [{'stiction_tau': med * f} for f in (0.3, 1.0, 3.0)]
+
+
+CANDIDATE = register(
+    Candidate(
+        'dwell_time_stiction',
+        'static friction grows with the preceding stick duration: '
+        'mu_s = mu0 + gain*(1 - exp(-t_stick/tau))',
+        (
+            ParamSpec('stiction_gain', '-', 0.0, 0.5, 0.01, 0.01),
+            ParamSpec('stiction_tau', 's', 1e-4, 10.0, 1.0, 0.01, log=True),
+        ),
+        'preceding_stick_duration',
+        _starts,
+    )
+)
