@@ -112,34 +112,17 @@ def _simulate(args: argparse.Namespace) -> int:
 def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
     """Dwells of a counts CSV or bag, and the truncation error of a bag that ends early
     (the dwells before it are evaluated and written; the error is raised afterwards)."""
-    from tribo_nvct.core.counting import Dwell
     from tribo_nvct.core.countsio import read_counts_csv
-    from tribo_nvct.errors import CountsError
 
     if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):
         return read_counts_csv(path), None
-    from tribo_bringup.bagio import iter_messages
-    from tribo_bringup.errors import BagTruncatedError
+    from tribo_bringup.sessions import bag_dwells
 
-    out: list[Dwell] = []
-    truncated: Exception | None = None
-    try:
-        for m in iter_messages(path, ['/nvct/counts']):
-            msg = m.msg
-            try:
-                out.append(
-                    Dwell(
-                        float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time)
-                    )
-                )
-            except CountsError as exc:
-                raise type(exc)(f'{path}: message #{m.index}: {exc}') from None
-    except BagTruncatedError as exc:
-        truncated = exc
-        print(f'wear: warning: {exc}; evaluating the {len(out)} dwells before it', file=sys.stderr)
-    if not out:
-        raise truncated or _err(f'{path}: no /nvct/counts messages')
-    return out, truncated
+    def warn(msg: str) -> None:
+        print(f'wear: {msg}', file=sys.stderr)
+
+    dwells, truncated = bag_dwells(path, warn)
+    return list(dwells), truncated
 
 
 def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace) -> dict[str, Any]:
