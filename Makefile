@@ -73,7 +73,7 @@ MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimatio
 test: setup
 	@echo '[test] ruff, mypy, pytest'
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
-	@$(IN_ENV) mypy --cache-dir .mypy_cache/make $(MYPY_PATHS)
+	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
 	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
 
 # Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
@@ -88,7 +88,7 @@ fuzz: setup
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) ruff format --no-cache --check src tests bench tools conftest.py
-	@$(IN_ENV) mypy --cache-dir .mypy_cache/make $(MYPY_PATHS)
+	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
 
 bench: setup
 	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; python $$b; done
