@@ -31,11 +31,12 @@ from tribo_estimation.core.reference import SpeedProfile
 from tribo_estimation.core.reference_records import (
     RecordSpec,
     RecordTruth,
+    first_order_lag,
     make_record,
     rig_channels,
     rpm,
 )
-from tribo_estimation.core.signal import first_order_lag, noise_level, runs
+from tribo_estimation.core.signal import noise_level, runs
 
 RIG_YAML = Path(__file__).resolve().parents[3] / 'config' / 'rig.yaml'
 CFG = load_rig_config(RIG_YAML)

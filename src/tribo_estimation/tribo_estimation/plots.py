@@ -26,6 +26,7 @@ import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from tribo_estimation.core.signal import runs
 from tribo_estimation.errors import InvalidDataError
 
 FloatArray = npt.NDArray[np.float64]
@@ -198,12 +199,8 @@ class DetailTrace:
 
 
 def _stick_spans(time: FloatArray, stick: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:
-    s = np.asarray(stick, bool).astype(np.int8)
-    if s.size == 0:
-        return []
-    d = np.diff(np.r_[0, s, 0])
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
+    starts, stops = runs(stick)
+    ends = stops - 1
     dt = float(time[1] - time[0]) if time.size > 1 else 0.0
     return [(float(time[a]), float(time[b]) + dt) for a, b in zip(starts, ends, strict=True)]
 

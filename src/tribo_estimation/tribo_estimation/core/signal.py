@@ -18,24 +18,26 @@ IntArray = npt.NDArray[np.int64]
 CHAMBER_HALF = 7
 
 
-def noise_level(x: FloatArray) -> float:
+def noise_level(x: FloatArray, order: int = 2) -> float:
     """Robust white-noise standard deviation of a sampled signal [unit of x].
 
-    From the median absolute deviation of the second difference (a smooth
-    signal's second difference is far below the noise at 10 kHz; a few sharp
-    features such as breakaways or a spike do not move the median):
-    ``sigma = 1.4826*MAD(d2)/sqrt(6)``. NaN for fewer than 8 samples; only the
-    finite second differences count.
+    From the median absolute deviation of the ``order``-th difference (a smooth
+    signal's differences are far below the noise at 10 kHz; a few sharp features
+    such as breakaways or a spike do not move the median). White noise of standard
+    deviation s gives a k-th difference of variance ``C(2k, k)*s^2`` (6 for k = 2,
+    20 for k = 3): ``sigma = 1.4826*MAD(d_k)/sqrt(C(2k, k))``. The third difference
+    also ignores a parabola (the stick detector's residual). NaN for fewer than 8
+    samples; only the finite differences count.
     """
     a = np.asarray(x, dtype=np.float64)
     if a.shape[0] < 8:
         return math.nan
-    d2 = a[2:] - 2.0 * a[1:-1] + a[:-2]
-    d2 = d2[np.isfinite(d2)]
-    if d2.size < 6:
+    d = np.diff(a, order)
+    d = d[np.isfinite(d)]
+    if d.size < 8 - order:
         return math.nan
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / math.sqrt(6.0)
+    mad = float(np.median(np.abs(d - np.median(d))))
+    return 1.4826 * mad / math.sqrt(float(math.comb(2 * order, order)))
 
 
 def runs(mask: npt.ArrayLike) -> tuple[IntArray, IntArray]:
@@ -70,17 +72,29 @@ def chamber_speed(torsion: FloatArray, fs: float, c1: float) -> FloatArray:
 
 
 def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = None) -> FloatArray:
-    """A first-order sensor lag of time constant ``tau`` [s] applied to ``x``:
-    ``y[n] = a*y[n-1] + (1 - a)*x[n]``, ``a = exp(-dt/tau)`` (``tau <= 0``: no lag).
-    ``y0`` is the filter state before the first sample (default ``x[0]``)."""
+    """First-order sensor lag ``tau*y' = x - y`` of samples ``x`` at period ``dt`` [s].
+
+    Exact for an input linear between samples (first-order hold; a zero-order hold
+    would lag half a sample too little, which matters where the signal changes at
+    thousands of units per second):
+    ``y[n] = a*y[n-1] + (1 - c)*x[n] + (c - a)*x[n-1]``, ``a = exp(-dt/tau)``,
+    ``c = (1 - a)*tau/dt``. ``y0``: output at the first sample (default ``x[0]``,
+    settled). ``tau <= 0`` returns a copy of ``x``. (The independent record
+    generator, :mod:`.reference_records`, has its own implementation on purpose:
+    it shares no code with the fits.)
+    """
     from scipy.signal import lfilter
 
     xx = np.asarray(x, dtype=np.float64)
     if tau <= 0.0 or xx.size == 0:
         return xx.copy()
     a = math.exp(-dt / tau)
-    prev = float(xx[0]) if y0 is None else float(y0)
-    y, _ = lfilter([1.0 - a], [1.0, -a], xx, zi=[a * prev])
+    c = (1.0 - a) * tau / dt
+    y_first = float(xx[0]) if y0 is None else float(y0)
+    # state with x[-1] = x[0] such that y[0] = y_first
+    y_prev = (y_first - (1.0 - a) * xx[0]) / a
+    zi = np.array([a * y_prev + (c - a) * xx[0]])
+    y, _ = lfilter(np.array([1.0 - c, c - a]), np.array([1.0, -a]), xx, zi=zi)
     return np.asarray(y, dtype=np.float64)
 
 

@@ -63,7 +63,7 @@ from scipy.ndimage import maximum_filter1d
 
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.observer import FrictionObserver
-from tribo_estimation.core.reference_records import first_order_lag
+from tribo_estimation.core.signal import first_order_lag, noise_level, runs
 from tribo_estimation.errors import (
     InvalidDataError,
     InvalidParameterError,
@@ -101,20 +101,6 @@ def _validate(*arrays: tuple[str, np.ndarray]) -> list[np.ndarray]:
             raise InvalidDataError(f'{name}: non-finite value at sample {bad[0]}')
         out.append(a)
     return out
-
-
-def _run_bounds(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First and last (inclusive) indices of the True runs of mask."""
-    d = np.diff(mask.astype(np.int8), prepend=np.int8(0), append=np.int8(0))
-    return np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
-
-
-def _noise_level(x: np.ndarray) -> float:
-    """Robust white-noise std of x from its third difference (signal-free at 10 kHz)."""
-    if x.size < 8:
-        return 0.0
-    d3 = np.diff(x, 3)
-    return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / math.sqrt(20.0))
 
 
 def slip_speed(
@@ -366,8 +352,8 @@ def _detect_all(
         mt = torsion_lag_compensated(mt, w, dt, torsion_lag, rig.C1)
     r = stick_residual(rig, mt, ac, w)
     slope = local_slope(r, dt)
-    sig = _noise_level(r)
-    if sig <= 0.0:
+    sig = noise_level(r, order=3)
+    if not sig > 0.0:  # constant residual, or fewer than 8 samples
         sig = 1e-9 * (float(np.max(np.abs(r))) + 1.0)
     k = np.arange(-(_SLOPE_WIN // 2), _SLOPE_WIN // 2 + 1, dtype=float)
     sig_v = sig / (rig.C2 * dt * math.sqrt(float(np.sum(k * k))))
@@ -377,7 +363,8 @@ def _detect_all(
     for _pass in range(2):
         # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
         v = w0 - slope / rig.C2
-        c_lo, c_hi = _run_bounds(np.abs(v) < thr)
+        c_lo, c_stop = runs(np.abs(v) < thr)
+        c_hi = c_stop - 1  # last index of each run (inclusive)
         starts = np.empty(c_lo.size)
         ends = np.empty(c_lo.size)
         slopes = np.empty(c_lo.size)
@@ -727,7 +714,8 @@ def classify_motion(
         return 'stick-slip'
     coef = np.polyfit(t - t[0], mt, 1)
     resid = mt - np.polyval(coef, t - t[0])
-    noise = _noise_level(mt)
+    noise = noise_level(mt, order=3)
+    noise = noise if noise > 0.0 else 0.0  # NaN below 8 samples
     if np.std(resid) > max(5.0 * noise, rel_oscillation * abs(float(np.mean(mt)))):
         return 'slip-slip'
     return 'steady'
