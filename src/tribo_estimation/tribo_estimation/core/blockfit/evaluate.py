@@ -282,7 +282,11 @@ def evaluate_block(
     else:  # one-shot observer (Equ. 1 solved for M) started at the measured speed
         moment, _ = friction_moment(rig, tq, ac, blk.fs, initial_speed=float(w1[0]))
     try:
-        phases = detect_sticks(time, tq, ac, sp, rig, min_duration=cfg.min_stick_duration)
+        # tq has the amplifier lag taken out already (or the block has none): the
+        # detector must not estimate and compensate it a second time
+        phases = detect_sticks(
+            time, tq, ac, sp, rig, min_duration=cfg.min_stick_duration, torsion_lag=0.0
+        )
     except EstimationError:
         phases = []
     stick = _stick_mask(phases, n, blk.fs)
