@@ -1,0 +1,563 @@
+"""Right-hand side of the rig's equations of motion (Equ. 1-3, 6, 8), compiled with numba.
+
+The drive (w0(t), phi0(t)), the friction law (Equ. 8 with the paper's deceleration
+rule and the extension slots: drift, dwell-time stiction, frictional lag, viscous
+friction, shape exponent), the external moments on chamber and shaft, the stick
+moment (Equ. 6, corrected) and the derivatives used by the RK4 step. Flat-array
+interface: the parameter vector ``p`` of :mod:`.layout`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from .layout import (
+    P_BEARING,
+    P_BEARING_REG,
+    P_C1,
+    P_C2,
+    P_DRIFT_MU0,
+    P_DRIFT_MUINF,
+    P_FN,
+    P_I1,
+    P_I2,
+    P_K,
+    P_K1,
+    P_K2,
+    P_LAG_TAU,
+    P_MU0,
+    P_MUINF,
+    P_R,
+    P_RAMP,
+    P_RIP_AMP,
+    P_RIP_FREQ,
+    P_RIP_PHASE,
+    P_SHAPE,
+    P_ST_GAIN,
+    P_ST_TAU,
+    P_T_DRIVE,
+    P_VISC,
+    P_W0,
+    P_W0_RATE,
+)
+
+FloatArray = NDArray[np.float64]
+
+
+# ================================================================ drive and friction law
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def drive_speed(p: FloatArray, t: float) -> float:
+    """Return the drive speed w0(t) [rad/s].
+
+    A linear start-up ramp to the nominal speed (``P_RAMP`` > 0), else one linear
+    piece ``w0 + rate*(t - t_ref)`` of a measured drive profile; plus the ripple.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+
+    Returns
+    -------
+    float
+        w0(t) [rad/s].
+    """
+    w0n = p[P_W0]
+    tr = p[P_RAMP]
+    if tr > 0.0:
+        w = w0n * (t / tr if t < tr else 1.0)
+        if t < 0.0:
+            w = 0.0
+    else:  # one linear piece of a measured drive profile (rate 0: constant)
+        w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
+    amp = p[P_RIP_AMP]
+    if amp != 0.0:
+        w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
+    return float(w)
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def drive_angle(p: FloatArray, t: float) -> float:
+    """Return the drive angle phi0(t) = integral_0^t w0 dt' [rad].
+
+    Closed form of :func:`drive_speed`.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+
+    Returns
+    -------
+    float
+        phi0(t) [rad].
+    """
+    w0n = p[P_W0]
+    tr = p[P_RAMP]
+    if tr > 0.0:
+        if t <= 0.0:
+            a = 0.0
+        elif t < tr:
+            a = 0.5 * w0n * t * t / tr
+        else:
+            a = w0n * (t - 0.5 * tr)
+    else:
+        rate = p[P_W0_RATE]
+        tref = p[P_T_DRIVE]
+        a = w0n * t + 0.5 * rate * ((t - tref) * (t - tref) - tref * tref)
+    amp = p[P_RIP_AMP]
+    f = p[P_RIP_FREQ]
+    if amp != 0.0 and f > 0.0:
+        om = 2.0 * math.pi * f
+        ph = p[P_RIP_PHASE]
+        a += amp / om * (math.cos(ph) - math.cos(om * t + ph))
+    return a
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def friction_levels(p: FloatArray, t: float) -> tuple[float, float]:
+    """Return (mu0(t), mu_inf(t)) including the linear drift with test time.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+
+    Returns
+    -------
+    tuple of float
+        mu0(t), mu_inf(t) [-].
+    """
+    return p[P_MU0] + p[P_DRIFT_MU0] * t, p[P_MUINF] + p[P_DRIFT_MUINF] * t
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def friction_coefficient(p: FloatArray, t: float, v_abs: float, peak_passed: bool) -> float:
+    """Return the friction coefficient of Equ. 8 with the paper's deceleration rule.
+
+    ``mu = (mu0 - mu_inf)*exp(-k*|v|) + mu_inf`` while |v| rises within a sliding
+    phase; ``mu = mu_inf`` once the slip-speed peak has passed. With the shape hook
+    ``P_SHAPE`` = delta - 1 != 0 the exponent is ``(k*|v|)**delta`` (generalised Stribeck).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    v_abs : float
+        Slip speed magnitude |v| [rad/s].
+    peak_passed : bool
+        Whether |v| passed its maximum in this sliding phase.
+
+    Returns
+    -------
+    float
+        mu [-].
+    """
+    mu0, muinf = friction_levels(p, t)
+    if peak_passed:
+        return muinf
+    if p[P_SHAPE] == 0.0:
+        return (mu0 - muinf) * math.exp(-p[P_K] * v_abs) + muinf
+    return (mu0 - muinf) * math.exp(-((p[P_K] * v_abs) ** (1.0 + p[P_SHAPE]))) + muinf
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def static_coefficient(p: FloatArray, t: float, t_stick: float) -> float:
+    """Return the static friction coefficient mu_s = mu0(t) + gain*(1 - exp(-t_stick/tau)).
+
+    The dwell-time stiction term is zero for the paper's model (gain = 0).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    t_stick : float
+        Duration of the current stick phase [s].
+
+    Returns
+    -------
+    float
+        mu_s [-].
+    """
+    mu0, _ = friction_levels(p, t)
+    g = p[P_ST_GAIN]
+    if g != 0.0:
+        tau = p[P_ST_TAU]
+        if tau > 0.0:
+            mu0 += g * (1.0 - math.exp(-t_stick / tau))
+        else:
+            mu0 += g
+    return mu0
+
+
+# ================================================================ equations of motion
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def bearing_moment(p: FloatArray, w1: float) -> float:
+    """Return the regularised Coulomb moment of the chamber bearing, opposing w1.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    w1 : float
+        Chamber speed [rad/s].
+
+    Returns
+    -------
+    float
+        M_b [N m].
+    """
+    mb = p[P_BEARING]
+    if mb == 0.0:
+        return 0.0
+    reg = p[P_BEARING_REG]
+    return float(mb * w1 / math.sqrt(w1 * w1 + reg * reg))
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def chamber_moment(p: FloatArray, phi1: float, w1: float) -> float:
+    """Return the external moment on the chamber except friction.
+
+    ``Q1 = -K1*w1 - C1*phi1 - M_b`` (Equ. 1).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    phi1 : float
+        Chamber angle [rad].
+    w1 : float
+        Chamber speed [rad/s].
+
+    Returns
+    -------
+    float
+        Q1 [N m].
+    """
+    return float(-p[P_K1] * w1 - p[P_C1] * phi1 - bearing_moment(p, w1))
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
+    """Return the external moment on the shaft except friction.
+
+    ``Q2 = -K2*(w2 - w0) - C2*(phi2 - phi0)`` (Equ. 2).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    phi2 : float
+        Shaft angle [rad].
+    w2 : float
+        Shaft speed [rad/s].
+
+    Returns
+    -------
+    float
+        Q2 [N m].
+    """
+    if p[P_RIP_AMP] != 0.0:
+        w0 = drive_speed(p, t)
+        phi0 = drive_angle(p, t)
+    else:  # fast path without the ripple: same formulas as drive_speed/drive_angle
+        w0n = p[P_W0]
+        tr = p[P_RAMP]
+        if tr > 0.0:
+            if t >= tr:
+                w0 = w0n
+                phi0 = w0n * (t - 0.5 * tr)
+            elif t > 0.0:
+                w0 = w0n * (t / tr)
+                phi0 = 0.5 * w0n * t * t / tr
+            else:
+                w0 = 0.0
+                phi0 = 0.0
+        else:
+            rate = p[P_W0_RATE]
+            dtr = t - p[P_T_DRIVE]
+            w0 = w0n + rate * dtr
+            phi0 = w0n * t + 0.5 * rate * (dtr * dtr - p[P_T_DRIVE] * p[P_T_DRIVE])
+    return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def stick_moment(p: FloatArray, t: float, phi1: float, w: float, phi2: float) -> float:
+    """Return the moment that keeps the discs together while sticking (Equ. 6, corrected).
+
+    ``M_stick = [I2*(K1*w + C1*phi1) - I1*(K2*(w - w0) + C2*(phi2 - phi0))]/(I1 + I2)``
+    (plus the bearing term inside Q1 when that extension is active).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    phi1 : float
+        Chamber angle [rad].
+    w : float
+        Common speed of the stuck discs [rad/s].
+    phi2 : float
+        Shaft angle [rad].
+
+    Returns
+    -------
+    float
+        M_stick [N m].
+    """
+    i1 = p[P_I1]
+    i2 = p[P_I2]
+    q1 = chamber_moment(p, phi1, w)
+    q2 = shaft_moment(p, t, phi2, w)
+    return float((i1 * q2 - i2 * q1) / (i1 + i2))
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    inline='always',
+)
+def slip_friction_moment(
+    p: FloatArray, t: float, v: float, direction: float, peak_passed: bool, lag: float
+) -> float:
+    """Return the sliding friction moment on the chamber (Equ. 3 with Equ. 8).
+
+    ``M = F_N*R*dir*mu + viscous*v``; with the frictional-lag extension
+    (lag_tau > 0) ``mu`` is the lagged coefficient carried in the state.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    v : float
+        Slip speed w2 - w1 [rad/s].
+    direction : float
+        Slip direction of the sliding phase (+1/-1).
+    peak_passed : bool
+        Whether |v| passed its maximum in this sliding phase.
+    lag : float
+        Lagged friction coefficient [-].
+
+    Returns
+    -------
+    float
+        M [N m].
+    """
+    if p[P_LAG_TAU] > 0.0:
+        mu = lag
+    else:
+        mu = friction_coefficient(p, t, abs(v), peak_passed)
+    return float(p[P_FN] * p[P_R] * direction * mu + p[P_VISC] * v)
+
+
+@njit(
+    cache=True,
+    inline='always',
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+)
+def derivatives(
+    p: FloatArray,
+    t: float,
+    phi1: float,
+    w1: float,
+    phi2: float,
+    w2: float,
+    lag: float,
+    stuck: bool,
+    direction: float,
+    peak_passed: bool,
+) -> tuple[float, float, float, float, float, float]:
+    """Return the right-hand side of Equ. 1-3 (sliding) or of the stuck system (Equ. 6).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    phi1, w1, phi2, w2, lag : float
+        Integrated state (indices ``Y_*``) [rad, rad/s, rad, rad/s, -].
+    stuck : bool
+        Whether the discs stick.
+    direction : float
+        Slip direction (+1/-1).
+    peak_passed : bool
+        Whether |v| passed its maximum in this sliding phase.
+
+    Returns
+    -------
+    tuple of float
+        ``(phi1', w1', phi2', w2', lag', M)`` (indices ``Y_*``, then ``D_M``) [rad/s,
+        rad/s^2, rad/s, rad/s^2, 1/s, N m].
+    """
+    i1 = p[P_I1]
+    i2 = p[P_I2]
+    q1 = chamber_moment(p, phi1, w1)
+    if stuck:
+        q2 = shaft_moment(p, t, phi2, w1)
+        wd = (q1 + q2) / (i1 + i2)
+        m = (i1 * q2 - i2 * q1) / (i1 + i2)
+        return w1, wd, w1, wd, 0.0, m
+    q2 = shaft_moment(p, t, phi2, w2)
+    v = w2 - w1
+    m = slip_friction_moment(p, t, v, direction, peak_passed, lag)
+    dlag = 0.0
+    tau = p[P_LAG_TAU]
+    if tau > 0.0:
+        dlag = (friction_coefficient(p, t, abs(v), peak_passed) - lag) / tau
+    return w1, (q1 + m) / i1, w2, (q2 - m) / i2, dlag, m
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def _derivatives_call(
+    p: FloatArray,
+    t: float,
+    phi1: float,
+    w1: float,
+    phi2: float,
+    w2: float,
+    lag: float,
+    stuck: bool,
+    direction: float,
+    peak_passed: bool,
+) -> tuple[float, float, float, float, float, float]:
+    """Call :func:`derivatives` without inlining (rare call sites; low compile time)."""
+    return derivatives(p, t, phi1, w1, phi2, w2, lag, stuck, direction, peak_passed)
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def drive_speed_array(p: FloatArray, t: FloatArray) -> FloatArray:
+    """Return :func:`drive_speed` at every time of ``t``.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : FloatArray
+        Test times [s].
+
+    Returns
+    -------
+    FloatArray
+        w0 [rad/s].
+    """
+    out = np.empty(t.shape[0])
+    for i in range(t.shape[0]):
+        out[i] = drive_speed(p, t[i])
+    return out
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def drive_angle_array(p: FloatArray, t: FloatArray) -> FloatArray:
+    """Return :func:`drive_angle` at every time of ``t``.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : FloatArray
+        Test times [s].
+
+    Returns
+    -------
+    FloatArray
+        phi0 [rad].
+    """
+    out = np.empty(t.shape[0])
+    for i in range(t.shape[0]):
+        out[i] = drive_angle(p, t[i])
+    return out
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def friction_coefficient_array(
+    p: FloatArray, t: float, v_abs: FloatArray, peak_passed: bool
+) -> FloatArray:
+    """Return :func:`friction_coefficient` at every slip speed of ``v_abs``.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    v_abs : FloatArray
+        Slip speed magnitudes [rad/s].
+    peak_passed : bool
+        Whether the slip-speed peak has passed.
+
+    Returns
+    -------
+    FloatArray
+        mu [-].
+    """
+    out = np.empty(v_abs.shape[0])
+    for i in range(v_abs.shape[0]):
+        out[i] = friction_coefficient(p, t, v_abs[i], peak_passed)
+    return out

@@ -1,0 +1,112 @@
+"""Layout of the kernel's flat vectors: parameters, state, outputs (one definition).
+
+Every module that packs or reads a kernel vector (:mod:`..model`, :mod:`..simulate`,
+:mod:`..shooting`, the block fits, the discrepancy fits) imports its indices from
+here (through :mod:`tribo_estimation.core.kernel`); no index is written as a number
+anywhere else.
+
+- Parameter vector ``p`` (length :data:`NP`, indices ``P_*``): the rig (Tab. 1), the
+  friction law (Equ. 8), the drive and the *extension slots* of the candidate
+  effects (all zero = the paper's model). :func:`tribo_estimation.core.model.pack_params`
+  fills it from ``RigParams``, ``FrictionLaw``, ``DriveProfile`` and ``Extensions``.
+- State vector ``s`` (length :data:`NS`, indices ``S_*``): what is carried from one
+  call of the integrator to the next (:class:`tribo_estimation.core.model.RigState`).
+- Integrated state ``y`` (a tuple of :data:`NY` floats, indices ``Y_*``): the part of
+  ``s`` the RK4 step advances; the right-hand side returns :data:`ND` floats
+  (indices ``D_*``: the derivatives of ``y`` in the same order, then the friction
+  moment).
+- Output channels (:data:`N_CH` rows, indices ``OUT_*``) written per sample.
+
+Adding a state variable for an effect (e.g. a second lag): append its slot here
+(``S_NEW = NS`` and ``NS`` + 1; if it is integrated, ``Y_NEW`` = ``NY`` and ``NY`` + 1,
+``D_M`` moves one on), give it its derivative in
+:func:`tribo_estimation.core.kernel.equations.derivatives` (0 while it is inactive)
+and its field in ``RigState`` (``to_vector``/``from_vector``). ``model``, ``simulate``,
+``shooting`` and the fits size their arrays with ``NS``/``N_CH`` and address slots
+by name, so they follow without change. The RK4 step and the event search
+(:mod:`.step`, :mod:`.events`) carry ``y`` as a fixed-length tuple (numba
+compiles it to registers): their ``y0..y4`` argument lists grow by one. A
+measurement-side state (a sensor filter) needs no kernel change: it lives in
+``S_SENSOR``-like slots that :mod:`tribo_estimation.core.measurement` updates.
+"""
+
+from __future__ import annotations
+
+# ---------------------------------------------------------------- parameter vector
+P_I1 = 0  # chamber inertia [kg m^2]
+P_K1 = 1  # chamber viscous damping [N m s/rad]
+P_C1 = 2  # torsion element stiffness [N m/rad]
+P_I2 = 3  # drive shaft inertia [kg m^2]
+P_K2 = 4  # drive damping [N m s/rad]
+P_C2 = 5  # drive stiffness [N m/rad]
+P_FN = 6  # total normal force [N]
+P_R = 7  # effective friction radius [m]
+P_MU0 = 8  # static / zero-speed friction coefficient [-]
+P_MUINF = 9  # high-speed friction coefficient [-]
+P_K = 10  # Stribeck decay constant k [s/rad]
+P_W0 = 11  # nominal drive speed [rad/s]
+P_RAMP = 12  # start-up ramp time of the drive [s] (0 = step)
+P_ST_GAIN = 13  # dwell-time stiction gain [-]
+P_ST_TAU = 14  # dwell-time stiction time constant [s]
+P_LAG_TAU = 15  # frictional lag time constant [s]
+P_VISC = 16  # viscous friction in the contact [N m s/rad]
+P_DRIFT_MU0 = 17  # drift of mu0 with test time [1/s]
+P_DRIFT_MUINF = 18  # drift of mu_inf with test time [1/s]
+P_RIP_AMP = 19  # drive speed ripple amplitude [rad/s]
+P_RIP_FREQ = 20  # drive speed ripple frequency [Hz]
+P_RIP_PHASE = 21  # drive speed ripple phase [rad]
+P_BEARING = 22  # bearing Coulomb moment on the chamber [N m]
+P_BEARING_REG = 23  # regularisation speed of the bearing moment [rad/s]
+P_W0_RATE = 24  # drive acceleration of a linear drive piece [rad/s^2] (ramp time 0 only)
+P_T_DRIVE = 25  # reference time of the linear drive piece [s]: w0(t) = w0 + rate*(t - t_ref)
+#: Generic friction-law shape hook: offset of the Stribeck shape exponent from 1 [-],
+#: ``mu = (mu0 - mu_inf)*exp(-(k*|v|)**(1 + shape)) + mu_inf``; 0 gives Equ. 8 exactly.
+P_SHAPE = 26
+NP = 27
+
+#: Default regularisation speed of the bearing Coulomb moment [rad/s]:
+#: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``
+#: the equivalent viscous slope ``bearing_moment/w_reg`` stays RK4-stable at
+#: 10 kHz for bearing moments up to about 1 N m on the Tab. 1 chamber.
+BEARING_REG_SPEED = 0.01
+
+# ---------------------------------------------------------------- state vector
+S_T = 0  # time [s]
+S_PHI1 = 1  # chamber angle [rad]
+S_W1 = 2  # chamber speed [rad/s]
+S_PHI2 = 3  # shaft angle [rad]
+S_W2 = 4  # shaft speed [rad/s]
+S_LAG = 5  # lagged friction coefficient (frictional-lag extension) [-]
+S_STUCK = 6  # 1.0 while sticking, else 0.0
+S_DIR = 7  # slip direction sgn(v) of the current sliding phase (+1/-1)
+S_PEAK = 8  # 1.0 once |v| passed its maximum in this sliding phase (deceleration rule)
+S_VMAX = 9  # max |v| in the current sliding phase [rad/s]
+S_TSTICK = 10  # duration of the current stick phase [s]
+S_SENSOR = 11  # state of the torque-sensor lag filter [N m] (NaN = not started)
+NS = 12
+
+#: Slots of ``s`` that belong to the dynamics (finite in every valid state); the
+#: measurement-side slots after them may hold NaN ("not started").
+S_DYNAMIC = slice(0, S_SENSOR)
+
+# ---------------------------------------------------------------- integrated state
+Y_PHI1 = 0  # chamber angle [rad]          (s[S_PHI1])
+Y_W1 = 1  # chamber speed [rad/s]          (s[S_W1])
+Y_PHI2 = 2  # shaft angle [rad]            (s[S_PHI2])
+Y_W2 = 3  # shaft speed [rad/s]            (s[S_W2])
+Y_LAG = 4  # lagged friction coefficient [-] (s[S_LAG])
+NY = 5
+#: Index of the friction moment M [N m] in the right-hand side's result (after the NY
+#: derivatives).
+D_M = NY
+ND = NY + 1
+
+# ---------------------------------------------------------------- output channels
+OUT_TORSION = 0  # C1*phi1 [N m]
+OUT_ACCEL = 1  # w1' [rad/s^2]
+OUT_SPEED = 2  # w2 [rad/s]
+OUT_FRICTION = 3  # friction moment M [N m]
+OUT_SLIP = 4  # v = w2 - w1 [rad/s]
+OUT_STICK = 5  # 1.0 when sticking
+OUT_W1 = 6  # chamber speed w1 [rad/s]
+N_CH = 7
