@@ -1,8 +1,9 @@
 """Simulator of the stick-slip rig: outputs as the rig's sensors see them, plus truth.
 
 Wraps the compiled event-accurate kernel (:func:`tribo_estimation.core.kernel.integrate`)
-and adds the measurement side: torsion moment ``C1*phi1`` [N m] (with the
-measurement-side extensions: offset, offset drift, first-order sensor lag),
+and adds the measurement side: torsion moment ``C1*phi1`` [N m] (through the
+measurement transforms of the effects, :mod:`tribo_estimation.core.measurement`:
+offset, offset drift, first-order sensor lag),
 chamber angular acceleration ``w1'`` [rad/s^2], shaft speed ``w2`` [rad/s], and
 optional seeded Gaussian noise. Continuation: ``simulate(..., initial=r.final_state)``
 chunk by chunk reproduces one long call.
@@ -14,9 +15,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
 
 from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.measurement import (
+    apply_measurement_transforms,
+    sensor_lag,
+    sensor_offset,
+)
 from tribo_estimation.core.model import (
     DriveProfile,
     Extensions,
@@ -26,6 +31,17 @@ from tribo_estimation.core.model import (
     pack_params,
 )
 from tribo_estimation.errors import InvalidParameterError, SimulationError
+
+#: Re-exported from :mod:`tribo_estimation.core.measurement` (old import path).
+__all__ = [
+    'NoiseSpec',
+    'SimResult',
+    'free_decay_state',
+    'sensor_lag',
+    'sensor_offset',
+    'simulate',
+    'simulate_free_decay',
+]
 
 
 @dataclass(frozen=True)
@@ -40,6 +56,7 @@ class NoiseSpec:
     speed: float = 0.0
 
     def __post_init__(self) -> None:
+        """Check that every standard deviation is finite and >= 0."""
         for name in ('torque', 'accel', 'speed'):
             val = getattr(self, name)
             if not (math.isfinite(val) and val >= 0.0):
@@ -72,27 +89,6 @@ class SimResult:
     fs: float
     event_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     event_kinds: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-
-
-def sensor_lag(x: np.ndarray, dt: float, tau: float, y_prev: float) -> np.ndarray:
-    """First-order lag of the torque sensor (extension ``torque_lag_tau``), exact
-    discretisation ``y[n] = a*y[n-1] + (1 - a)*x[n]``, ``a = exp(-dt/tau)``.
-
-    x: true torsion moment C1*phi1 [N m] per sample; dt: sample period [s];
-    tau: lag time constant [s] (> 0); y_prev: sensor output before x[0] [N m].
-    Returns the sensor output [N m].
-    """
-    a = math.exp(-dt / tau)
-    y, _ = lfilter([1.0 - a], [1.0, -a], x, zi=np.array([a * y_prev]))
-    return np.asarray(y)
-
-
-def sensor_offset(x: np.ndarray, time: np.ndarray, ext: Extensions) -> np.ndarray:
-    """Torque sensor zero offset and its drift (extensions ``torque_offset`` [N m],
-    ``torque_offset_drift`` [N m/s]) added to the torsion output at ``time`` [s]."""
-    if ext.torque_offset == 0.0 and ext.torque_offset_drift == 0.0:
-        return x
-    return x + ext.torque_offset + ext.torque_offset_drift * time
 
 
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
@@ -149,22 +145,16 @@ def simulate(
     ev_kind = np.empty(cap, dtype=np.int64)
     n_events = int(kn.integrate_logged(p, s, n, dt, n_sub, out, ev_time, ev_kind))
     n_log = min(n_events, cap)
-    if not np.all(np.isfinite(out[: kn.N_CH, :])) or not np.all(np.isfinite(s[: kn.S_SENSOR])):
+    if not np.all(np.isfinite(out[: kn.N_CH, :])) or not np.all(np.isfinite(s[kn.S_DYNAMIC])):
         raise SimulationError(
             'simulation diverged (non-finite state); check the rig parameters and step'
         )
-    time = t_start + np.arange(n) * dt
-    torsion = out[kn.OUT_TORSION].copy()
-    # measurement side: sensor lag (exact first-order discretisation), then offset
-    sensor = float(s[kn.S_SENSOR])
-    if ext.torque_lag_tau > 0.0:
-        y_prev = torsion[0] if not math.isfinite(sensor) else sensor
-        torsion = sensor_lag(torsion, dt, ext.torque_lag_tau, y_prev)
-        sensor = float(torsion[-1])
-    else:
-        sensor = float(torsion[-1])
-    s[kn.S_SENSOR] = sensor
-    torsion = sensor_offset(torsion, time, ext)
+    time = np.asarray(t_start + np.arange(n) * dt, dtype=np.float64)
+    # measurement side: the registered measurement transforms of the effects
+    # (core.measurement; e.g. sensor lag, then offset), carrying the sensor state
+    torsion, s[kn.S_SENSOR] = apply_measurement_transforms(
+        ext, time, out[kn.OUT_TORSION].copy(), dt, state=float(s[kn.S_SENSOR])
+    )
     accel = out[kn.OUT_ACCEL].copy()
     speed = out[kn.OUT_SPEED].copy()
     if noise is not None and (noise.torque > 0.0 or noise.accel > 0.0 or noise.speed > 0.0):
@@ -190,8 +180,22 @@ def simulate(
 
 
 def free_decay_state(phi1_0: float, w1_0: float = 0.0, t: float = 0.0) -> RigState:
-    """Initial state for a free-decay record: chamber deflected by ``phi1_0`` [rad],
-    released with speed ``w1_0`` [rad/s], no contact (use with ``F_N = 0``)."""
+    """Return the initial state of a free-decay record (use with ``F_N = 0``).
+
+    Parameters
+    ----------
+    phi1_0 : float
+        Chamber deflection [rad].
+    w1_0 : float
+        Chamber speed at release [rad/s].
+    t : float
+        Time of the state [s].
+
+    Returns
+    -------
+    RigState
+        Chamber deflected and released, no contact.
+    """
     return RigState(t=t, phi1=phi1_0, w1=w1_0, stuck=False, slip_dir=1, peak_passed=True)
 
 
@@ -204,8 +208,35 @@ def simulate_free_decay(
     noise: NoiseSpec | None = None,
     seed: int | np.random.Generator | None = None,
 ) -> SimResult:
-    """Free decay of the chamber alone (Equ. 7): contact opened (F_N = 0), drive at
-    rest, chamber released from ``phi1_0`` [rad] at t = 0."""
+    """Simulate the free decay of the chamber alone (Equ. 7).
+
+    Contact opened (F_N = 0), drive at rest, chamber released from ``phi1_0`` at t = 0.
+
+    Parameters
+    ----------
+    rig : RigParams
+        The rig (its F_N is replaced by 0).
+    phi1_0 : float
+        Initial chamber deflection [rad] (non-zero).
+    duration : float
+        Record length [s].
+    fs : float
+        Sample rate [Hz].
+    noise : NoiseSpec, optional
+        Measurement noise.
+    seed : int or numpy.random.Generator, optional
+        Seed of the noise.
+
+    Returns
+    -------
+    SimResult
+        The record.
+
+    Raises
+    ------
+    InvalidParameterError
+        ``phi1_0`` is zero or not finite.
+    """
     if not (math.isfinite(phi1_0) and phi1_0 != 0.0):
         raise InvalidParameterError(f'phi1_0 must be a non-zero angle [rad], got {phi1_0!r}')
     open_rig = RigParams(

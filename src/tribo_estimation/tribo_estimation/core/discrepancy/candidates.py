@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tribo_estimation.core.measurement import MeasurementTransform, register_transform
 from tribo_estimation.errors import InvalidParameterError, UnknownCandidateError
 
 from .stats import FloatArray
@@ -57,6 +58,7 @@ class ParamSpec:
     log: bool = False
 
     def __post_init__(self) -> None:
+        """Check the bounds, the initial value and the scale."""
         if not (self.lower <= self.initial <= self.upper):
             raise InvalidParameterError(
                 f'parameter {self.name}: initial {self.initial} outside '
@@ -105,7 +107,10 @@ class Candidate:
     ``starts`` computes extra data-driven start points (each a full mapping of
     parameter name to value) tried besides the defaults; ``demo_effects`` the
     ``Extensions`` values hidden in the rig by ``tribo demo --effect NAME`` when
-    there is no ``config/rig_hidden_NAME.yaml`` (None: that file must exist).
+    there is no ``config/rig_hidden_NAME.yaml`` (None: that file must exist);
+    ``measurement`` the effect's measurement hook (a
+    :class:`~tribo_estimation.core.measurement.MeasurementTransform` that turns the
+    simulated into the measured torsion moment; None for an effect on the dynamics).
     """
 
     name: str
@@ -114,8 +119,10 @@ class Candidate:
     localiser: str
     starts: StartFn = field(default=_no_starts)
     demo_effects: Mapping[str, float] | None = None
+    measurement: MeasurementTransform | None = None
 
     def __post_init__(self) -> None:
+        """Check the localiser and that parameter names are unique."""
         if self.localiser not in LOCALISERS:
             raise InvalidParameterError(
                 f'candidate {self.name}: unknown localiser {self.localiser!r}'
@@ -130,12 +137,15 @@ class Candidate:
         return tuple(p.name for p in self.params)
 
     def default_start(self) -> dict[str, float]:
-        """The default start values."""
+        """Return the default start values."""
         return {p.name: p.initial for p in self.params}
 
     def nested_start(self) -> dict[str, float]:
-        """The start closest to the current model: every parameter at zero, or at
-        its lower bound for log-scaled time constants (a lag of 0.2 ms ~ none)."""
+        """Return the start closest to the current model.
+
+        Every parameter at zero, or at its lower bound for log-scaled time constants
+        (a lag of 0.2 ms ~ none).
+        """
         return {
             p.name: (p.lower if p.log else min(max(0.0, p.lower), p.upper)) for p in self.params
         }
@@ -194,11 +204,12 @@ def register(candidate: Candidate, *, replace: bool = False) -> Candidate:
     if candidate.name in _REGISTRY and not replace:
         raise InvalidParameterError(f'candidate {candidate.name!r} is already registered')
     _REGISTRY[candidate.name] = candidate
+    register_transform(candidate.name, candidate.measurement)
     return candidate
 
 
 def get(name: str) -> Candidate:
-    """The registered candidate called ``name``."""
+    """Return the registered candidate called ``name``."""
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -213,7 +224,7 @@ def names() -> tuple[str, ...]:
 
 
 def all_candidates() -> tuple[Candidate, ...]:
-    """The registered candidates, in registration order."""
+    """Return the registered candidates, in registration order."""
     return tuple(_REGISTRY.values())
 
 

@@ -36,6 +36,7 @@ from tribo_estimation.core.drive import (
     tolerance,
 )
 from tribo_estimation.core.lsq import levenberg_marquardt
+from tribo_estimation.core.measurement import apply_measurement_transforms, true_torsion_at_starts
 from tribo_estimation.core.model import (
     DriveProfile,
     Extensions,
@@ -53,7 +54,6 @@ from tribo_estimation.core.shooting import (
     window_mean,
 )
 from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
-from tribo_estimation.core.simulate import sensor_lag, sensor_offset
 from tribo_estimation.core.sticks import (
     MAX_TORSION_LAG,
     chamber_speed_integral,
@@ -668,18 +668,8 @@ class Problem:
         rec = self.record
         seg = self.segments
         sel = np.ones(seg.n, dtype=bool) if seg_mask is None else seg_mask
-        # measured torsion at the segment starts -> true C1*phi1 (invert the
-        # measurement-side extensions: offset, then first-order lag)
         t0 = self._t0[sel]
-        m_lagged = self._m_val[sel] - ext.torque_offset - ext.torque_offset_drift * t0
-        # the sensor lag is the discrete filter y[n] = a*y[n-1] + (1 - a)*x[n] of
-        # simulate.simulate, a = exp(-dt/tau): on a ramp of slope S it lags by
-        # S*dt*a/(1 - a) (-> S*tau for dt << tau)
-        lag_eff = 0.0
-        if ext.torque_lag_tau > 0.0:
-            a_l = math.exp(-rec.dt / ext.torque_lag_tau)
-            lag_eff = rec.dt * a_l / (1.0 - a_l)
-        m_true = m_lagged + lag_eff * (self._m_slope[sel] - ext.torque_offset_drift)
+        m_true = true_torsion_at_starts(ext, t0, self._m_val[sel], self._m_slope[sel], rec.dt)
         self._set_instrument(
             float(values.get('speed_lag_tau', 0.0)),
             float(values.get('speed_offset', 0.0)),
@@ -700,16 +690,10 @@ class Problem:
         shoot(p, states, seg.start[sel], seg.stop[sel], dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1
         speed = self._speed_sensor(out[kn.OUT_SPEED], values, sel)
-        torsion = out[kn.OUT_TORSION].copy()
-        if ext.torque_lag_tau > 0.0:
-            # the sensor model of simulate.simulate, per segment
-            a = math.exp(-rec.dt / ext.torque_lag_tau)
-            for k, (i0, i1) in enumerate(zip(seg.start[sel], seg.stop[sel], strict=True)):
-                # state chosen so that the first output equals the measured (lagged)
-                # value: y0 = a*y_prev + (1 - a)*x0
-                y_prev = (m_lagged[k] - (1.0 - a) * torsion[i0]) / a
-                torsion[i0:i1] = sensor_lag(torsion[i0:i1], rec.dt, ext.torque_lag_tau, y_prev)
-        torsion = sensor_offset(torsion, rec.time, ext)
+        torsion, _ = apply_measurement_transforms(
+            ext, rec.time, out[kn.OUT_TORSION].copy(), rec.dt,
+            segments=(seg.start[sel], seg.stop[sel]), measured_first=self._m_val[sel],
+        )  # fmt: skip
         covered = np.isfinite(out[kn.OUT_TORSION])
         return SimulatedRecord(
             torsion_moment=torsion,
