@@ -1,7 +1,9 @@
 """The parameter reference ``docs/parameters.md``, rendered from the specs (no rclpy).
 
 ``python -m tribo_bringup.paramdocs > docs/parameters.md`` writes it; a test
-keeps the file equal to :func:`render`. The tables are those the nodes
+keeps the file equal to :func:`render`. ``python -m tribo_bringup.paramdocs
+--physics docs/physics.md`` regenerates the candidate table of ``docs/physics.md``
+(section 8) from the candidate registry (:func:`render_physics`). The tables are those the nodes
 declare from and the RIG.yaml loader validates with: the rig's
 (:data:`tribo_estimation.core.rigspec.RIG_SPEC`) and one per node
 (:data:`NODE_PARAMS`).
@@ -62,5 +64,43 @@ def render() -> str:
     return '\n'.join(parts)
 
 
+#: Markers around the generated candidate table in ``docs/physics.md``.
+CANDIDATES_BEGIN = (
+    '<!-- candidate table: python -m tribo_bringup.paramdocs --physics docs/physics.md -->'
+)
+CANDIDATES_END = '<!-- end of candidate table -->'
+
+
+def render_physics(text: str) -> str:
+    """Return ``docs/physics.md`` with its candidate table regenerated from the registry.
+
+    Parameters
+    ----------
+    text : str
+        The current text; the table sits between :data:`CANDIDATES_BEGIN` and
+        :data:`CANDIDATES_END`.
+
+    Returns
+    -------
+    str
+        The text with the table of
+        :func:`tribo_estimation.core.discrepancy.candidates.candidate_table`.
+    """
+    from tribo_estimation.core.discrepancy.candidates import candidate_table
+
+    head, sep, rest = text.partition(CANDIDATES_BEGIN + '\n')
+    _, sep2, tail = rest.partition(CANDIDATES_END)
+    if not (sep and sep2):
+        raise SystemExit(f'docs/physics.md: markers {CANDIDATES_BEGIN!r} ... missing')
+    return head + sep + candidate_table() + sep2 + tail
+
+
 if __name__ == '__main__':
-    print(render(), end='')
+    import sys
+    from pathlib import Path
+
+    if sys.argv[1:2] == ['--physics'] and len(sys.argv) == 3:
+        doc = Path(sys.argv[2])
+        doc.write_text(render_physics(doc.read_text(encoding='utf-8')), encoding='utf-8')
+    else:
+        print(render(), end='')

@@ -27,6 +27,11 @@ from tribo_estimation.errors import InvalidParameterError, UnknownCandidateError
 
 from .stats import FloatArray
 
+#: Experiments that decide an effect a record cannot separate (``Candidate.suggest``).
+SUGGEST_SPEED = 'a second drive speed or a speed step'
+SUGGEST_LONGER = 'a longer record'
+SUGGEST_MORE = 'a longer record (more stick-slip cycles)'
+
 #: Localising variables (names used by :mod:`.localise` and the plots).
 LOCALISERS: tuple[str, ...] = (
     'preceding_stick_duration',
@@ -110,7 +115,11 @@ class Candidate:
     there is no ``config/rig_hidden_NAME.yaml`` (None: that file must exist);
     ``measurement`` the effect's measurement hook (a
     :class:`~tribo_estimation.core.measurement.MeasurementTransform` that turns the
-    simulated into the measured torsion moment; None for an effect on the dynamics).
+    simulated into the measured torsion moment; None for an effect on the dynamics);
+    ``equation`` the effect's term in the equations (Markdown text for the table of
+    ``docs/physics.md`` section 8, :func:`candidate_table`); ``suggest`` the
+    experiment that decides the effect when a record cannot
+    (:func:`~tribo_estimation.core.discrepancy.identify.suggestion`).
     """
 
     name: str
@@ -120,6 +129,8 @@ class Candidate:
     starts: StartFn = field(default=_no_starts)
     demo_effects: Mapping[str, float] | None = None
     measurement: MeasurementTransform | None = None
+    equation: str = ''
+    suggest: str = SUGGEST_MORE
 
     def __post_init__(self) -> None:
         """Check the localiser and that parameter names are unique."""
@@ -226,6 +237,51 @@ def names() -> tuple[str, ...]:
 def all_candidates() -> tuple[Candidate, ...]:
     """Return the registered candidates, in registration order."""
     return tuple(_REGISTRY.values())
+
+
+def _cell(text: str) -> str:
+    """Escape a Markdown table cell (pipes, also inside code spans)."""
+    return text.replace('|', '\\|')
+
+
+def _bound(value: float) -> str:
+    """Format a parameter bound compactly."""
+    return f'{value:g}'
+
+
+def candidate_table() -> str:
+    """Render the candidate table of ``docs/physics.md`` section 8 from the registry.
+
+    One row per registered candidate (registration order): name and side (dynamics
+    or measurement), parameters with unit and fit bounds, equation, localiser, and
+    the experiment that decides it when a record cannot.
+
+    Returns
+    -------
+    str
+        Markdown table (ending with a newline).
+    """
+    rows = [
+        '| candidate | parameters [unit] (fit bounds) | equation | localiser | '
+        'if the record cannot separate it |',
+        '|---|---|---|---|---|',
+    ]
+    for c in all_candidates():
+        side = ' (measurement)' if c.measurement is not None else ''
+        params = ', '.join(
+            f'`{p.name}` [{p.unit}] ({_bound(p.lower)} .. {_bound(p.upper)}'
+            f'{", log" if p.log else ""})'
+            for p in c.params
+        )
+        cells = [
+            f'`{c.name}`{side}',
+            params,
+            c.equation or c.description,
+            c.localiser.replace('_', ' '),
+            c.suggest,
+        ]
+        rows.append('| ' + ' | '.join(_cell(x) for x in cells) + ' |')
+    return '\n'.join(rows) + '\n'
 
 
 # --------------------------------------------------------- one module per candidate

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..candidates import Candidate, ParamSpec, StartContext, register
+from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, StartContext, register
 
 
 def _starts(ctx: StartContext) -> list[dict[str, float]]:
@@ -17,5 +17,10 @@ CANDIDATE = register(
         (ParamSpec('bearing_moment', 'N m', 0.0, 3.0, 0.1, 0.0),),
         'chamber_speed',
         _starts,
+        equation=(
+            'Equ. 1 gets `- M_b*w1/sqrt(w1^2 + w_reg^2)` (regularised Coulomb moment, '
+            'w_reg = 0.01 rad/s; also inside Q1 of Equ. 6)'
+        ),
+        suggest=SUGGEST_SPEED,
     )
 )

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ..candidates import Candidate, ParamSpec, StartContext, register
+from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, StartContext, register
 from ..stats import fit_sinusoid, spectral_lines
 
 
@@ -39,5 +39,11 @@ CANDIDATE = register(
         ),
         'spectrum',
         _starts,
+        equation=(
+            '`w0 += A_r*sin(2 pi f_r t + p)`, '
+            '`phi0 += A_r/(2 pi f_r)*(cos p - cos(2 pi f_r t + p))` (A_r, f_r, p = `ripple_amp`, '
+            '`ripple_freq`, `ripple_phase`)'
+        ),
+        suggest=SUGGEST_MORE,
     )
 )

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..candidates import Candidate, ParamSpec, StartContext, register
+from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, StartContext, register
 
 
 def _starts(ctx: StartContext) -> list[dict[str, float]]:
@@ -31,5 +31,10 @@ CANDIDATE = register(
         ),
         'preceding_stick_duration',
         _starts,
+        equation=(
+            '`mu_s = mu0 + g*(1 - exp(-t_stick/tau))` (tau = 0: `mu0 + g`), t_stick the '
+            'duration of the current stick [s]; enters the breakaway test (Equ. 6 vs F_N*R*mu_s)'
+        ),
+        suggest=SUGGEST_SPEED,
     )
 )

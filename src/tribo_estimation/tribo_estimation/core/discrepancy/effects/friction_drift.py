@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..candidates import Candidate, ParamSpec, register
+from ..candidates import SUGGEST_LONGER, Candidate, ParamSpec, register
 
 CANDIDATE = register(
     Candidate(
@@ -13,5 +13,10 @@ CANDIDATE = register(
             ParamSpec('drift_mu_inf', '1/s', -0.1, 0.1, 1e-3, 0.0),
         ),
         'test_time',
+        equation=(
+            '`mu0(t) = mu0 + d0*t`, `mu_inf(t) = mu_inf + d_inf*t` (t = test time; '
+            'd0 = `drift_mu0`, d_inf = `drift_mu_inf`)'
+        ),
+        suggest=SUGGEST_LONGER,
     )
 )

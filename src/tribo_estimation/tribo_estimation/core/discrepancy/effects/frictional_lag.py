@@ -5,7 +5,7 @@
 
 from __future__ import annotations
 
-from ..candidates import Candidate, ParamSpec, register
+from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, register
 
 CANDIDATE = register(
     Candidate(
@@ -14,5 +14,10 @@ CANDIDATE = register(
         (ParamSpec('lag_tau', 's', 2e-4, 0.05, 1.0, 1e-3, log=True),),
         'phase',
         lambda ctx: [{'lag_tau': v} for v in (3e-4, 4e-3)],
+        equation=(
+            "`tau*mu_l' = mu(|v|) - mu_l` with mu from Equ. 8 (deceleration rule included); "
+            'mu_l starts at mu_s at breakaway; `M = F_N*R*sgn(v)*mu_l`'
+        ),
+        suggest=SUGGEST_SPEED,
     )
 )

@@ -10,7 +10,7 @@ off later, so its residual shows against the slip speed.
 
 from __future__ import annotations
 
-from ..candidates import Candidate, ParamSpec, StartContext, register
+from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, StartContext, register
 
 
 def _starts(_ctx: StartContext) -> list[dict[str, float]]:
@@ -28,5 +28,10 @@ CANDIDATE = register(
         'slip_speed',
         _starts,
         demo_effects={'stribeck_shape': -0.4},
+        equation=(
+            '`mu = (mu0 - mu_inf)*exp(-(k|v|)^delta) + mu_inf`, delta = 1 + `stribeck_shape` '
+            '(0: Equ. 8; kernel shape hook P_SHAPE)'
+        ),
+        suggest=SUGGEST_MORE,
     )
 )

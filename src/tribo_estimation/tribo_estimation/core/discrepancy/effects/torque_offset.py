@@ -16,7 +16,7 @@ from tribo_estimation.core.measurement import (
 )
 from tribo_estimation.core.model import Extensions
 
-from ..candidates import Candidate, ParamSpec, register
+from ..candidates import SUGGEST_LONGER, Candidate, ParamSpec, register
 
 
 class SensorOffset(MeasurementTransform):
@@ -100,5 +100,10 @@ CANDIDATE = register(
         (ParamSpec('torque_offset_drift', 'N m/s', -1e3, 1e3, 0.01, 0.0),),
         'test_time',
         measurement=SensorOffset(),
+        equation=(
+            "`M_t,meas = M_t + b + b'*t` (b = `torque_offset` [N m] is not fitted: it cannot be "
+            'told apart from a common shift of mu0 and mu_inf by b/(F_N*R))'
+        ),
+        suggest=SUGGEST_LONGER,
     )
 )

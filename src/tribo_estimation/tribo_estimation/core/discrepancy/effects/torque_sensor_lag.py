@@ -19,7 +19,7 @@ from tribo_estimation.core.measurement import (
 )
 from tribo_estimation.core.model import Extensions
 
-from ..candidates import Candidate, ParamSpec, register
+from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, register
 
 
 class SensorLag(MeasurementTransform):
@@ -119,5 +119,10 @@ CANDIDATE = register(
         'breakaway',
         lambda ctx: [{'torque_lag_tau': v} for v in (1e-5, 1e-3)],
         measurement=SensorLag(),
+        equation=(
+            "`tau_s*y' + y = M_t`, exact discretisation "
+            '`y[n] = e^(-dt/tau_s)*y[n-1] + (1 - e^(-dt/tau_s))*M_t[n]`'
+        ),
+        suggest=SUGGEST_MORE,
     )
 )

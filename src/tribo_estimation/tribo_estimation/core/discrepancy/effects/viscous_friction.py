@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..candidates import Candidate, ParamSpec, register
+from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, register
 
 CANDIDATE = register(
     Candidate(
@@ -10,5 +10,7 @@ CANDIDATE = register(
         'a friction moment proportional to the slip speed: M += c_v*v',
         (ParamSpec('viscous', 'N m s/rad', 0.0, 100.0, 1.0, 0.0),),
         'slip_speed',
+        equation=('`M = F_N*R*sgn(v)*mu + c_v*v` (Equ. 3 plus c_v = `viscous`)'),
+        suggest=SUGGEST_SPEED,
     )
 )
