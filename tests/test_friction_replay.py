@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import csv
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
+from replay_harness import replay, start_node, start_recorder
 
 from conftest import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
@@ -51,51 +51,14 @@ def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Pr
         offline = list(csv.DictReader(f))
     assert len(offline) == 4
     # online: node <- replay, estimates recorded
-    node = Proc(
-        [
-            shutil.which('friction_estimator') or 'friction_estimator',
-            '--ros-args',
-            '--params-file',
-            str(ROOT / 'config' / 'friction_estimator.yaml'),
-        ],
-        tmp_path / 'node.log',
+    node = start_node(
+        procs, tmp_path, 'friction_estimator', 'friction_estimator.yaml', 'friction_estimator'
     )
-    procs.append(node)
-    assert wait_for(
-        lambda: 'friction_estimator' in node.output() or node.popen.poll() is not None, 120
-    ), node.output()
-    assert node.popen.poll() is None, node.output()
     est_bag = tmp_path / 'estimates'
-    rec = Proc(
-        tribo_cmd(
-            'record',
-            '--out',
-            str(est_bag),
-            '--topics',
-            '/friction/estimate',
-            '/friction/moment',
-        ),
-        tmp_path / 'rec.log',
-    )
-    procs.append(rec)
     # the recorder logs each topic once its subscription has matched the node's publisher
-    assert wait_for(
-        lambda: (
-            all(
-                f'recording {t} ' in rec.output()
-                for t in ('/friction/estimate', '/friction/moment')
-            )
-            or rec.popen.poll() is not None
-        ),
-        120,
-    ), rec.output()
-    assert rec.popen.poll() is None, rec.output()
-    rep = Proc(
-        tribo_cmd('replay', str(bag), '--rate', '4', '--wait-subscribers', '30'),
-        tmp_path / 'replay.log',
-    )
-    procs.append(rep)
-    assert rep.wait(120) == 0, rep.output()
+    topics = ('/friction/estimate', '/friction/moment')
+    rec = start_recorder(procs, tmp_path, est_bag, topics, matched=topics)
+    replay(procs, tmp_path, bag, 4.0, wait_subscribers=30.0)
 
     # the last block is fitted after its final sample arrives: wait until the
     # recorder has flushed every moment sample and one estimate per block

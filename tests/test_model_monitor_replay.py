@@ -14,13 +14,13 @@ samples offline.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
+from replay_harness import replay, start_node, start_recorder
 
-from conftest import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, tribo_cmd, wait_for
+from conftest import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]
@@ -50,37 +50,13 @@ def _offline(bag: Path) -> list:  # type: ignore[type-arg]
 def test_monitor_node_on_replayed_bag(tmp_path: Path, procs: list[Proc]) -> None:
     bag = tmp_path / 'session'
     make_rig_bag(bag, SECONDS)
-    node = Proc(
-        [
-            shutil.which('model_monitor') or 'model_monitor',
-            '--ros-args',
-            '--params-file',
-            str(ROOT / 'config' / 'model_monitor.yaml'),
-        ],
-        tmp_path / 'node.log',
-    )
-    procs.append(node)
-    assert wait_for(
-        lambda: 'model monitor:' in node.output() or node.popen.poll() is not None, 120
-    ), node.output()
-    assert node.popen.poll() is None, node.output()
+    node = start_node(procs, tmp_path, 'model_monitor', 'model_monitor.yaml', 'model monitor:')
     out_bag = tmp_path / 'windows'
-    rec = Proc(
-        tribo_cmd('record', '--out', str(out_bag), '--topics', '/model/discrepancy',
-                  '/rig/torsion_moment'),
-        tmp_path / 'rec.log',
+    rec = start_recorder(
+        procs, tmp_path, out_bag, ('/model/discrepancy', '/rig/torsion_moment'),
+        matched=('/model/discrepancy',),
     )  # fmt: skip
-    procs.append(rec)
-    assert wait_for(
-        lambda: 'recording /model/discrepancy ' in rec.output() or rec.popen.poll() is not None,
-        120,
-    ), rec.output()
-    rep = Proc(
-        tribo_cmd('replay', str(bag), '--rate', '1', '--wait-subscribers', '30'),
-        tmp_path / 'replay.log',
-    )
-    procs.append(rep)
-    assert rep.wait(120) == 0, rep.output()
+    replay(procs, tmp_path, bag, 1.0, wait_subscribers=30.0)
     assert wait_for(
         lambda: sum(1 for m in bag_so_far(out_bag) if hasattr(m, 'ratio')) >= 3, 60, 0.5
     ), (rec.output(), node.output())

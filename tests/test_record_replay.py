@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from replay_harness import replay, start_recorder, start_replay
 
 from conftest import Proc, bag_so_far, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
@@ -84,18 +85,9 @@ def _record_replayed_speed_bag(
     the still running recorder once all 200 messages are flushed to ``out``."""
     src = tmp_path / 'src_bag'
     _speed_bag(src)
-    rec = Proc(
-        tribo_cmd('record', '--out', str(out), '--topics', '/rig/speed', *record_args),
-        tmp_path / 'rec.log',
-    )
-    procs.append(rec)
+    rec = start_recorder(procs, tmp_path, out, ('/rig/speed',), *record_args)
     # replay waits until the recorder's subscription has matched, however slow its start
-    rep = Proc(
-        tribo_cmd('replay', str(src), '--rate', '2', '--wait-subscribers', '60'),
-        tmp_path / 'replay.log',
-    )
-    procs.append(rep)
-    assert rep.wait(120) == 0, rep.output()
+    replay(procs, tmp_path, src, 2.0)
     assert wait_for(lambda: len(bag_so_far(out)) == 200, 60, interval=0.5), rec.output()
     return rec
 
@@ -177,20 +169,10 @@ def test_record_sqlite3_holds_the_data(tmp_path: Path, procs: list[Proc]) -> Non
 
     src, out = tmp_path / 'src_bag', tmp_path / 'copy_sqlite'
     _speed_bag(src)
-    rec = Proc(
-        tribo_cmd(
-            'record', '--out', str(out), '--topics', '/rig/speed', '--storage', 'sqlite3',
-            '--idle-stop', '3',
-        ),
-        tmp_path / 'rec.log',
-    )  # fmt: skip
-    procs.append(rec)
-    rep = Proc(
-        tribo_cmd('replay', str(src), '--rate', '2', '--wait-subscribers', '60'),
-        tmp_path / 'replay.log',
+    rec = start_recorder(
+        procs, tmp_path, out, ('/rig/speed',), '--storage', 'sqlite3', '--idle-stop', '3'
     )
-    procs.append(rep)
-    assert rep.wait(120) == 0, rep.output()
+    replay(procs, tmp_path, src, 2.0)
     assert rec.wait(120) == 0, rec.output()
     assert list(out.glob('*.db3')), rec.output()
     with AnyReader([out], default_typestore=bagio.typestore()) as reader:
@@ -218,14 +200,11 @@ def test_recording_error_ends_with_nonzero_exit(
     before stay readable."""
     src, out = tmp_path / 'src_bag', tmp_path / 'limited'
     _speed_bag(src)
-    args = ['record', '--out', str(out), '--topics', '/rig/speed', '--storage', storage]
-    rec = Proc([sys.executable, '-c', _FSIZE_LIMITED.format(60_000), *args], tmp_path / 'rec.log')
-    procs.append(rec)
-    rep = Proc(
-        tribo_cmd('replay', str(src), '--rate', '0.25', '--wait-subscribers', '60'),
-        tmp_path / 'replay.log',
+    limited = [sys.executable, '-c', _FSIZE_LIMITED.format(60_000)]
+    rec = start_recorder(
+        procs, tmp_path, out, ('/rig/speed',), '--storage', storage, command=limited
     )
-    procs.append(rep)
+    start_replay(procs, tmp_path, src, 0.25)
     assert rec.wait(120) == 2, rec.output()
     assert 'tribo record: error: recording into' in rec.output(), rec.output()
     assert 'Traceback' not in rec.output()

@@ -19,17 +19,17 @@ from __future__ import annotations
 import math
 import queue
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
 from tribo_common import topics
-from tribo_common.msgconv import block_from_msg, make_sample_block, time_from_ns
+from tribo_common.msgconv import Block, make_sample_block, time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
+from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
 from tribo_estimation.core.blockfit import (
     BlockConfig,
     BlockResult,
@@ -41,8 +41,8 @@ from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS
 from tribo_msgs.msg import FrictionEstimate, SampleBlock
 
-#: Input topics and their channel names.
-TOPICS: dict[str, str] = {t.name: t.channel for t in topics.RIG_STREAMS}
+#: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
+TOPICS: dict[str, str] = RIG_INPUTS
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = FRICTION_ESTIMATOR_PARAMS
@@ -54,8 +54,7 @@ class FrictionEstimatorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('friction_estimator', **kwargs)
         v = declare_specs(self, PARAMS)
-        if v['F_N'] <= 0.0:
-            raise ParameterError("parameter 'F_N' must be > 0 N: no contact, no friction to fit")
+        require_contact(v)
         try:
             rig = RigParams.from_mapping(v)
             friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
@@ -75,13 +74,7 @@ class FrictionEstimatorNode(Node):
         self._pub_est = self.create_publisher(
             FrictionEstimate, topics.FRICTION_ESTIMATE.name, history_qos()
         )
-        group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
-        self._subs = [
-            self.create_subscription(
-                SampleBlock, topic, self._callback(ch), qos, callback_group=group
-            )
-            for topic, ch in TOPICS.items()
-        ]
+        self._subs = subscribe_rig_streams(self, self._on_block)
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name='friction_fit', daemon=True)
         self._worker.start()
@@ -93,21 +86,15 @@ class FrictionEstimatorNode(Node):
         )
 
     # ------------------------------------------------------------------ input
-    def _callback(self, channel: str) -> Callable[[SampleBlock], None]:
-        def cb(msg: SampleBlock) -> None:
-            self._on_block(channel, msg)
-
-        return cb
-
-    def _on_block(self, channel: str, msg: SampleBlock) -> None:
-        b = block_from_msg(msg, channel)
+    def _on_block(self, b: Block) -> None:
+        """Align one block and run the observer; queue the completed blocks for the fit."""
         try:
             with self._lock:
                 moments, blocks, notes = self._pipe.push(
-                    channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
+                    b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
                 )
         except EstimationError as exc:
-            self.get_logger().error(f'{channel}: block dropped: {exc}')
+            self.get_logger().error(f'{b.channel}: block dropped: {exc}')
             return
         for note in notes:
             self.get_logger().warning(note)

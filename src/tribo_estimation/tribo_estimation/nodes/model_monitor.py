@@ -22,18 +22,18 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
 from tribo_common import topics
-from tribo_common.msgconv import block_from_msg, float64_array, time_from_ns
+from tribo_common.msgconv import Block, float64_array, time_from_ns
 from tribo_common.node_main import run_node
 from tribo_common.params import ParameterError, declare_specs
-from tribo_common.qos import data_qos, history_qos
+from tribo_common.qos import history_qos
+from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
 from tribo_estimation.core.align import AlignedChunk, ChannelAligner
 from tribo_estimation.core.discrepancy.monitor import (
     MonitorConfig,
@@ -44,13 +44,13 @@ from tribo_estimation.core.discrepancy.monitor import (
 from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import MODEL_MONITOR_PARAMS
-from tribo_msgs.msg import ModelDiscrepancy, SampleBlock
+from tribo_msgs.msg import ModelDiscrepancy
 
 #: Output topic.
 OUTPUT_TOPIC = topics.MODEL_DISCREPANCY.name
 
-#: Input topics and their channel names.
-TOPICS: dict[str, str] = {t.name: t.channel for t in topics.RIG_STREAMS}
+#: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
+TOPICS: dict[str, str] = RIG_INPUTS
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = MODEL_MONITOR_PARAMS
@@ -62,8 +62,7 @@ class ModelMonitorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('model_monitor', **kwargs)
         v = declare_specs(self, PARAMS)
-        if v['F_N'] <= 0.0:
-            raise ParameterError("parameter 'F_N' must be > 0 N: no contact, no friction to fit")
+        require_contact(v)
         try:
             rig = RigParams.from_mapping(v)
             drive = DriveProfile(v['nominal_speed'], v['ramp_time'])
@@ -89,14 +88,7 @@ class ModelMonitorNode(Node):
         self.skipped = 0
         self.published = 0
         self._pub = self.create_publisher(ModelDiscrepancy, OUTPUT_TOPIC, history_qos())
-        group = MutuallyExclusiveCallbackGroup()  # the aligner sees one block at a time
-        qos = data_qos()
-        self._subs = [
-            self.create_subscription(
-                SampleBlock, topic, self._callback(ch), qos, callback_group=group
-            )
-            for topic, ch in TOPICS.items()
-        ]
+        self._subs = subscribe_rig_streams(self, self._on_block)
         self._worker = threading.Thread(target=self._work, name='model_monitor', daemon=True)
         self._worker.start()
         self.get_logger().info(
@@ -106,20 +98,14 @@ class ModelMonitorNode(Node):
         )
 
     # ------------------------------------------------------------------ input
-    def _callback(self, channel: str) -> Callable[[SampleBlock], None]:
-        def cb(msg: SampleBlock) -> None:
-            self._on_block(channel, msg)
-
-        return cb
-
-    def _on_block(self, channel: str, msg: SampleBlock) -> None:
-        b = block_from_msg(msg, channel)
+    def _on_block(self, b: Block) -> None:
+        """Align one block; hand the newest due window to the worker."""
         try:
             events = self._aligner.push(
-                channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
+                b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
             )
         except EstimationError as exc:
-            self.get_logger().error(f'{channel}: block dropped: {exc}')
+            self.get_logger().error(f'{b.channel}: block dropped: {exc}')
             return
         for ev in events:
             if not isinstance(ev, AlignedChunk):
@@ -178,8 +164,21 @@ class ModelMonitorNode(Node):
 
 
 def to_msg(r: WindowResult, offset: float = 0.0) -> ModelDiscrepancy:
-    """ModelDiscrepancy message of one window; ``offset`` [s] maps the monitor's
-    time base to stream time (the stamps of the SampleBlocks)."""
+    """Return the ModelDiscrepancy message of one window.
+
+    Parameters
+    ----------
+    r : WindowResult
+        The evaluated window.
+    offset : float
+        Maps the monitor's time base to stream time (the stamps of the
+        SampleBlocks) [s].
+
+    Returns
+    -------
+    ModelDiscrepancy
+        The message.
+    """
     m = ModelDiscrepancy()
     t_end = r.t_end + offset
     if math.isfinite(t_end):
