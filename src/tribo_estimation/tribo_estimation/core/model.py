@@ -60,6 +60,7 @@ class RigParams:
     R: float
 
     def __post_init__(self) -> None:
+        """Check that every value is finite and physical (> 0, or >= 0 for K1, K2, F_N)."""
         _check_finite(self)
         for name in ('I1', 'C1', 'I2', 'C2', 'R'):
             _require(getattr(self, name) > 0.0, self, name, '> 0')
@@ -68,14 +69,37 @@ class RigParams:
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, float]) -> RigParams:
-        """From a mapping holding (at least) the eight field names, e.g. RIG.yaml values
-        or node parameters (other keys are ignored)."""
+        """Build the rig from a mapping holding (at least) the eight field names.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            E.g. RIG.yaml values or node parameters (other keys are ignored), SI.
+
+        Returns
+        -------
+        RigParams
+            The rig.
+        """
         return cls(**{f.name: float(values[f.name]) for f in fields(cls)})
 
     @classmethod
     def tab1(cls, F_N: float | None = None, R: float | None = None) -> RigParams:
-        """The paper's Tab. 1 rig with the given contact load [N] and radius [m]
-        (default: those of :data:`tribo_estimation.core.rigspec.RIG_SPEC`, 8 kN, 80 mm)."""
+        """Return the paper's Tab. 1 rig with the given contact load and radius.
+
+        Parameters
+        ----------
+        F_N : float, optional
+            Normal force [N] (default: that of
+            :data:`tribo_estimation.core.rigspec.RIG_SPEC`, 8 kN).
+        R : float, optional
+            Friction radius [m] (default: 80 mm).
+
+        Returns
+        -------
+        RigParams
+            The rig.
+        """
         from tribo_estimation.core.rigspec import RIG_FIELDS, tab1_value
 
         v = {name: tab1_value(name) for name in RIG_FIELDS}
@@ -107,6 +131,7 @@ class FrictionLaw:
     k: float = 2.0
 
     def __post_init__(self) -> None:
+        """Check that mu0, mu_inf and k are finite and >= 0."""
         _check_finite(self)
         _require(self.mu0 >= 0.0, self, 'mu0', '>= 0')
         _require(self.mu_inf >= 0.0, self, 'mu_inf', '>= 0')
@@ -121,14 +146,17 @@ class FrictionLaw:
 
 @dataclass(frozen=True)
 class DriveProfile:
-    """Drive motor speed profile: w0(t) ramps linearly from 0 to ``nominal_speed``
-    [rad/s] over ``ramp_time`` [s] (0 = starts at full speed), then stays constant;
-    phi0(t) is its integral [rad]."""
+    """Drive motor speed profile w0(t) and its integral phi0(t) [rad].
+
+    w0(t) ramps linearly from 0 to ``nominal_speed`` [rad/s] over ``ramp_time`` [s]
+    (0 = starts at full speed), then stays constant.
+    """
 
     nominal_speed: float
     ramp_time: float = 0.0
 
     def __post_init__(self) -> None:
+        """Check that the values are finite and the ramp time >= 0."""
         _check_finite(self)
         _require(self.ramp_time >= 0.0, self, 'ramp_time', '>= 0 s')
 
@@ -187,6 +215,7 @@ class Extensions:
     stribeck_shape: float = 0.0
 
     def __post_init__(self) -> None:
+        """Check that every value is finite and the time constants >= 0."""
         _check_finite(self)
         for name in (
             'stiction_tau',
@@ -234,6 +263,7 @@ class RigState:
     sensor_lag: float = math.nan
 
     def __post_init__(self) -> None:
+        """Check that the dynamic state is finite (the sensor state may be NaN)."""
         for name in ('t', 'phi1', 'w1', 'phi2', 'w2', 'v_max', 'stick_time', 'lag'):
             if not math.isfinite(getattr(self, name)):
                 raise InvalidParameterError(
