@@ -41,8 +41,12 @@ def test_every_candidate_has_its_equation_and_suggestion() -> None:
 
 
 def test_measurement_fields_come_from_the_effects() -> None:
+    from tribo_estimation.core.discrepancy import fitting
+
     fields = measurement.measurement_fields()
     assert fields == {'torque_offset', 'torque_offset_drift', 'torque_lag_tau'}
+    # the fit's hand-written list agrees with the registered hooks
+    assert fields == fitting.MEASUREMENT_FIELDS
     kinds = {c.name for c in candidates.all_candidates() if c.measurement is not None}
     assert kinds == {'torque_offset', 'torque_sensor_lag'}
 
