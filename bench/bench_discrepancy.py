@@ -35,7 +35,8 @@ NOT_IDENTIFIABLE = {'torque_offset'}
 
 def _baseline_timing(rec: Record, base: Any) -> None:
     """Wall time of the baseline alone (segments, drive profile, speed sensor,
-    mu0/mu_inf fit) on the no-effect record (target: <= 3 s for 6 s)."""
+    mu0/mu_inf fit) on the no-effect record (target: <= 3 s for 6 s).
+    """
     from tribo_estimation.core.discrepancy.fitting import (
         MU0,
         MU_INF,
@@ -46,7 +47,12 @@ def _baseline_timing(rec: Record, base: Any) -> None:
     t0 = time.perf_counter()
     pb = Problem(rec, base.rig, base.drive, k=base.friction.k)
     seg = pb.segments
-    sensor = identify_speed_sensor(rec, base.rig, (seg.run_start, seg.run_stop))
+    runs = (
+        (seg.run_start, seg.run_stop)
+        if seg.run_start is not None and seg.run_stop is not None
+        else None
+    )
+    sensor = identify_speed_sensor(rec, base.rig, runs)
     fit = pb.fit([MU0, MU_INF], {**sensor.values(), 'mu0': 0.12, 'mu_inf': 0.09})
     rms = pb.torque_rms(pb.simulate(fit.values))
     dt = time.perf_counter() - t0

@@ -16,7 +16,8 @@ def bounded_float(
     lo: float, hi: float, *, lo_open: bool = False, zero_ok: bool = False, unit: str = ''
 ) -> Callable[[str], float]:
     """Type accepting a finite float in ``[lo, hi]`` (``(lo, hi]`` when ``lo_open``);
-    ``zero_ok`` additionally admits exactly 0 (e.g. "0: as fast as possible")."""
+    ``zero_ok`` additionally admits exactly 0 (e.g. "0: as fast as possible").
+    """
     u = f' {unit}' if unit else ''
 
     def parse(text: str) -> float:

@@ -41,12 +41,18 @@ MODES = ('minmax', 'decimate')
 class BinPoint:
     """One down-sampled point of a SampleBlock stream.
 
-    Attributes:
-        index: index of the first sample of the bin [samples since stream start].
-        stamp_ns: time of the first sample of the bin [ns].
-        n: samples in the bin (less than the factor only next to a gap or a restart).
-        mean, minimum, maximum, first: bin statistics in the stream's unit.
-        slope: least-squares slope over the bin [unit/s] (NaN for a 1-sample bin).
+    Attributes
+    ----------
+    index
+        index of the first sample of the bin [samples since stream start].
+    stamp_ns
+        time of the first sample of the bin [ns].
+    n
+        samples in the bin (less than the factor only next to a gap or a restart).
+    mean, minimum, maximum, first
+        bin statistics in the stream's unit.
+    slope
+        least-squares slope over the bin [unit/s] (NaN for a 1-sample bin).
     """
 
     index: int
@@ -71,9 +77,11 @@ def _slope(values: npt.NDArray[np.float64], fs: float) -> float:
 class Downsampler:
     """Bins of ``factor`` samples aligned on ``index % factor == 0``.
 
-    Args:
-        rate: target output rate [Hz]; the factor is ``max(1, round(fs/rate))``
-            with ``fs`` the stream's sample rate (known from the first block).
+    Parameters
+    ----------
+    rate
+        target output rate [Hz]; the factor is ``max(1, round(fs/rate))``
+        with ``fs`` the stream's sample rate (known from the first block).
     """
 
     rate: float
@@ -98,11 +106,16 @@ class Downsampler:
     ) -> list[BinPoint]:
         """Add one block; returns the bins it completes (in index order).
 
-        Args:
-            first_index: index of the block's first sample [samples].
-            stamp_ns: time of the block's first sample [ns].
-            sample_rate: sample rate [Hz] (> 0).
-            data: the samples.
+        Parameters
+        ----------
+        first_index
+            index of the block's first sample [samples].
+        stamp_ns
+            time of the block's first sample [ns].
+        sample_rate
+            sample rate [Hz] (> 0).
+        data
+            the samples.
         """
         if not (math.isfinite(sample_rate) and sample_rate > 0):
             raise ConfigError(f'sample_rate must be > 0 Hz, got {sample_rate}')
@@ -169,12 +182,18 @@ class Downsampler:
 class StickPoint:
     """Stick/slip state of one bin.
 
-    Attributes:
-        index: first sample index of the bin [samples].
-        stamp_ns: time of the bin's first sample [ns].
-        w1: chamber speed from the torsion slope, slope/C1 [rad/s].
-        w2: mean shaft speed in the bin [rad/s].
-        stick: True when ``|w1 - w2| <= tolerance``.
+    Attributes
+    ----------
+    index
+        first sample index of the bin [samples].
+    stamp_ns
+        time of the bin's first sample [ns].
+    w1
+        chamber speed from the torsion slope, slope/C1 [rad/s].
+    w2
+        mean shaft speed in the bin [rad/s].
+    stick
+        True when ``|w1 - w2| <= tolerance``.
     """
 
     index: int
@@ -188,10 +207,14 @@ class StickPoint:
 class StickDetector:
     """Join torsion-moment bins and shaft-speed bins by index and flag sticking.
 
-    Args:
-        C1: torsion element stiffness [N m/rad] (> 0).
-        tolerance: largest |w1 - w2| counted as sticking [rad/s] (>= 0).
-        keep: bins kept waiting for their partner stream before being dropped.
+    Parameters
+    ----------
+    C1
+        torsion element stiffness [N m/rad] (> 0).
+    tolerance
+        largest |w1 - w2| counted as sticking [rad/s] (>= 0).
+    keep
+        bins kept waiting for their partner stream before being dropped.
     """
 
     C1: float
@@ -394,7 +417,9 @@ WEAR_BANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _schema(title: str, fields: Mapping[str, tuple[str, str]], bands: Iterable[str]) -> dict:
+def _schema(
+    title: str, fields: Mapping[str, tuple[str, str]], bands: Iterable[str]
+) -> dict[str, object]:
     props: dict[str, Any] = {
         'stamp': {'type': 'number', 'description': 'header stamp [s]'},
     }

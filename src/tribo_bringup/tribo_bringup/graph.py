@@ -164,7 +164,7 @@ class Graph:
         """
         import signal
 
-        import rclpy
+        from rclpy.utilities import try_shutdown
 
         previous = None
         if threading.current_thread() is threading.main_thread():
@@ -176,7 +176,7 @@ class Graph:
                     close()
                 node.destroy_node()
             self._instances.clear()
-            rclpy.try_shutdown()
+            try_shutdown()
         finally:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)

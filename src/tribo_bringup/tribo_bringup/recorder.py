@@ -59,7 +59,8 @@ SUBSCRIBER_SETTLE_S = 0.3
 
 def _in_namespace(topic: str, namespace: str) -> str:
     """A root-namespace name (``/rig/speed``) moved into ``namespace``; absolute table
-    names (``/diagnostics``) stay."""
+    names (``/diagnostics``) stay.
+    """
     entry = topic_table.by_full_name(topic)
     if entry is not None and entry.name.startswith('/'):
         return topic
@@ -234,7 +235,8 @@ class Replayer(Node):
         """Wait until every listed topic's publisher has ``min_count`` subscribers (or
         timeout [s]), then a settle time: the publisher sees a subscription before the
         subscriber has matched the publisher, and a volatile subscriber drops the
-        messages of that interval (the first block of a replay into the estimator)."""
+        messages of that interval (the first block of a replay into the estimator).
+        """
         wanted = set(topics)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:

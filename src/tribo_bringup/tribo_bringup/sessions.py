@@ -57,9 +57,11 @@ def rig_bag_events(path: Path, namespace: str | None = None) -> Iterator[AlignEv
     namespace if it holds the streams, else the only rig of the bag
     (:func:`tribo_bringup.bagio.find_namespace`).
 
-    Raises:
-        BagError: the bag holds none of the three rig streams (raised once the
-            bag has been read).
+    Raises
+    ------
+    BagError
+        the bag holds none of the three rig streams (raised once the
+        bag has been read).
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_estimation.core.align import ChannelAligner
@@ -92,9 +94,11 @@ def read_rig_stretch(
     (the simulated rig's drive time base), and the truncation error of a bag
     that ends early (the good part before it is returned).
 
-    Raises:
-        BagError: no aligned rig samples in the window (or the truncation error
-            when the bag breaks before any).
+    Raises
+    ------
+    BagError
+        no aligned rig samples in the window (or the truncation error
+        when the bag breaks before any).
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_estimation.core.align import AlignedChunk, ChannelAligner, GapEvent, RestartEvent
@@ -171,9 +175,12 @@ def bag_dwells(
     """The nVCT dwells of ``/nvct/counts`` in a bag, and the truncation error of a
     bag that ends early (the dwells before it are returned).
 
-    Raises:
-        CountsError: a message holds an invalid dwell (names the message).
-        NvctConfigError: no ``/nvct/counts`` message in the bag.
+    Raises
+    ------
+    CountsError
+        a message holds an invalid dwell (names the message).
+    NvctConfigError
+        no ``/nvct/counts`` message in the bag.
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_nvct.core.counting import Dwell

@@ -19,7 +19,7 @@ from tribo_msgs.msg import SampleBlock
 NS_PER_S = 1_000_000_000
 
 
-def float64_array(values: npt.ArrayLike) -> array.array:
+def float64_array(values: npt.ArrayLike) -> array.array[float]:
     """Return ``values`` as ``array.array('d')`` (fast path of float64[] fields)."""
     out = array.array('d')
     out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())

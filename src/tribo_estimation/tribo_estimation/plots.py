@@ -44,13 +44,15 @@ def _good_mask(table: BlockTable) -> npt.NDArray[np.bool_]:
 
 def time_origin(t_first: float) -> float:
     """Origin of a figure's time axis [s]: 0 for record time, the first block's start
-    for wall-clock stamps (bags; anything after 1 Jan 1971)."""
+    for wall-clock stamps (bags; anything after 1 Jan 1971).
+    """
     return float(t_first) if float(t_first) > 3.2e7 else 0.0
 
 
 def _time_axis(table: BlockTable) -> tuple[FloatArray, str]:
     """Block mid times in s, or min for runs longer than 10 min (from the first block
-    when the times are wall-clock stamps)."""
+    when the times are wall-clock stamps).
+    """
     t = 0.5 * (np.asarray(table['t_start'], float) + np.asarray(table['t_end'], float))
     origin = time_origin(float(np.nanmin(t))) if t.size else 0.0
     since = ' since first block' if origin else ''
@@ -109,7 +111,8 @@ def plot_blocks(
     """Paper Fig. 4/5 layout: upper torsion moment max/min/mean per block [N m],
     lower mu0 and mu_inf per block (Equ. 8) with standard errors.
 
-    Returns (good blocks, flagged blocks) drawn."""
+    Returns (good blocks, flagged blocks) drawn.
+    """
     x, xlabel = _time_axis(table)
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     _draw_moment(ax1, table, x)
@@ -141,7 +144,8 @@ def plot_mu_slip(
 ) -> None:
     """mu versus slip speed: fitted Stribeck curves (Equ. 8) of up to ``n_curves``
     good blocks spread over the run, and the observer's samples
-    mu = |M| / (F_N R) against |v| [rad/s] as points."""
+    mu = |M| / (F_N R) against |v| [rad/s] as points.
+    """
     fig, ax = plt.subplots(figsize=(7, 5))
     if slip_speed is not None and mu_samples is not None and len(slip_speed):
         ax.plot(np.abs(slip_speed), mu_samples, '.', ms=1.5, color='0.45', alpha=0.4)
@@ -181,13 +185,20 @@ def plot_mu_slip(
 class DetailTrace:
     """Signals of one stretch of a run for a Fig. 6 style detail plot.
 
-    Attributes:
-        title: panel title (e.g. "stick-slip, block at 12 s").
-        time: time [s].
-        torsion: measured torsion moment C1*phi1 [N m].
-        moment: observer friction moment M [N m] (NaN where unknown).
-        simulated: torsion moment simulated by the fit [N m] (NaN where not simulated).
-        stick: True where the discs stick.
+    Attributes
+    ----------
+    title
+        panel title (e.g. "stick-slip, block at 12 s").
+    time
+        time [s].
+    torsion
+        measured torsion moment C1*phi1 [N m].
+    moment
+        observer friction moment M [N m] (NaN where unknown).
+    simulated
+        torsion moment simulated by the fit [N m] (NaN where not simulated).
+    stick
+        True where the discs stick.
     """
 
     title: str
@@ -207,7 +218,8 @@ def _stick_spans(time: FloatArray, stick: npt.NDArray[np.bool_]) -> list[tuple[f
 
 def plot_detail(traces: Sequence[DetailTrace], path: str | os.PathLike[str]) -> None:
     """Paper Fig. 6 style: torsion moment over a short window with the stick
-    phases shaded, one panel per trace (e.g. stick-slip above, slip-slip below)."""
+    phases shaded, one panel per trace (e.g. stick-slip above, slip-slip below).
+    """
     n = max(1, len(traces))
     fig, axes = plt.subplots(n, 1, figsize=(8, 3.0 * n), squeeze=False)
     for ax, tr in zip(axes[:, 0], traces, strict=False):
@@ -250,7 +262,8 @@ def plot_campaign(
     one column per run of a group, two rows per group (torsion moment envelope
     above, mu0/mu_inf below), shared axes so runs compare at a glance.
 
-    Returns the grid (rows, columns)."""
+    Returns the grid (rows, columns).
+    """
     if not runs:
         raise InvalidDataError('campaign: no runs to plot')
     groups: list[str] = []

@@ -166,7 +166,8 @@ def plot_campaign_kw(path: str | Path, rows: Sequence[Mapping[str, object]]) -> 
     [Hz]. ``rows``: one run summary each (keys of ``tribo wear``'s summary.json:
     ``load_N``, ``temperature_K``, ``stroke_m``, ``frequency_hz``, ``k_w_progressive``,
     ``k_w_running_in`` and their ``*_se``, ``sliding_distance_convention``).
-    Returns ``path``."""
+    Returns ``path``.
+    """
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     panels = (
         ('load_N', 'load [N]', 1.0),

@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     """Replay the bag once."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.utilities import try_shutdown
 
     from tribo_bringup.recorder import Replayer
     from tribo_common.node_main import spin_background
@@ -69,6 +70,6 @@ def run(args: argparse.Namespace) -> int:
         spin.join(timeout=2.0)
         node.destroy_node()
     finally:
-        rclpy.try_shutdown()
+        try_shutdown()
     print(f'replay: published {n} messages from {args.bag}', file=sys.stderr)
     return 0

@@ -101,7 +101,8 @@ DRIVERS = {'daq_driver': 'daq', 'can_driver': 'can', 'counter_driver': 'counter'
 
 def select_nodes(args: argparse.Namespace) -> list[str]:
     """The nodes of a ``tribo run``: explicit ``--nodes``, else the simulators (unless
-    ``--no-sim``), the drivers asked for, the estimator, the wear monitor, the bridge."""
+    ``--no-sim``), the drivers asked for, the estimator, the wear monitor, the bridge.
+    """
     if args.nodes:
         nodes = list(args.nodes)
     else:

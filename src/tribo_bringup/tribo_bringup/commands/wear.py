@@ -111,7 +111,8 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
     """Dwells of a counts CSV or bag, and the truncation error of a bag that ends early
-    (the dwells before it are evaluated and written; the error is raised afterwards)."""
+    (the dwells before it are evaluated and written; the error is raised afterwards).
+    """
     from tribo_nvct.core.countsio import read_counts_csv
 
     if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):

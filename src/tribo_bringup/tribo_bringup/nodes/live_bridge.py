@@ -35,6 +35,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import foxglove
+from foxglove.websocket import WebSocketServer
 from rclpy.node import Node
 
 from tribo_bringup import bridge_core as bc
@@ -92,7 +93,7 @@ class LiveBridgeNode(Node):
             )
         except Exception as exc:  # the SDK raises its own types (e.g. address in use)
             raise ParameterError(f'cannot serve on {host}:{port}: {exc}') from exc
-        self.server: foxglove.WebSocketServer | None = server
+        self.server: WebSocketServer | None = server
         self.port = int(server.port)
         self.rate = rate
         meta = {'downsampled': f'{rate:g} Hz {self.mode}'}

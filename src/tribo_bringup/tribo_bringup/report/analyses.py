@@ -45,20 +45,34 @@ MIN_DISCREPANCY_SAMPLES = 100
 class AnalysisOutcome:
     """What one offline analysis produced.
 
-    Attributes:
-        key: analysis name (``friction``, ``wear``, ``discrepancy``).
-        ok: it ran to the end.
-        directory: its output directory relative to the report directory.
-        what: the library call it made (one line).
-        seconds: wall time [s].
-        note: a note shown with the section (e.g. the analysed window).
-        reason: why it failed ('' when ok).
-        summary: its numbers (SI; keys name the unit where not SI).
-        figures: PNG files it wrote (absolute paths).
-        files: other result files it wrote (absolute paths).
-        finding: one-line finding (discrepancy workflow).
-        blocks: per-block estimates as /friction/estimate dicts (friction fit).
-        traceback: the failure's traceback (not in results.json).
+    Attributes
+    ----------
+    key
+        analysis name (``friction``, ``wear``, ``discrepancy``).
+    ok
+        it ran to the end.
+    directory
+        its output directory relative to the report directory.
+    what
+        the library call it made (one line).
+    seconds
+        wall time [s].
+    note
+        a note shown with the section (e.g. the analysed window).
+    reason
+        why it failed ('' when ok).
+    summary
+        its numbers (SI; keys name the unit where not SI).
+    figures
+        PNG files it wrote (absolute paths).
+    files
+        other result files it wrote (absolute paths).
+    finding
+        one-line finding (discrepancy workflow).
+    blocks
+        per-block estimates as /friction/estimate dicts (friction fit).
+    traceback
+        the failure's traceback (not in results.json).
     """
 
     key: str
@@ -99,7 +113,8 @@ def run_analysis(
     note: str = '',
 ) -> AnalysisOutcome:
     """Run ``work(outcome, directory)`` for analysis ``key`` writing into
-    ``out/analyses/<key>``; never raises (a failure is recorded in the outcome)."""
+    ``out/analyses/<key>``; never raises (a failure is recorded in the outcome).
+    """
     rel = Path('analyses') / key
     res = AnalysisOutcome(key, directory=str(rel), note=note)
     t0 = time.monotonic()
@@ -129,7 +144,8 @@ def failed(key: str, reason: str) -> AnalysisOutcome:
 
 def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
     """Block-wise mu0/mu_inf fit of the bag's rig streams (paper 2.5, Equ. 8): writes
-    ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout)."""
+    ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout).
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         from tribo_bringup import bridge_core as bc
@@ -171,7 +187,8 @@ def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path]
 
 def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
     """A block result as a /friction/estimate dict (``fields``: name -> (JSON type,
-    description)); NaN becomes None, the quality ``ok`` or its ``;``-joined flags."""
+    description)); NaN becomes None, the quality ``ok`` or its ``;``-joined flags.
+    """
     out: dict[str, Any] = {}
     for name, (kind, _desc) in fields.items():
         if name == 'quality':
@@ -191,7 +208,8 @@ def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dic
 
 def wear_work(bag: Path, nvct_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
     """nVCT evaluation of the bag's /nvct/counts (paper 3, Equ. 8-10): writes
-    ``summary.json`` and ``wear.png`` (Fig. 10/11)."""
+    ``summary.json`` and ``wear.png`` (Fig. 10/11).
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         import json
@@ -231,7 +249,8 @@ def discrepancy_work(
     bag: Path, rig_file: Path, window: tuple[float, float], progress: Progress
 ) -> Callable[[AnalysisOutcome, Path], None]:
     """Missing-physics workflow on ``window`` = (start, duration) [s] of the bag's rig
-    streams (duration 0: to the end): writes ``discrepancy.json`` and its plots."""
+    streams (duration 0: to the end): writes ``discrepancy.json`` and its plots.
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         import numpy as np
@@ -273,7 +292,8 @@ def discrepancy_work(
 def discrepancy_finding(data: Mapping[str, Any]) -> str:
     """One-line text of a discrepancy result (the mapping of
     :func:`tribo_estimation.core.discrepancy.report.to_dict`): effects found, their
-    values, torque residual RMS before and after."""
+    values, torque residual RMS before and after.
+    """
     added = data.get('added') or []
     base = (data.get('baseline') or {}).get('rms')
     final = (data.get('final') or {}).get('rms')

@@ -128,25 +128,40 @@ def build_report(
 ) -> ReportResult:
     """Write the session report of ``bag`` into directory ``out``.
 
-    Args:
-        bag: recorded bag (directory or .mcap).
-        out: output directory (written atomically: on an error it keeps what it held).
-        rig: RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
-        nvct: NVCT.yaml (wear analysis, k_w).
-        discrepancy: also run the discrepancy workflow on the bag.
-        discrepancy_window: (start, duration) [s] of the rig streams the discrepancy
-            workflow analyses, from the first sample (duration 0: to the end).
-        analysis_rig: RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
-            rig without the hidden effects the simulated rig ran with.
-        analyses: offline analyses to run besides the discrepancy workflow
-            (``friction``, ``wear``).
-        notes: a note per analysis shown in its section (e.g. analysed window).
-        command: the command line to record (default ``sys.argv``).
-        progress: callback for progress lines (default: stderr).
+    Parameters
+    ----------
+    bag
+        recorded bag (directory or .mcap).
+    out
+        output directory (written atomically: on an error it keeps what it held).
+    rig
+        RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
+    nvct
+        NVCT.yaml (wear analysis, k_w).
+    discrepancy
+        also run the discrepancy workflow on the bag.
+    discrepancy_window
+        (start, duration) [s] of the rig streams the discrepancy
+        workflow analyses, from the first sample (duration 0: to the end).
+    analysis_rig
+        RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
+        rig without the hidden effects the simulated rig ran with.
+    analyses
+        offline analyses to run besides the discrepancy workflow
+        (``friction``, ``wear``).
+    notes
+        a note per analysis shown in its section (e.g. analysed window).
+    command
+        the command line to record (default ``sys.argv``).
+    progress
+        callback for progress lines (default: stderr).
 
-    Raises:
-        BagError: the bag does not exist or holds no known message.
-        ConfigError, EstimationError, NvctError: RIG.yaml or NVCT.yaml unreadable.
+    Raises
+    ------
+    BagError
+        the bag does not exist or holds no known message.
+    ConfigError, EstimationError, NvctError
+        RIG.yaml or NVCT.yaml unreadable.
     """
     say = progress or (lambda s: print(f'report: {s}', file=sys.stderr, flush=True))
     bag_p = Path(bag)

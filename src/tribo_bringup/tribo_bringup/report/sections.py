@@ -142,7 +142,8 @@ FRICTION_COLUMNS = (
 
 def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
     """Estimates as a block table: ``blocks.csv`` column -> array (None -> NaN), the input
-    of :mod:`tribo_estimation.plots`."""
+    of :mod:`tribo_estimation.plots`.
+    """
     from tribo_estimation.core.blockfit import CSV_COLUMNS
 
     table: dict[str, np.ndarray] = {}
@@ -160,7 +161,8 @@ def detail_trace(
     """Fig. 6 trace: ``seconds`` [s] of torsion moment from the start of block ``est``
     with the stick phases of the core detection (:func:`stick_flags`, run over the whole
     block as the friction fit does; none without rig parameters). Time axis [s] from
-    ``t_ref``, the first block's start. None when the bag has no rig samples there."""
+    ``t_ref``, the first block's start. None when the bag has no rig samples there.
+    """
     from tribo_estimation.plots import DetailTrace
 
     span = float(est['t_end'] - est['t_start']) if est.get('t_end') is not None else seconds

@@ -89,7 +89,8 @@ FRAME_RATE_ATTRIBUTE = 'TriboFrameRate'
 
 def dbc_frame_rate(msg: Any, spec: CanStreamSpec, path: Path) -> float:
     """Frame rate [1/s] of a DBC message: ``TriboFrameRate``, else 1000/``GenMsgCycleTime``,
-    else the spec's nominal rate."""
+    else the spec's nominal rate.
+    """
     attrs = getattr(getattr(msg, 'dbc', None), 'attributes', None) or {}
     where = f'DBC {path} frame 0x{spec.frame_id:03X} ({spec.message})'
     if FRAME_RATE_ATTRIBUTE in attrs:

@@ -203,7 +203,8 @@ def default_daq_signal(
 
 class _EmulatorThread:
     """Thread lifecycle shared by the device emulators: ``start`` runs ``_run`` in a
-    daemon thread until ``stop``."""
+    daemon thread until ``stop``.
+    """
 
     THREAD_NAME = 'emulator'
 

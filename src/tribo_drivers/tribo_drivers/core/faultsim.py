@@ -66,7 +66,8 @@ class FaultReport:
 
 class _NotifyingSerialTransport(SerialTransport):
     """SerialTransport that tells the emulator's pty when its open (with the input
-    flush) has returned: frames sent from then on are counted as intact ground truth."""
+    flush) has returned: frames sent from then on are counted as intact ground truth.
+    """
 
     def __init__(self, port: PtyPort, baudrate: int) -> None:
         super().__init__(str(port.path), baudrate)

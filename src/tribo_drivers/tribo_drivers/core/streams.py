@@ -25,7 +25,14 @@ from tribo_drivers.core.gaps import BlockBatcher, IndexTracker, SampleBlock, blo
 from tribo_drivers.core.reconnect import Backoff, ReconnectState
 from tribo_drivers.core.timing import SampleClock
 from tribo_drivers.core.transports import ByteTransport, CanTransport, Link
-from tribo_drivers.errors import ConfigError, DriverError, FrameError, ProtocolError, TransportError
+from tribo_drivers.errors import (
+    ChecksumError,
+    ConfigError,
+    DriverError,
+    FrameError,
+    ProtocolError,
+    TransportError,
+)
 
 T = TypeVar('T')
 
@@ -290,7 +297,7 @@ class CounterStream(DeviceStream[CountMessage]):
             return '', None
         try:
             fields = cp.parse_sentence(line)
-        except cp.ChecksumError as exc:
+        except ChecksumError as exc:
             c.crc_errors += 1
             c.last_error = str(exc)
             return '', None

@@ -40,7 +40,7 @@ class DaqDriver(SampleBlockDriver):
         offsets = [v[f'{key}_offset'] for key, *_ in SCALING]
         gains = [v[f'{key}_gain'] for key, *_ in SCALING]
         try:
-            self.scaling = DaqScaling(tuple(offsets), tuple(gains))  # type: ignore[arg-type]
+            self.scaling = DaqScaling(tuple(offsets), tuple(gains))
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
         if self.sample_rate * 20 * 10 > self.baudrate:

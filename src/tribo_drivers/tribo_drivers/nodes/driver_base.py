@@ -147,7 +147,8 @@ class DriverNode(LifecycleNode):
 
     def _publish_or_stop(self, items: list[Any]) -> bool:
         """Publish; False once the context is shut down (Ctrl-C while streaming): the
-        reader then ends quietly instead of failing on an invalid publisher."""
+        reader then ends quietly instead of failing on an invalid publisher.
+        """
         try:
             self.publish_items(items)
         except Exception:

@@ -148,7 +148,8 @@ class SimRigNode(Node):
         """Hold the stream until every rig topic has ``min_subscribers`` subscriptions
         (at most ``wait_subscribers`` s), then a short settle time: a publisher sees a
         subscription before the subscriber has matched the publisher, and a volatile
-        subscriber drops what arrives in between."""
+        subscriber drops what arrives in between.
+        """
         if self.min_subscribers <= 0:
             return
         deadline = time.monotonic() + self.wait_subscribers

@@ -66,7 +66,7 @@ def _number(data: Mapping[str, Any], key: str, source: str) -> float:
     return x
 
 
-def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> RigConfig:
+def rig_config_from_dict(data: object, source: str = '<dict>') -> RigConfig:
     """Build a :class:`RigConfig` from a parsed RIG.yaml mapping."""
     if not isinstance(data, Mapping):
         raise ConfigFileError(f'{source}: expected a mapping of keys, got {type(data).__name__}')

@@ -53,7 +53,8 @@ class RigRecord:
     """A block of rig samples: ``time`` [s], ``torsion_moment`` [N m],
     ``angular_acceleration`` [rad/s^2], ``speed`` [rad/s]; ``extra`` further columns
     by name; ``metadata`` the ``# key: value`` comments; ``first_line`` the file
-    line of the first sample (1-based)."""
+    line of the first sample (1-based).
+    """
 
     time: np.ndarray
     torsion_moment: np.ndarray
@@ -338,10 +339,14 @@ JITTER_SNAP = 0.01
 class TimeGrid:
     """A regular time base: sample ``i`` at ``t0 + i / fs``.
 
-    Attributes:
-        t0: time of the first sample as written in the file (epoch or relative) [s].
-        fs: sample rate [Hz].
-        max_jitter: largest distance of a written time from the grid [sample intervals].
+    Attributes
+    ----------
+    t0
+        time of the first sample as written in the file (epoch or relative) [s].
+    fs
+        sample rate [Hz].
+    max_jitter
+        largest distance of a written time from the grid [sample intervals].
     """
 
     t0: float
@@ -381,7 +386,8 @@ def estimate_rate(t: np.ndarray, source: str = '<record>') -> float:
 
 def centred_anchor(t: np.ndarray, fs: float) -> float:
     """Grid time of the first sample of ``t`` [s] such that the stamps' offsets from
-    the grid have median zero (a jittered first stamp does not shift the grid)."""
+    the grid have median zero (a jittered first stamp does not shift the grid).
+    """
     pos = (np.asarray(t, dtype=np.float64) - float(t[0])) * fs
     off = float(np.median(pos - np.rint(pos))) if pos.size else 0.0
     return float(t[0]) + off / fs
@@ -424,11 +430,13 @@ def grid_positions(
 
 def resample_on_grid(idx: np.ndarray, frac: np.ndarray, values: np.ndarray) -> np.ndarray:
     """``values`` at the grid points ``idx`` (linear interpolation between the
-    samples at ``idx + frac``); unchanged where the jitter is below :data:`JITTER_SNAP`."""
+    samples at ``idx + frac``); unchanged where the jitter is below :data:`JITTER_SNAP`.
+    """
     if frac.size == 0 or float(np.max(np.abs(frac))) < JITTER_SNAP:
         return values
     pos = idx + frac
-    return np.interp(idx.astype(np.float64), pos, values)
+    out: np.ndarray = np.interp(idx.astype(np.float64), pos, values)
+    return out
 
 
 def regularise(rec: RigRecord, source: str = '<record>') -> tuple[RigRecord, TimeGrid]:

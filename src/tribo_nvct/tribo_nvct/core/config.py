@@ -228,7 +228,7 @@ def geometry_from_dict(d: dict[str, Any], src: str = '<contact>') -> RingLinerGe
     )
 
 
-def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config>') -> NvctConfig:
+def config_from_dict(raw: object, base_dir: Path, source: str = '<config>') -> NvctConfig:
     """Build and validate an :class:`NvctConfig` from the YAML mapping."""
     src = source
     if not isinstance(raw, dict):

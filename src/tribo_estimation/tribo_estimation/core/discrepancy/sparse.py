@@ -22,7 +22,8 @@ from .stats import FloatArray
 @dataclass(frozen=True)
 class SparseTerm:
     """One selected term: ``coefficient * feature``; ``contribution_rms`` is the
-    rms of that product over the record (residual unit, N m for torque)."""
+    rms of that product over the record (residual unit, N m for torque).
+    """
 
     name: str
     coefficient: float

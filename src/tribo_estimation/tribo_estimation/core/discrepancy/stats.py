@@ -292,7 +292,8 @@ def spectral_lines(
 class Trend:
     """Linear trend of a residual with time: slope (unit/s), change over the
     record (unit) and its t statistic computed on block means (robust to the
-    residual's autocorrelation)."""
+    residual's autocorrelation).
+    """
 
     slope: float
     change: float
