@@ -22,13 +22,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from tribo_bringup.errors import ConfigError
 from tribo_common import topics
+
+if TYPE_CHECKING:
+    from tribo_common.msgconv import StampedMessage
 
 NS_PER_S = 1_000_000_000
 
@@ -93,6 +96,7 @@ class Downsampler:
     _next_index: int | None = None
 
     def __post_init__(self) -> None:
+        """Refuse a down-sampling rate [Hz] that is not > 0 and finite."""
         if not (math.isfinite(self.rate) and self.rate > 0):
             raise ConfigError(f'down-sampling rate must be > 0 Hz, got {self.rate}')
 
@@ -224,6 +228,7 @@ class StickDetector:
     _speed: dict[int, BinPoint] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Refuse C1 [N m/rad] <= 0 or a negative stick tolerance [rad/s]."""
         if not (math.isfinite(self.C1) and self.C1 > 0):
             raise ConfigError(f'C1 must be > 0 N m/rad, got {self.C1}')
         if not (math.isfinite(self.tolerance) and self.tolerance >= 0):
@@ -437,16 +442,18 @@ COUNTS_SCHEMA = _schema('tribo_msgs/DetectorCounts', COUNTS_FIELDS, ())
 DISCREPANCY_SCHEMA = _schema('tribo_msgs/ModelDiscrepancy', DISCREPANCY_FIELDS, ())
 
 
-def stamp_ns_of(msg: Any) -> int:
-    """Header stamp of a message (rclpy or rosbags) [ns]."""
+def stamp_ns_of(msg: StampedMessage) -> int:
+    """Return the header stamp [ns] of a message (rclpy or rosbags)."""
     stamp = msg.header.stamp
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def record_message(
-    msg: Any, fields: Mapping[str, tuple[str, str]], bands: Mapping[str, tuple[str, str]]
+    msg: StampedMessage,
+    fields: Mapping[str, tuple[str, str]],
+    bands: Mapping[str, tuple[str, str]],
 ) -> dict[str, Any]:
-    """JSON dict of a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy message.
+    """Convert a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy to a JSON dict.
 
     Works for rclpy and rosbags message objects (attribute access only).
     Adds ``<name>_lo``/``<name>_hi`` = value -/+ BAND_K * se for the bands.

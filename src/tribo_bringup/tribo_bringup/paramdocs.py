@@ -38,7 +38,7 @@ NODE_PARAMS: dict[str, tuple[ParamSpec, ...]] = {
 
 
 def render() -> str:
-    """The Markdown text of ``docs/parameters.md``."""
+    """Render the Markdown text of ``docs/parameters.md``."""
     parts = [
         '# Parameters\n',
         'Generated from the parameter specs by `python -m tribo_bringup.paramdocs > '

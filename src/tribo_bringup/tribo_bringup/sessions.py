@@ -27,6 +27,7 @@ from tribo_bringup.errors import BagError, BagTruncatedError
 from tribo_common import topics as topic_table
 
 if TYPE_CHECKING:
+    from tribo_common.msgconv import StampedMessage
     from tribo_estimation.core.align import AlignEvent
     from tribo_nvct.core.counting import Dwell
 
@@ -41,8 +42,8 @@ RIG_CHANNELS: dict[str, str] = {t.resolve(): t.channel for t in topic_table.RIG_
 COUNTS_TOPIC = topic_table.NVCT_COUNTS.resolve()
 
 
-def _stamp_s(msg: Any) -> float:
-    """Header stamp of a message [s]."""
+def _stamp_s(msg: StampedMessage) -> float:
+    """Return the header stamp [s] of a message."""
     return float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
 
 
@@ -172,8 +173,9 @@ def read_rig_stretch(
 def bag_dwells(
     path: Path, progress: Progress = _quiet
 ) -> tuple[list[Dwell], BagTruncatedError | None]:
-    """The nVCT dwells of ``/nvct/counts`` in a bag, and the truncation error of a
-    bag that ends early (the dwells before it are returned).
+    """Read the nVCT dwells of ``/nvct/counts`` in a bag, and the truncation error.
+
+    A bag that ends early gives the error; the dwells before it are returned.
 
     Raises
     ------

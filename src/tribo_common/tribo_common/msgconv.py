@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import array
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -17,6 +18,34 @@ from builtin_interfaces.msg import Time
 from tribo_msgs.msg import SampleBlock
 
 NS_PER_S = 1_000_000_000
+
+
+class StampLike(Protocol):
+    """A builtin_interfaces/Time as rclpy and rosbags both give it."""
+
+    @property
+    def sec(self) -> int:
+        """Return the whole seconds [s]."""
+
+    @property
+    def nanosec(self) -> int:
+        """Return the nanoseconds [ns] within the second."""
+
+
+class HeaderLike(Protocol):
+    """A std_msgs/Header as far as the stamp goes."""
+
+    @property
+    def stamp(self) -> StampLike:
+        """Return the stamp of the message."""
+
+
+class StampedMessage(Protocol):
+    """Any message with a header (rclpy or rosbags message object)."""
+
+    @property
+    def header(self) -> HeaderLike:
+        """Return the message's header."""
 
 
 def float64_array(values: npt.ArrayLike) -> array.array[float]:

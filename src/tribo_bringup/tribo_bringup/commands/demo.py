@@ -20,7 +20,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -28,10 +28,15 @@ from tribo_bringup.errors import BringupError, ConfigError
 from tribo_bringup.paths import CONFIG
 from tribo_estimation.core.config import load_rig_config
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
+    from tribo_bringup.bagio import BagWriter
+    from tribo_bringup.graph import Graph
+
 MARKER = '.tribo-demo'
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the ``demo`` subcommand."""
     p = sub.add_parser(
         'demo',
@@ -74,7 +79,7 @@ def register(sub: Any) -> None:
 
 
 def _effect_names() -> tuple[str, ...]:
-    """The candidate effects of the discrepancy library (the registry)."""
+    """Return the names of the candidate effects of the discrepancy library (the registry)."""
     from tribo_estimation.core.discrepancy import candidates
 
     return candidates.names()
@@ -167,6 +172,9 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
             node = graph.add(name)
             ran.append(name)
             if name == 'live_bridge':
+                from tribo_bringup.nodes.live_bridge import LiveBridgeNode
+
+                assert isinstance(node, LiveBridgeNode)
                 _say(
                     f'watch live in Foxglove: open ws://127.0.0.1:{node.port} with the layout '
                     f'{CONFIG / "foxglove_layout.json"}'
@@ -190,9 +198,13 @@ def warm_up(rig_file: Path) -> None:
     _say(f'rig model ready ({time.monotonic() - t0:.1f} s)')
 
 
-def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 600.0) -> None:
-    """Spin the graph until the recorder holds the rig's whole ``duration`` [s] of stream
-    (the simulated rig stops after it), with progress.
+def _spin_recording(
+    graph: Graph, writer: BagWriter, duration: float, wait_max: float = 600.0
+) -> None:
+    """Spin the graph until the recorder holds the rig's whole ``duration`` [s] of stream.
+
+    The simulated rig stops after it; progress lines go to stderr, and the rig
+    must start streaming within ``wait_max`` [s].
 
     Completion is counted in recorded rig blocks, not wall-clock time: if the machine
     is slow the run takes longer, but the session is always complete.

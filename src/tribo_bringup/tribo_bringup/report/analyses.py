@@ -112,8 +112,9 @@ def run_analysis(
     progress: Progress,
     note: str = '',
 ) -> AnalysisOutcome:
-    """Run ``work(outcome, directory)`` for analysis ``key`` writing into
-    ``out/analyses/<key>``; never raises (a failure is recorded in the outcome).
+    """Run ``work(outcome, directory)`` for analysis ``key``, writing into ``out/analyses/<key>``.
+
+    Never raises: a failure is recorded in the outcome.
     """
     rel = Path('analyses') / key
     res = AnalysisOutcome(key, directory=str(rel), note=note)
@@ -135,7 +136,7 @@ def run_analysis(
 
 
 def failed(key: str, reason: str) -> AnalysisOutcome:
-    """An analysis that could not start (input missing)."""
+    """Record an analysis that could not start (input missing)."""
     return AnalysisOutcome(key, reason=reason)
 
 
@@ -143,8 +144,9 @@ def failed(key: str, reason: str) -> AnalysisOutcome:
 
 
 def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
-    """Block-wise mu0/mu_inf fit of the bag's rig streams (paper 2.5, Equ. 8): writes
-    ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout).
+    """Make the block-wise mu0/mu_inf fit of the bag's rig streams (paper 2.5, Equ. 8).
+
+    The work writes ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout).
     """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
@@ -186,8 +188,10 @@ def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path]
 
 
 def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
-    """A block result as a /friction/estimate dict (``fields``: name -> (JSON type,
-    description)); NaN becomes None, the quality ``ok`` or its ``;``-joined flags.
+    """Convert a block result to a /friction/estimate dict.
+
+    ``fields`` maps name -> (JSON type, description); NaN becomes None, the
+    quality ``ok`` or its ``;``-joined flags.
     """
     out: dict[str, Any] = {}
     for name, (kind, _desc) in fields.items():
@@ -207,8 +211,9 @@ def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dic
 
 
 def wear_work(bag: Path, nvct_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
-    """nVCT evaluation of the bag's /nvct/counts (paper 3, Equ. 8-10): writes
-    ``summary.json`` and ``wear.png`` (Fig. 10/11).
+    """Make the nVCT evaluation of the bag's /nvct/counts (paper 3, Equ. 8-10).
+
+    The work writes ``summary.json`` and ``wear.png`` (Fig. 10/11).
     """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
@@ -248,8 +253,10 @@ def wear_work(bag: Path, nvct_file: Path) -> Callable[[AnalysisOutcome, Path], N
 def discrepancy_work(
     bag: Path, rig_file: Path, window: tuple[float, float], progress: Progress
 ) -> Callable[[AnalysisOutcome, Path], None]:
-    """Missing-physics workflow on ``window`` = (start, duration) [s] of the bag's rig
-    streams (duration 0: to the end): writes ``discrepancy.json`` and its plots.
+    """Make the missing-physics workflow on a window of the bag's rig streams.
+
+    ``window`` = (start, duration) [s] (duration 0: to the end); the work writes
+    ``discrepancy.json`` and its plots.
     """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
@@ -290,9 +297,11 @@ def discrepancy_work(
 
 
 def discrepancy_finding(data: Mapping[str, Any]) -> str:
-    """One-line text of a discrepancy result (the mapping of
-    :func:`tribo_estimation.core.discrepancy.report.to_dict`): effects found, their
-    values, torque residual RMS before and after.
+    """Summarise a discrepancy result in one line.
+
+    ``data`` is the mapping of :func:`tribo_estimation.core.discrepancy.report.to_dict`;
+    the line names the effects found, their values and the torque residual RMS [N m]
+    before and after.
     """
     added = data.get('added') or []
     base = (data.get('baseline') or {}).get('rms')

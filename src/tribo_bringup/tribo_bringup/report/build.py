@@ -51,7 +51,7 @@ def load_rig(path: str | Path | None) -> dict[str, Any]:
 
 
 def load_nvct(path: str | Path | None) -> NvctConfig | None:
-    """The run's NvctConfig (tribo_nvct's loader), or None when not given."""
+    """Load the run's NvctConfig (tribo_nvct's loader), or None when not given."""
     if path is None:
         return None
     from tribo_nvct.core.config import load_config

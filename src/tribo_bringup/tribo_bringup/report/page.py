@@ -23,7 +23,7 @@ FloatArray = npt.NDArray[np.float64]
 
 
 def fmt(x: object, digits: int = 4) -> str:
-    """Number as text with ``digits`` significant digits ('n/a' for None/NaN)."""
+    """Format a number with ``digits`` significant digits ('n/a' for None/NaN)."""
     if x is None:
         return 'n/a'
     if isinstance(x, bool):
@@ -38,7 +38,7 @@ def fmt(x: object, digits: int = 4) -> str:
 
 
 def finite(values: Iterable[float | None]) -> FloatArray:
-    """The finite values of ``values`` (None and NaN dropped) as an array."""
+    """Return the finite values of ``values`` (None and NaN dropped) as an array."""
     arr = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
     return arr[np.isfinite(arr)]
 
@@ -68,12 +68,12 @@ def figure(draw: Callable[[Path], object], path: Path, caption: str) -> str:
 
 
 def embed_png(path: Path, caption: str) -> str:
-    """An existing PNG file embedded with its caption."""
+    """Embed an existing PNG file with its caption."""
     return img(base64.b64encode(path.read_bytes()).decode('ascii'), caption)
 
 
 def img(b64: str, caption: str) -> str:
-    """A base64 PNG as a figure with caption."""
+    """Wrap a base64 PNG in a figure with caption."""
     return (
         f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{b64}">'
         f'<figcaption>{html.escape(caption)}</figcaption></figure>'
@@ -83,7 +83,7 @@ def img(b64: str, caption: str) -> str:
 def table(
     rows: Sequence[Sequence[object]], header: Sequence[str], table_id: str = '', digits: int = 4
 ) -> str:
-    """An HTML table; numbers formatted by :func:`fmt`."""
+    """Render an HTML table; numbers formatted by :func:`fmt`."""
     tid = f' id="{table_id}"' if table_id else ''
     head = ''.join(f'<th>{html.escape(h)}</th>' for h in header)
     body = ''.join(
@@ -94,7 +94,7 @@ def table(
 
 
 def kv(items: Mapping[str, object], table_id: str, units: Mapping[str, str] | None = None) -> str:
-    """A key / value / unit table."""
+    """Render a key / value / unit table."""
     rows = []
     for k, v in items.items():
         unit = (units or {}).get(k, '')
@@ -150,7 +150,7 @@ class Section:
 
 
 def unavailable(key: str, title: str, reason: str) -> Section:
-    """A section that says why it has nothing to show."""
+    """Make a section that says why it has nothing to show."""
     return Section(key, title, f'<p class="na">Unavailable: {html.escape(reason)}</p>', False)
 
 
@@ -172,7 +172,7 @@ ul.summary li{margin:.2em 0}
 def render_html(
     title: str, summary: Sequence[str], sections: Sequence[Section], prov: Mapping[str, Any]
 ) -> str:
-    """The whole page: summary, navigation, sections, provenance."""
+    """Render the whole page: summary, navigation, sections, provenance."""
     nav = ''.join(f'<a href="#{s.key}">{html.escape(s.title.split(" (")[0])}</a>' for s in sections)
     parts = [
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',

@@ -67,8 +67,10 @@ def _git(root: Path, *args: str) -> str | None:
 
 
 def git_state(root: Path) -> tuple[str | None, bool | None]:
-    """(commit of HEAD, working tree has uncommitted changes) of the repository at
-    ``root``; (None, None) without git or outside a repository.
+    """Return (commit of HEAD, whether the working tree has uncommitted changes).
+
+    For the repository at ``root``; (None, None) without git or outside a
+    repository.
     """
     commit = _git(root, 'rev-parse', 'HEAD')
     if not commit:

@@ -1,5 +1,7 @@
-"""Bag scan of the session report: message counts, live results, stream continuity,
-and full-rate rig windows for the motion detail (paper Fig. 6).
+"""Bag scan of the session report.
+
+Message counts, live results, stream continuity, and full-rate rig windows for
+the motion detail (paper Fig. 6).
 
 Times in ns where they are bag receive times, else s; values SI.
 """
@@ -130,8 +132,10 @@ class RigWindow:
 
 
 def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWindow | None:
-    """``seconds`` [s] of the /rig/* streams from sample ``first_index``, aligned by
-    sample index as the friction analysis aligns them; None when the bag has none there.
+    """Read ``seconds`` [s] of the /rig/* streams from sample ``first_index``.
+
+    The channels are aligned by sample index as the friction analysis aligns them;
+    None when the bag has no samples there.
 
     Raises
     ------
@@ -164,9 +168,11 @@ def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWi
 
 
 def stick_flags(win: RigWindow, rig: RigParams) -> npt.NDArray[np.bool_]:
-    """Per-sample stick flags of a window from the friction analysis' own stick detection
-    (:func:`tribo_estimation.core.sticks.detect_sticks`: slip speed w2 - w1 and the stick
-    residual of Equ. 1 + 2, phases >= 2 ms), run on each gap-free stretch.
+    """Flag the stick samples of a window with the friction analysis' own stick detection.
+
+    :func:`tribo_estimation.core.sticks.detect_sticks` (slip speed w2 - w1 [rad/s]
+    and the stick residual of Equ. 1 + 2, phases >= 2 ms), run on each gap-free
+    stretch.
     """
     from tribo_estimation.core.sticks import detect_sticks
 

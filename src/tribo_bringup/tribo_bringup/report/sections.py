@@ -1,6 +1,7 @@
-"""Sections of the session report: session, rig, friction per block (Fig. 4/5) with the
-motion detail (Fig. 6), live nVCT wear (Fig. 10/11), the offline analyses, and the
-five-line summary.
+"""Sections of the session report.
+
+Session, rig, friction per block (Fig. 4/5) with the motion detail (Fig. 6),
+live nVCT wear (Fig. 10/11), the offline analyses, and the five-line summary.
 
 Every section function fills its part of ``results`` (results.json; SI units, keys
 name the unit where it is not SI) and returns the HTML; figures are written into
@@ -66,6 +67,7 @@ RIG_UNITS: dict[str, tuple[str, str]] = {
 
 
 def rig_section(rig: Mapping[str, Any], rig_path: str | None, results: dict[str, Any]) -> Section:
+    """Render the rig parameters used (RIG.yaml) and fill ``results['rig']``."""
     title = 'Rig parameters used'
     if not rig:
         results['rig'] = None
@@ -86,6 +88,7 @@ def rig_section(rig: Mapping[str, Any], rig_path: str | None, results: dict[str,
 
 
 def session_section(bag: Path, scan: BagScan, results: dict[str, Any], out: Path) -> Section:
+    """Render the session overview (bag, duration [s], streams and their gaps)."""
     duration = (scan.t_last_ns - scan.t_first_ns) / NS
     missing = sum(s.missing for s in scan.streams)
     results['session'] = {
@@ -141,8 +144,9 @@ FRICTION_COLUMNS = (
 
 
 def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
-    """Estimates as a block table: ``blocks.csv`` column -> array (None -> NaN), the input
-    of :mod:`tribo_estimation.plots`.
+    """Convert estimates to a block table: ``blocks.csv`` column -> array (None -> NaN).
+
+    The table is the input of :mod:`tribo_estimation.plots`.
     """
     from tribo_estimation.core.blockfit import CSV_COLUMNS
 
@@ -158,10 +162,12 @@ def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
 def detail_trace(
     bag: Path, est: Mapping[str, Any], t_ref: float, rig: RigParams | None, seconds: float
 ) -> DetailTrace | None:
-    """Fig. 6 trace: ``seconds`` [s] of torsion moment from the start of block ``est``
-    with the stick phases of the core detection (:func:`stick_flags`, run over the whole
-    block as the friction fit does; none without rig parameters). Time axis [s] from
-    ``t_ref``, the first block's start. None when the bag has no rig samples there.
+    """Read the Fig. 6 trace: ``seconds`` [s] of torsion moment [N m] from block ``est``.
+
+    The stick phases come from the core detection (:func:`stick_flags`, run over
+    the whole block as the friction fit does; none without rig parameters). Time
+    axis [s] from ``t_ref``, the first block's start. None when the bag has no rig
+    samples there.
     """
     from tribo_estimation.plots import DetailTrace
 
@@ -373,7 +379,7 @@ def wear_section(
 
 
 def monitor_section(scan: BagScan, results: dict[str, Any], out: Path) -> Section | None:
-    """The live model monitor's windows (/model/discrepancy), or None if the bag has none.
+    """Render the live model monitor's windows (/model/discrepancy); None if the bag has none.
 
     One row per window: end time from the first window [s], baseline mu0/mu_inf
     (Equ. 8), torsion residual rms and noise floor [N m] and their ratio, where the
@@ -437,7 +443,7 @@ def monitor_section(scan: BagScan, results: dict[str, Any], out: Path) -> Sectio
 
 
 def analysis_section(res: AnalysisOutcome, title: str) -> Section:
-    """An offline analysis: what it called, its finding, numbers, figures and files."""
+    """Render an offline analysis: what it called, its finding, numbers, figures and files."""
     if not res.ok:
         return unavailable(res.key, title, res.reason or 'not run')
     body = f'<p>Library call: <code>{html.escape(res.what)}</code> '

@@ -11,10 +11,10 @@ Scaling per channel: value = (raw - offset) * gain.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Unpack
 
 from tribo_common import topics
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.daq_protocol import DaqScaling
 from tribo_drivers.core.streams import DaqStream, DeviceStream
@@ -28,10 +28,13 @@ SCALING = DAQ_SCALING
 
 
 class DaqDriver(SampleBlockDriver):
-    def __init__(self, **kwargs: Any) -> None:
+    """Lifecycle driver of the rig's DAQ (binary frames of torque, acceleration, speed)."""
+
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('daq_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
+        """Declare the DAQ parameters (port, baudrate [bit/s], sample rate [Hz], scaling)."""
         v = declare_specs(self, DAQ_PARAMS)
         self.port = v['port']
         self.baudrate = v['baudrate']
@@ -50,6 +53,7 @@ class DaqDriver(SampleBlockDriver):
             )
 
     def build_stream(self) -> DeviceStream[Any]:
+        """Build the DAQ stream over the serial port."""
         return DaqStream(
             SerialTransport(self.port, self.baudrate),
             self.scaling,
@@ -59,13 +63,16 @@ class DaqDriver(SampleBlockDriver):
         )
 
     def channel_topics(self) -> dict[str, str]:
+        """Return the topic of each DAQ channel."""
         return dict(TOPICS)
 
     def expected_rate(self) -> float:
+        """Return the nominal sample rate [Hz]."""
         return float(self.sample_rate)
 
 
 def main(args: Sequence[str] | None = None) -> None:
+    """Run the ``daq_driver`` executable."""
     raise SystemExit(run_node(DaqDriver, args))
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from abc import abstractmethod
-from typing import Any
+from typing import Any, Unpack
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
@@ -21,6 +21,7 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
+from tribo_common.node_main import NodeOptions
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
@@ -33,7 +34,7 @@ from tribo_drivers.nodes.specs import DRIVER_PARAMS
 class DriverNode(LifecycleNode):
     """Base class: subclasses build the stream and publish its items."""
 
-    def __init__(self, name: str, **kwargs: Any) -> None:
+    def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__(name, **kwargs)
         v = declare_specs(self, DRIVER_PARAMS)
         self.autostart = v['autostart']
@@ -62,19 +63,24 @@ class DriverNode(LifecycleNode):
 
     # --- subclass hooks -----------------------------------------------------------------
     @abstractmethod
-    def declare_driver_parameters(self) -> None: ...
+    def declare_driver_parameters(self) -> None:
+        """Declare the driver's own parameters (called by ``__init__``)."""
 
     @abstractmethod
-    def build_stream(self) -> DeviceStream[Any]: ...
+    def build_stream(self) -> DeviceStream[Any]:
+        """Build the core stream from the parameters (raises DriverError if they do not fit)."""
 
     @abstractmethod
-    def create_publishers(self) -> None: ...
+    def create_publishers(self) -> None:
+        """Create the lifecycle publishers of the items."""
 
     @abstractmethod
-    def destroy_publishers(self) -> None: ...
+    def destroy_publishers(self) -> None:
+        """Destroy the item publishers."""
 
     @abstractmethod
-    def publish_items(self, items: list[Any]) -> None: ...
+    def publish_items(self, items: list[Any]) -> None:
+        """Publish a batch of the stream's items."""
 
     @abstractmethod
     def expected_rate(self) -> float:
@@ -87,6 +93,7 @@ class DriverNode(LifecycleNode):
         self.trigger_activate()
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
+        """Build the stream and open the device (a missing device is retried once active)."""
         try:
             self.stream = self.build_stream()
         except DriverError as exc:
@@ -102,6 +109,7 @@ class DriverNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
+        """Activate the publishers and start the reader thread."""
         if self.stream is None:
             return TransitionCallbackReturn.FAILURE
         ret = super().on_activate(state)
@@ -112,6 +120,7 @@ class DriverNode(LifecycleNode):
         return ret
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        """Stop the reader, publish the partial block and release the port."""
         self._stop_reader()
         if self.stream is not None:
             rest = self.stream.close()
@@ -120,6 +129,7 @@ class DriverNode(LifecycleNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        """Stop the reader, close the stream and destroy the publishers."""
         self._stop_reader()
         if self.stream is not None:
             self.stream.close()
@@ -128,6 +138,7 @@ class DriverNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        """Close the driver (reader stopped, port released)."""
         self.close()
         return TransitionCallbackReturn.SUCCESS
 
@@ -146,8 +157,10 @@ class DriverNode(LifecycleNode):
             self._thread = None
 
     def _publish_or_stop(self, items: list[Any]) -> bool:
-        """Publish; False once the context is shut down (Ctrl-C while streaming): the
-        reader then ends quietly instead of failing on an invalid publisher.
+        """Publish ``items``; return False once the context is shut down.
+
+        After a Ctrl-C while streaming the reader then ends quietly instead of
+        failing on an invalid publisher.
         """
         try:
             self.publish_items(items)
@@ -217,7 +230,7 @@ class SampleBlockDriver(DriverNode):
     published) and the stream.
     """
 
-    def __init__(self, name: str, **kwargs: Any) -> None:
+    def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
         self._pubs: dict[str, Any] = {}
         super().__init__(name, **kwargs)
 
@@ -226,6 +239,7 @@ class SampleBlockDriver(DriverNode):
         """Topic of each channel of the stream (empty: the channel is not published)."""
 
     def create_publishers(self) -> None:
+        """Create one SampleBlock lifecycle publisher per published channel."""
         from tribo_msgs.msg import SampleBlock as SampleBlockMsg
 
         self._pubs = {
@@ -235,11 +249,13 @@ class SampleBlockDriver(DriverNode):
         }
 
     def destroy_publishers(self) -> None:
+        """Destroy the SampleBlock publishers."""
         for pub in self._pubs.values():
             self.destroy_lifecycle_publisher(pub)
         self._pubs = {}
 
     def publish_items(self, items: list[Any]) -> None:
+        """Publish each sample block on its channel's topic."""
         for b in items:
             pub = self._pubs.get(b.channel)
             if pub is None:

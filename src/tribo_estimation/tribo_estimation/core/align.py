@@ -70,6 +70,7 @@ class AlignedChunk:
     speed: FloatArray
 
     def __len__(self) -> int:
+        """Return the number of samples in the chunk."""
         return int(self.torsion.shape[0])
 
     @property
