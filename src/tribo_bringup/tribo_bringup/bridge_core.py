@@ -279,7 +279,7 @@ def finite_or_none(x: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, Any]:
+def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, object]:
     """JSON message of one down-sampled point (see :data:`SAMPLES_SCHEMA`)."""
     value = p.first if mode == 'decimate' else p.mean
     return {
@@ -293,7 +293,7 @@ def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, Any]:
     }
 
 
-def stick_message(p: StickPoint) -> dict[str, Any]:
+def stick_message(p: StickPoint) -> dict[str, object]:
     """JSON message of one stick flag (see :data:`STICK_SCHEMA`)."""
     return {
         't': p.stamp_ns / NS_PER_S,
@@ -305,7 +305,7 @@ def stick_message(p: StickPoint) -> dict[str, Any]:
     }
 
 
-def _num(desc: str) -> dict[str, Any]:
+def _num(desc: str) -> dict[str, object]:
     return {'type': ['number', 'null'], 'description': desc}
 
 
@@ -452,7 +452,7 @@ def record_message(
     msg: StampedMessage,
     fields: Mapping[str, tuple[str, str]],
     bands: Mapping[str, tuple[str, str]],
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Convert a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy to a JSON dict.
 
     Works for rclpy and rosbags message objects (attribute access only).
@@ -506,7 +506,7 @@ RECORD_TOPICS: dict[str, RecordTopic] = {
 }
 
 
-def channel_schemas() -> dict[str, Mapping[str, Any]]:
+def channel_schemas() -> dict[str, Mapping[str, object]]:
     """Every channel the bridge serves with its JSON schema."""
     out: dict[str, Mapping[str, Any]] = {t: SAMPLES_SCHEMA for t in SAMPLE_TOPICS}
     out[STICK_TOPIC] = STICK_SCHEMA

@@ -37,7 +37,7 @@ NODES: dict[str, tuple[str, str]] = {
 }
 
 
-def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
+def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, object]]:
     """Parameter values per node from a RIG.yaml.
 
     The file is read and validated by the core loader
@@ -47,7 +47,7 @@ def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
     from tribo_estimation.core.config import load_rig_config
 
     cfg = load_rig_config(rig_yaml)
-    common: dict[str, Any] = {f.name: float(getattr(cfg.rig, f.name)) for f in fields(cfg.rig)}
+    common: dict[str, object] = {f.name: float(getattr(cfg.rig, f.name)) for f in fields(cfg.rig)}
     common.update(
         mu0=cfg.friction.mu0,
         mu_inf=cfg.friction.mu_inf,

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -108,7 +108,7 @@ def read_rig_stretch(
     runs: list[list[AlignedChunk]] = [[]]
     window: list[int] = []  # [first index, end index (or -1: open)] once the rate is known
 
-    def take(events: list[Any]) -> bool:
+    def take(events: list[AlignEvent]) -> bool:
         """Keep the window's part of the events; True once past the window's end."""
         for ev in events:
             if isinstance(ev, AlignedChunk):

@@ -153,7 +153,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
             'state_file': '',
             'rate_window_s': 600.0,
         },
-        'live_bridge': {'C1': float(over['friction_estimator']['C1'])},
+        'live_bridge': dict(over['live_bridge']),
     }
     # the rig last: its stream starts at once, every subscriber should be there first
     wanted = ['sim_detector', 'friction_estimator', 'model_monitor', 'wear_monitor', 'sim_rig']

@@ -19,13 +19,15 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.argtypes import bounded_int
 from tribo_bringup.paths import CONFIG
 
 if TYPE_CHECKING:
     from tribo_bringup.argtypes import Subparsers
+    from tribo_nvct.core.counting import Dwell
+    from tribo_nvct.core.wear import WearPoint
 
 UM3 = 1e-18
 
@@ -112,7 +114,7 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
+def _read_counts(path: Path) -> tuple[list[Dwell], Exception | None]:
     """Read the dwells of a counts CSV or bag, and the truncation error of a bag that ends early.
 
     The dwells before the damage are evaluated and written; the error is raised
@@ -131,7 +133,9 @@ def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
     return list(dwells), truncated
 
 
-def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace) -> dict[str, Any]:
+def _evaluate_run(
+    counts: Path, nvct: Path, out: Path, args: argparse.Namespace
+) -> dict[str, object]:
     from tribo_nvct.core.config import config_from_dict, load_config
     from tribo_nvct.core.streaming import WearEvaluator
 
@@ -214,7 +218,7 @@ def _jsonable(x: object) -> object:
     return x
 
 
-def _write_csv(path: Path, pts: list[Any]) -> None:
+def _write_csv(path: Path, pts: list[WearPoint]) -> None:
     cols = [
         't',
         't_start',

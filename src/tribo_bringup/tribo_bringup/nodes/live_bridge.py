@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any, Unpack
+from typing import TYPE_CHECKING, Unpack
 
 import foxglove
 from foxglove.websocket import WebSocketServer
@@ -54,12 +54,12 @@ PARAMS = LIVE_BRIDGE_PARAMS
 
 
 def _json_channel(
-    topic: str, schema: Mapping[str, Any], ctx: foxglove.Context, meta: dict[str, str]
+    topic: str, schema: Mapping[str, object], ctx: foxglove.Context, meta: dict[str, str]
 ) -> foxglove.Channel:
     return foxglove.Channel(
         topic,
         schema=foxglove.Schema(
-            name=schema['title'], encoding='jsonschema', data=json.dumps(schema).encode()
+            name=str(schema['title']), encoding='jsonschema', data=json.dumps(schema).encode()
         ),
         message_encoding='json',
         context=ctx,

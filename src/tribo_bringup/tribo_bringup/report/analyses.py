@@ -89,7 +89,7 @@ class AnalysisOutcome:
     blocks: list[dict[str, Any]] = field(default_factory=list)
     traceback: str = ''
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> dict[str, object]:
         """Plain mapping for results.json (paths relative to the report, no traceback)."""
         out: dict[str, Any] = {
             'ok': self.ok,
@@ -187,7 +187,7 @@ def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path]
     return work
 
 
-def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
+def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, object]:
     """Convert a block result to a /friction/estimate dict.
 
     ``fields`` maps name -> (JSON type, description); NaN becomes None, the

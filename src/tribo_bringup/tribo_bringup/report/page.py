@@ -14,10 +14,13 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from tribo_bringup.report.provenance import Provenance
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -121,7 +124,7 @@ def json_html(data: object, depth: int = 0) -> str:
     return html.escape(text)
 
 
-def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> None:
+def write_csv(path: Path, rows: Sequence[Mapping[str, object]], columns: Sequence[str]) -> None:
     """Rows as CSV; floats in full precision (repr), None as empty."""
     with path.open('w', newline='', encoding='utf-8') as fh:
         w = csv.writer(fh)
@@ -170,7 +173,7 @@ ul.summary li{margin:.2em 0}
 
 
 def render_html(
-    title: str, summary: Sequence[str], sections: Sequence[Section], prov: Mapping[str, Any]
+    title: str, summary: Sequence[str], sections: Sequence[Section], prov: Provenance
 ) -> str:
     """Render the whole page: summary, navigation, sections, provenance."""
     nav = ''.join(f'<a href="#{s.key}">{html.escape(s.title.split(" (")[0])}</a>' for s in sections)

@@ -29,7 +29,6 @@ import tty
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -569,7 +568,7 @@ class CanEmulator(_EmulatorThread):
     def __init__(
         self,
         codec: CanCodec,
-        send: Callable[[int, bytes], Any],
+        send: Callable[[int, bytes], object],
         rates: dict[int, float] | None = None,
         start_seq: int = 0,
         skip: set[tuple[int, int]] | None = None,

@@ -17,6 +17,7 @@ from typing import Any, Unpack
 from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.can_protocol import CanCodec
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import CanStream, DeviceStream
 from tribo_drivers.core.transports import CanTransport
 from tribo_drivers.errors import DriverError
@@ -57,7 +58,7 @@ class CanDriver(SampleBlockDriver):
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[SampleBlock]:
         """Build the CAN stream over a python-can bus."""
         kwargs: dict[str, Any] = {}
         if self.interface == 'slcan':

@@ -22,7 +22,7 @@ from tribo_drivers.nodes.driver_base import DriverNode
 from tribo_drivers.nodes.specs import COUNTER_PARAMS
 
 
-class CounterDriver(DriverNode):
+class CounterDriver(DriverNode[CountMessage]):
     """Lifecycle driver of the nVCT radiation counter (ASCII lines over serial)."""
 
     def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
@@ -39,7 +39,7 @@ class CounterDriver(DriverNode):
         self.topic = v['topic']
         self._pub: Any = None
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[CountMessage]:
         """Build the counter stream over the serial port."""
         return CounterStream(
             SerialTransport(self.port, self.baudrate),

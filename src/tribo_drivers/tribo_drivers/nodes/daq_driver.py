@@ -11,12 +11,13 @@ Scaling per channel: value = (raw - offset) * gain.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, Unpack
+from typing import Unpack
 
 from tribo_common import topics
 from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.daq_protocol import DaqScaling
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import DaqStream, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.errors import DriverError
@@ -52,7 +53,7 @@ class DaqDriver(SampleBlockDriver):
                 '(20 bytes of 10 bits each per frame)'
             )
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[SampleBlock]:
         """Build the DAQ stream over the serial port."""
         return DaqStream(
             SerialTransport(self.port, self.baudrate),

@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from abc import abstractmethod
-from typing import Any, Unpack
+from typing import Any, Generic, TypeVar, Unpack
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
@@ -25,13 +25,17 @@ from tribo_common.node_main import NodeOptions
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DeviceStream
 from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.specs import DRIVER_PARAMS
 
+#: Item type of a driver's stream (sample blocks, count messages).
+ItemT = TypeVar('ItemT')
 
-class DriverNode(LifecycleNode):
+
+class DriverNode(LifecycleNode, Generic[ItemT]):
     """Base class: subclasses build the stream and publish its items."""
 
     def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
@@ -50,7 +54,7 @@ class DriverNode(LifecycleNode):
             )
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
-        self.stream: DeviceStream[Any] | None = None
+        self.stream: DeviceStream[ItemT] | None = None
         self._thread: threading.Thread | None = None
         self._running = threading.Event()
         self._prev: DriverCounters | None = None
@@ -67,7 +71,7 @@ class DriverNode(LifecycleNode):
         """Declare the driver's own parameters (called by ``__init__``)."""
 
     @abstractmethod
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[ItemT]:
         """Build the core stream from the parameters (raises DriverError if they do not fit)."""
 
     @abstractmethod
@@ -79,7 +83,7 @@ class DriverNode(LifecycleNode):
         """Destroy the item publishers."""
 
     @abstractmethod
-    def publish_items(self, items: list[Any]) -> None:
+    def publish_items(self, items: list[ItemT]) -> None:
         """Publish a batch of the stream's items."""
 
     @abstractmethod
@@ -156,7 +160,7 @@ class DriverNode(LifecycleNode):
             self._thread.join(5.0)
             self._thread = None
 
-    def _publish_or_stop(self, items: list[Any]) -> bool:
+    def _publish_or_stop(self, items: list[ItemT]) -> bool:
         """Publish ``items``; return False once the context is shut down.
 
         After a Ctrl-C while streaming the reader then ends quietly instead of
@@ -223,7 +227,7 @@ class DriverNode(LifecycleNode):
         self._diag_pub.publish(arr)
 
 
-class SampleBlockDriver(DriverNode):
+class SampleBlockDriver(DriverNode[SampleBlock]):
     """A driver whose items are sample blocks, published per channel as SampleBlock.
 
     Subclasses provide :meth:`channel_topics` (channel -> topic; empty topic: not
@@ -254,7 +258,7 @@ class SampleBlockDriver(DriverNode):
             self.destroy_lifecycle_publisher(pub)
         self._pubs = {}
 
-    def publish_items(self, items: list[Any]) -> None:
+    def publish_items(self, items: list[SampleBlock]) -> None:
         """Publish each sample block on its channel's topic."""
         for b in items:
             pub = self._pubs.get(b.channel)

@@ -16,7 +16,6 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from tribo_common.yamlio import check_keys, load_yaml
 from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
@@ -52,7 +51,7 @@ class RigConfig:
     source: str = '<dict>'
 
 
-def _number(data: Mapping[str, Any], key: str, source: str) -> float:
+def _number(data: Mapping[str, object], key: str, source: str) -> float:
     val = data[key]
     if isinstance(val, bool) or not isinstance(val, int | float):
         raise InvalidParameterError(f'{source}: key {key!r} must be a number, got {val!r}')

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -169,7 +168,7 @@ class SimDetectorConfig:
 MAX_DWELLS = 1e6
 
 
-def _pos(d: dict[str, Any], key: str, src: str, default: float | None = None) -> float:
+def _pos(d: dict[str, object], key: str, src: str, default: float | None = None) -> float:
     v = d.get(key, default)
     if v is None:
         raise NvctConfigError(f'{src}: missing key {key!r}')
