@@ -85,12 +85,13 @@ def _effect_names() -> tuple[str, ...]:
     return candidates.names()
 
 
-def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
-    """RIG.yaml contents with the hidden effect, and the file they came from.
+def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]:
+    """Return the RIG.yaml contents with the hidden effect, and the file they came from.
 
     ``effect`` names a registered candidate: its ``config/rig_hidden_<effect>.yaml``
     if present, else ``config/rig.yaml`` with the candidate's ``demo_effects``.
     """
+    from tribo_bringup.report.page import as_mapping
     from tribo_estimation.core.discrepancy import candidates
 
     demo_effects: dict[str, float] | None = None
@@ -110,10 +111,10 @@ def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
             demo_effects = dict(spec)
             path = CONFIG / 'rig.yaml'
     load_rig_config(path)  # validates (names a missing key, a bad value)
-    data = dict(yaml.safe_load(path.read_text(encoding='utf-8')))
+    data: dict[str, object] = dict(yaml.safe_load(path.read_text(encoding='utf-8')))
     if demo_effects is None:
         return data, str(path)
-    data['effects'] = {**(data.get('effects') or {}), **demo_effects}
+    data['effects'] = {**as_mapping(data.get('effects') or {}), **demo_effects}
     return data, f'{path} + {effect} demo values'
 
 
@@ -263,6 +264,7 @@ def _spin_recording(
 def run(args: argparse.Namespace) -> int:
     """Run the demo; prints the report location and the summary."""
     from tribo_bringup.report import build_report
+    from tribo_bringup.report.page import as_mapping
 
     if not 2.0 <= args.duration <= 3600.0:
         raise ConfigError(f'--duration must be between 2 and 3600 s, got {args.duration}')
@@ -277,7 +279,7 @@ def run(args: argparse.Namespace) -> int:
     # the analyses get the nominal rig: the hidden effect is for them to find
     nominal_file = out / 'rig_nominal.yaml'
     nominal_file.write_text(yaml.safe_dump({**rig, 'effects': {}}, sort_keys=False), 'utf-8')
-    effects = rig.get('effects') or {}
+    effects = as_mapping(rig.get('effects') or {})
     _say(
         f'hidden effect: {args.effect} ('
         + (', '.join(f'{k}={v}' for k, v in effects.items()) or 'none')

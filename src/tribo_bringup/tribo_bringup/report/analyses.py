@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from tribo_bringup.errors import BagError
 from tribo_bringup.sessions import bag_dwells, read_rig_stretch, rig_bag_events
 
-from .page import fmt
+from .page import as_list, as_mapping, fmt
 
 if TYPE_CHECKING:
     from tribo_estimation.core.blockfit import BlockResult
@@ -296,25 +296,26 @@ def discrepancy_work(
     return work
 
 
-def discrepancy_finding(data: Mapping[str, Any]) -> str:
+def discrepancy_finding(data: Mapping[str, object]) -> str:
     """Summarise a discrepancy result in one line.
 
     ``data`` is the mapping of :func:`tribo_estimation.core.discrepancy.report.to_dict`;
     the line names the effects found, their values and the torque residual RMS [N m]
     before and after.
     """
-    added = data.get('added') or []
-    base = (data.get('baseline') or {}).get('rms')
-    final = (data.get('final') or {}).get('rms')
+    added = as_list(data.get('added') or [])
+    base = as_mapping(data.get('baseline') or {}).get('rms')
+    final = as_mapping(data.get('final') or {}).get('rms')
     rms = f'torque residual RMS {fmt(base, 3)} -> {fmt(final, 3)} N m'
     if not added:
         return f'no missing effect found ({rms})'
     parts = []
-    for a in added:
-        units = a.get('units') or {}
+    for item in added:
+        a = as_mapping(item)
+        units = as_mapping(a.get('units') or {})
         params = ', '.join(
-            f'{k} = {fmt(v, 3)} {units.get(k, "").strip("-")}'.rstrip()
-            for k, v in (a.get('params') or {}).items()
+            f'{k} = {fmt(v, 3)} {str(units.get(k, "")).strip("-")}'.rstrip()
+            for k, v in as_mapping(a.get('params') or {}).items()
         )
         parts.append(f'{a.get("effect")} ({params})')
     return f'found {"; ".join(parts)}; {rms}'

@@ -36,8 +36,14 @@ if TYPE_CHECKING:
 Progress = an.Progress
 
 
-def load_rig(path: str | Path | None) -> dict[str, Any]:
-    """RIG.yaml as a mapping (empty when ``path`` is None)."""
+def load_rig(path: str | Path | None) -> dict[str, object]:
+    """Read RIG.yaml as a mapping (empty when ``path`` is None).
+
+    Raises
+    ------
+    ConfigError
+        The file is unreadable, not YAML or not a mapping.
+    """
     if path is None:
         return {}
     p = Path(path)

@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, SupportsInt
 
 import numpy as np
 import numpy.typing as npt
@@ -38,6 +38,63 @@ def fmt(x: object, digits: int = 4) -> str:
             return 'n/a'
         return f'{x:.{digits}g}'
     return str(x)
+
+
+def as_float(x: object) -> float:
+    """Return a JSON number as float.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no number (as ``float()`` raises it, e.g. for None).
+    """
+    if isinstance(x, str | SupportsFloat | SupportsIndex):
+        return float(x)
+    raise TypeError(f'expected a number, got {type(x).__name__}')
+
+
+def as_opt_float(x: object) -> float | None:
+    """Return a JSON number as float, None as None (see :func:`as_float`)."""
+    return None if x is None else as_float(x)
+
+
+def as_int(x: object) -> int:
+    """Return a JSON integer as int.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no integer (as ``int()`` raises it, e.g. for None).
+    """
+    if isinstance(x, str | SupportsInt | SupportsIndex):
+        return int(x)
+    raise TypeError(f'expected an integer, got {type(x).__name__}')
+
+
+def as_mapping(x: object) -> Mapping[str, object]:
+    """Return a JSON object (a mapping) as such.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no mapping.
+    """
+    if isinstance(x, Mapping):
+        return x
+    raise TypeError(f'expected a mapping, got {type(x).__name__}')
+
+
+def as_list(x: object) -> list[object]:
+    """Return a JSON array (list or tuple) as a list.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no list or tuple.
+    """
+    if isinstance(x, list | tuple):
+        return list(x)
+    raise TypeError(f'expected a list, got {type(x).__name__}')
 
 
 def finite(values: Iterable[float | None]) -> FloatArray:
