@@ -68,7 +68,7 @@ build:
 	@$(MAKE) -s setup
 
 MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimation \
-	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools
+	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench
 
 test: setup
 	@echo '[test] ruff, mypy, pytest'

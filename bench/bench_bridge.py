@@ -24,7 +24,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 
 def client(port: int, stop: threading.Event, stats: dict[str, float]) -> None:
-    """A Foxglove WebSocket client subscribing to every advertised channel."""
+    """Run a Foxglove WebSocket client that subscribes to every advertised channel."""
     from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
 
@@ -52,6 +52,7 @@ def client(port: int, stop: threading.Event, stats: dict[str, float]) -> None:
 
 
 def main() -> int:
+    """Run the bridge benchmark (clients, message rates, CPU) and print the figures."""
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--seconds', type=float, default=30.0)
     parser.add_argument('--clients', type=int, default=3)

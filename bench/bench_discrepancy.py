@@ -16,13 +16,12 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 for pkg in ('tribo_estimation',):
     sys.path.insert(0, str(ROOT / 'src' / pkg))
 
-from tribo_estimation.core.config import load_rig_config  # noqa: E402
+from tribo_estimation.core.config import RigConfig, load_rig_config  # noqa: E402
 from tribo_estimation.core.discrepancy import candidates as cand_lib  # noqa: E402
 from tribo_estimation.core.discrepancy import run_discrepancy  # noqa: E402
 from tribo_estimation.core.discrepancy.fitting import Record  # noqa: E402
@@ -33,9 +32,12 @@ from tribo_estimation.core.simulate import simulate  # noqa: E402
 NOT_IDENTIFIABLE = {'torque_offset'}
 
 
-def _baseline_timing(rec: Record, base: Any) -> None:
-    """Wall time of the baseline alone (segments, drive profile, speed sensor,
-    mu0/mu_inf fit) on the no-effect record (target: <= 3 s for 6 s)."""
+def _baseline_timing(rec: Record, base: RigConfig) -> None:
+    """Print the wall time [s] of the baseline alone on the no-effect record.
+
+    The baseline is the segments, drive profile, speed sensor and mu0/mu_inf fit
+    (target: <= 3 s for a 6 s record).
+    """
     from tribo_estimation.core.discrepancy.fitting import (
         MU0,
         MU_INF,
@@ -46,7 +48,12 @@ def _baseline_timing(rec: Record, base: Any) -> None:
     t0 = time.perf_counter()
     pb = Problem(rec, base.rig, base.drive, k=base.friction.k)
     seg = pb.segments
-    sensor = identify_speed_sensor(rec, base.rig, (seg.run_start, seg.run_stop))
+    runs = (
+        (seg.run_start, seg.run_stop)
+        if seg.run_start is not None and seg.run_stop is not None
+        else None
+    )
+    sensor = identify_speed_sensor(rec, base.rig, runs)
     fit = pb.fit([MU0, MU_INF], {**sensor.values(), 'mu0': 0.12, 'mu_inf': 0.09})
     rms = pb.torque_rms(pb.simulate(fit.values))
     dt = time.perf_counter() - t0
@@ -58,6 +65,7 @@ def _baseline_timing(rec: Record, base: Any) -> None:
 
 
 def main() -> int:
+    """Run the discrepancy workflow on each hidden-effect record and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--duration', type=float, default=6.0, help='record length [s] (6)')
     ap.add_argument('--effects', default='', help='comma-separated subset (default: all)')

@@ -36,6 +36,7 @@ def main() -> int:
     os.environ['ROS_DOMAIN_ID'] = str(10 + os.getpid() % 90)
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     import rclpy
+    from rclpy.utilities import try_shutdown
 
     from tribo_common.msgconv import make_sample_block
     from tribo_common.qos import data_qos
@@ -65,16 +66,23 @@ def main() -> int:
     }
     arrivals: dict[int, float] = {}
     moment_samples = [0]
+
+    def on_estimate(msg: FrictionEstimate) -> None:
+        arrivals.setdefault(int(msg.first_index), time.monotonic())
+
+    def on_moment(msg: SampleBlock) -> None:
+        moment_samples[0] += len(msg.data)
+
     node.create_subscription(
         FrictionEstimate,
         '/friction/estimate',
-        lambda m: arrivals.setdefault(int(m.first_index), time.monotonic()),
+        on_estimate,
         data_qos(),
     )
     node.create_subscription(
         SampleBlock,
         '/friction/moment',
-        lambda m: moment_samples.__setitem__(0, moment_samples[0] + len(m.data)),
+        on_moment,
         data_qos(),
     )
     deadline = time.monotonic() + 120.0
@@ -117,7 +125,7 @@ def main() -> int:
     os.killpg(node_proc.pid, signal.SIGINT)
     node_proc.wait(timeout=20)
     node.destroy_node()
-    rclpy.try_shutdown()
+    try_shutdown()
     block_n = round(FS)  # 1 s blocks
     lat = []
     for first, arrived in sorted(arrivals.items()):

@@ -30,6 +30,7 @@ UM3 = 1e-18
 
 
 def main() -> None:
+    """Run the nVCT accuracy benchmark over seeds and print the figures."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument('--seeds', type=int, default=200)
     ap.add_argument('--sim', default=str(ROOT / 'config' / 'sim_detector.yaml'))

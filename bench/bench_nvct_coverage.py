@@ -112,6 +112,7 @@ def report(rows: list[dict[str, float | str]], title: str) -> None:
 
 
 def main() -> None:
+    """Run the coverage benchmark of the nVCT uncertainties and print the rates."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument('--tests', type=int, default=150)
     ap.add_argument('--replicas', type=int, default=200)

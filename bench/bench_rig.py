@@ -40,6 +40,7 @@ def _rel_rms(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def bench_simulator(repeats: int) -> None:
+    """Print the kernel's accuracy against the scipy reference and its speed (``repeats`` runs)."""
     cfg = load_rig_config(ROOT / 'config' / 'rig.yaml')
     fs = 10_000.0
     print('Simulator: 1 s of stick-slip at 10 kHz, Tab. 1 rig (config/rig.yaml), from rest')
@@ -80,6 +81,7 @@ def bench_simulator(repeats: int) -> None:
 
 
 def bench_decay(seeds: int) -> None:
+    """Print the free-decay identification errors over ``seeds`` noisy records."""
     cfg = load_rig_config(ROOT / 'config' / 'rig_decay_example.yaml')
     rig = RigParams(**{**cfg.rig.__dict__, 'F_N': 0.0})
     noise = NoiseSpec(torque=0.05, accel=2.0)
@@ -110,6 +112,7 @@ def bench_decay(seeds: int) -> None:
 
 
 def main() -> int:
+    """Run the rig benchmarks and print the figures."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--repeats', type=int, default=21)
     ap.add_argument('--seeds', type=int, default=10)

@@ -101,7 +101,11 @@ def test_sim_launch_defaults_start_a_fresh_test_in_the_root_namespace(
     acts = _actions('sim.launch.py', monkeypatch)
     nodes = {a.kwargs['name']: a for a in acts if type(a).__name__ == 'Node'}
     assert set(nodes) == {
-        'sim_rig', 'sim_detector', 'friction_estimator', 'model_monitor', 'wear_monitor'
+        'sim_rig',
+        'sim_detector',
+        'friction_estimator',
+        'model_monitor',
+        'wear_monitor',
     }
     assert all(a.kwargs['namespace'] == '' for a in nodes.values())
     wear = _params(nodes['wear_monitor'])

@@ -1,5 +1,7 @@
-"""Compile (and cache) the numba kernels once, so the first node, test or demo does
-not wait for the compiler (or starve the live graph while it compiles).
+"""Compile (and cache) the numba kernels once.
+
+The first node, test or demo then does not wait for the compiler (or starve the
+live graph while it compiles).
 
 Run by `make setup` after the build; safe to run any time. Exercises, on a short
 simulated record: the rig kernel (simulate), stick detection and the block fit

@@ -75,7 +75,7 @@ def _graph(context: LaunchContext) -> list:
 
 
 def generate_launch_description() -> LaunchDescription:
-    """Simulated rig + detector, friction estimator, model and wear monitors (+ rosbag2 record)."""
+    """Launch the simulated rig + detector, estimator, model and wear monitors (+ recording)."""
     return LaunchDescription(
         [
             DeclareLaunchArgument(

@@ -10,13 +10,20 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from typing import TypeAlias
+
+#: The ``add_subparsers`` action each command module's ``register`` adds its parser to.
+Subparsers: TypeAlias = 'argparse._SubParsersAction[argparse.ArgumentParser]'
 
 
 def bounded_float(
     lo: float, hi: float, *, lo_open: bool = False, zero_ok: bool = False, unit: str = ''
 ) -> Callable[[str], float]:
-    """Type accepting a finite float in ``[lo, hi]`` (``(lo, hi]`` when ``lo_open``);
-    ``zero_ok`` additionally admits exactly 0 (e.g. "0: as fast as possible")."""
+    """Make an argparse type accepting a finite float in ``[lo, hi]`` (``(lo, hi]`` if ``lo_open``).
+
+    ``zero_ok`` additionally admits exactly 0 (e.g. "0: as fast as possible");
+    ``unit`` names the unit in the error message.
+    """
     u = f' {unit}' if unit else ''
 
     def parse(text: str) -> float:

@@ -22,13 +22,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from tribo_bringup.errors import ConfigError
 from tribo_common import topics
+
+if TYPE_CHECKING:
+    from tribo_common.msgconv import StampedMessage
 
 NS_PER_S = 1_000_000_000
 
@@ -41,12 +44,18 @@ MODES = ('minmax', 'decimate')
 class BinPoint:
     """One down-sampled point of a SampleBlock stream.
 
-    Attributes:
-        index: index of the first sample of the bin [samples since stream start].
-        stamp_ns: time of the first sample of the bin [ns].
-        n: samples in the bin (less than the factor only next to a gap or a restart).
-        mean, minimum, maximum, first: bin statistics in the stream's unit.
-        slope: least-squares slope over the bin [unit/s] (NaN for a 1-sample bin).
+    Attributes
+    ----------
+    index
+        index of the first sample of the bin [samples since stream start].
+    stamp_ns
+        time of the first sample of the bin [ns].
+    n
+        samples in the bin (less than the factor only next to a gap or a restart).
+    mean, minimum, maximum, first
+        bin statistics in the stream's unit.
+    slope
+        least-squares slope over the bin [unit/s] (NaN for a 1-sample bin).
     """
 
     index: int
@@ -71,9 +80,11 @@ def _slope(values: npt.NDArray[np.float64], fs: float) -> float:
 class Downsampler:
     """Bins of ``factor`` samples aligned on ``index % factor == 0``.
 
-    Args:
-        rate: target output rate [Hz]; the factor is ``max(1, round(fs/rate))``
-            with ``fs`` the stream's sample rate (known from the first block).
+    Parameters
+    ----------
+    rate
+        target output rate [Hz]; the factor is ``max(1, round(fs/rate))``
+        with ``fs`` the stream's sample rate (known from the first block).
     """
 
     rate: float
@@ -85,6 +96,7 @@ class Downsampler:
     _next_index: int | None = None
 
     def __post_init__(self) -> None:
+        """Refuse a down-sampling rate [Hz] that is not > 0 and finite."""
         if not (math.isfinite(self.rate) and self.rate > 0):
             raise ConfigError(f'down-sampling rate must be > 0 Hz, got {self.rate}')
 
@@ -98,11 +110,16 @@ class Downsampler:
     ) -> list[BinPoint]:
         """Add one block; returns the bins it completes (in index order).
 
-        Args:
-            first_index: index of the block's first sample [samples].
-            stamp_ns: time of the block's first sample [ns].
-            sample_rate: sample rate [Hz] (> 0).
-            data: the samples.
+        Parameters
+        ----------
+        first_index
+            index of the block's first sample [samples].
+        stamp_ns
+            time of the block's first sample [ns].
+        sample_rate
+            sample rate [Hz] (> 0).
+        data
+            the samples.
         """
         if not (math.isfinite(sample_rate) and sample_rate > 0):
             raise ConfigError(f'sample_rate must be > 0 Hz, got {sample_rate}')
@@ -169,12 +186,18 @@ class Downsampler:
 class StickPoint:
     """Stick/slip state of one bin.
 
-    Attributes:
-        index: first sample index of the bin [samples].
-        stamp_ns: time of the bin's first sample [ns].
-        w1: chamber speed from the torsion slope, slope/C1 [rad/s].
-        w2: mean shaft speed in the bin [rad/s].
-        stick: True when ``|w1 - w2| <= tolerance``.
+    Attributes
+    ----------
+    index
+        first sample index of the bin [samples].
+    stamp_ns
+        time of the bin's first sample [ns].
+    w1
+        chamber speed from the torsion slope, slope/C1 [rad/s].
+    w2
+        mean shaft speed in the bin [rad/s].
+    stick
+        True when ``|w1 - w2| <= tolerance``.
     """
 
     index: int
@@ -188,10 +211,14 @@ class StickPoint:
 class StickDetector:
     """Join torsion-moment bins and shaft-speed bins by index and flag sticking.
 
-    Args:
-        C1: torsion element stiffness [N m/rad] (> 0).
-        tolerance: largest |w1 - w2| counted as sticking [rad/s] (>= 0).
-        keep: bins kept waiting for their partner stream before being dropped.
+    Parameters
+    ----------
+    C1
+        torsion element stiffness [N m/rad] (> 0).
+    tolerance
+        largest |w1 - w2| counted as sticking [rad/s] (>= 0).
+    keep
+        bins kept waiting for their partner stream before being dropped.
     """
 
     C1: float
@@ -201,6 +228,7 @@ class StickDetector:
     _speed: dict[int, BinPoint] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Refuse C1 [N m/rad] <= 0 or a negative stick tolerance [rad/s]."""
         if not (math.isfinite(self.C1) and self.C1 > 0):
             raise ConfigError(f'C1 must be > 0 N m/rad, got {self.C1}')
         if not (math.isfinite(self.tolerance) and self.tolerance >= 0):
@@ -251,7 +279,7 @@ def finite_or_none(x: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, Any]:
+def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, object]:
     """JSON message of one down-sampled point (see :data:`SAMPLES_SCHEMA`)."""
     value = p.first if mode == 'decimate' else p.mean
     return {
@@ -265,7 +293,7 @@ def bin_message(p: BinPoint, unit: str, mode: str) -> dict[str, Any]:
     }
 
 
-def stick_message(p: StickPoint) -> dict[str, Any]:
+def stick_message(p: StickPoint) -> dict[str, object]:
     """JSON message of one stick flag (see :data:`STICK_SCHEMA`)."""
     return {
         't': p.stamp_ns / NS_PER_S,
@@ -277,7 +305,7 @@ def stick_message(p: StickPoint) -> dict[str, Any]:
     }
 
 
-def _num(desc: str) -> dict[str, Any]:
+def _num(desc: str) -> dict[str, object]:
     return {'type': ['number', 'null'], 'description': desc}
 
 
@@ -394,7 +422,9 @@ WEAR_BANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _schema(title: str, fields: Mapping[str, tuple[str, str]], bands: Iterable[str]) -> dict:
+def _schema(
+    title: str, fields: Mapping[str, tuple[str, str]], bands: Iterable[str]
+) -> dict[str, object]:
     props: dict[str, Any] = {
         'stamp': {'type': 'number', 'description': 'header stamp [s]'},
     }
@@ -412,16 +442,18 @@ COUNTS_SCHEMA = _schema('tribo_msgs/DetectorCounts', COUNTS_FIELDS, ())
 DISCREPANCY_SCHEMA = _schema('tribo_msgs/ModelDiscrepancy', DISCREPANCY_FIELDS, ())
 
 
-def stamp_ns_of(msg: Any) -> int:
-    """Header stamp of a message (rclpy or rosbags) [ns]."""
+def stamp_ns_of(msg: StampedMessage) -> int:
+    """Return the header stamp [ns] of a message (rclpy or rosbags)."""
     stamp = msg.header.stamp
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def record_message(
-    msg: Any, fields: Mapping[str, tuple[str, str]], bands: Mapping[str, tuple[str, str]]
-) -> dict[str, Any]:
-    """JSON dict of a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy message.
+    msg: StampedMessage,
+    fields: Mapping[str, tuple[str, str]],
+    bands: Mapping[str, tuple[str, str]],
+) -> dict[str, object]:
+    """Convert a FrictionEstimate / WearState / DetectorCounts / ModelDiscrepancy to a JSON dict.
 
     Works for rclpy and rosbags message objects (attribute access only).
     Adds ``<name>_lo``/``<name>_hi`` = value -/+ BAND_K * se for the bands.
@@ -474,7 +506,7 @@ RECORD_TOPICS: dict[str, RecordTopic] = {
 }
 
 
-def channel_schemas() -> dict[str, Mapping[str, Any]]:
+def channel_schemas() -> dict[str, Mapping[str, object]]:
     """Every channel the bridge serves with its JSON schema."""
     out: dict[str, Mapping[str, Any]] = {t: SAMPLES_SCHEMA for t in SAMPLE_TOPICS}
     out[STICK_TOPIC] = STICK_SCHEMA

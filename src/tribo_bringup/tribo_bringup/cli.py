@@ -65,6 +65,7 @@ class OneLineParser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line (no usage block), exit code 2."""
 
     def error(self, message: str) -> NoReturn:
+        """Exit with code 2 and the first line of ``message``, pointing to ``--help``."""
         first = message.strip().splitlines()[0] if message.strip() else 'bad arguments'
         self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {first} (see {self.prog} --help)\n')
 
@@ -126,7 +127,7 @@ def _report_bug(command: str) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    """The first non-empty line of an error message (the class name if empty)."""
+    """Return the first non-empty line of an error message (the class name if empty)."""
     for line in str(exc).splitlines():
         if line.strip():
             return line.strip()

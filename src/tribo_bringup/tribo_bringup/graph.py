@@ -11,14 +11,17 @@ from __future__ import annotations
 import importlib
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tribo_bringup.errors import BringupError, ConfigError
 from tribo_common.node_main import spin_background
 from tribo_common.topics import normalize_namespace
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
 
 #: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
 NODES: dict[str, tuple[str, str]] = {
@@ -34,7 +37,7 @@ NODES: dict[str, tuple[str, str]] = {
 }
 
 
-def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
+def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, object]]:
     """Parameter values per node from a RIG.yaml.
 
     The file is read and validated by the core loader
@@ -44,7 +47,7 @@ def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, Any]]:
     from tribo_estimation.core.config import load_rig_config
 
     cfg = load_rig_config(rig_yaml)
-    common: dict[str, Any] = {f.name: float(getattr(cfg.rig, f.name)) for f in fields(cfg.rig)}
+    common: dict[str, object] = {f.name: float(getattr(cfg.rig, f.name)) for f in fields(cfg.rig)}
     common.update(
         mu0=cfg.friction.mu0,
         mu_inf=cfg.friction.mu_inf,
@@ -99,7 +102,7 @@ class Graph:
         args += list(ros_args)
         rclpy.init(args=args)
 
-    def add(self, name: str, overrides: dict[str, Any] | None = None) -> Any:
+    def add(self, name: str, overrides: Mapping[str, object] | None = None) -> Node:
         """Create node ``name`` (a key of :data:`NODES`) with its parameter overrides."""
         from rclpy.parameter import Parameter
 
@@ -108,7 +111,7 @@ class Graph:
         module, cls_name = NODES[name]
         cls = getattr(importlib.import_module(module), cls_name)
         values = {**self.overrides.get(name, {}), **(overrides or {})}
-        node = cls(
+        node: Node = cls(
             parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
             namespace=normalize_namespace(self.namespace) or '/',
         )
@@ -164,7 +167,7 @@ class Graph:
         """
         import signal
 
-        import rclpy
+        from rclpy.utilities import try_shutdown
 
         previous = None
         if threading.current_thread() is threading.main_thread():
@@ -176,7 +179,7 @@ class Graph:
                     close()
                 node.destroy_node()
             self._instances.clear()
-            rclpy.try_shutdown()
+            try_shutdown()
         finally:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)

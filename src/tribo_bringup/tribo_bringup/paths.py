@@ -12,7 +12,7 @@ from pathlib import Path
 
 
 def config_dir() -> Path:
-    """The configuration directory."""
+    """Return the configuration directory (``TRIBO_CONFIG_DIR``, ``TRIBO_ROOT``/config, ...)."""
     if os.environ.get('TRIBO_CONFIG_DIR'):
         return Path(os.environ['TRIBO_CONFIG_DIR'])
     if os.environ.get('TRIBO_ROOT'):

@@ -22,6 +22,8 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.qos import QoSProfile
 
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError, ConfigError
@@ -29,16 +31,23 @@ from tribo_common import topics as topic_table
 from tribo_common.qos import data_qos, qos_for_topic, status_qos
 
 
-def msg_class(msgtype: str) -> Any:
-    """The rclpy message class of a type name like ``tribo_msgs/msg/SampleBlock``."""
+def msg_class(msgtype: str) -> type:
+    """Import the rclpy message class of a type name like ``tribo_msgs/msg/SampleBlock``.
+
+    Raises
+    ------
+    BagError
+        The message package or type is not available in this environment.
+    """
     pkg, kind, name = msgtype.split('/')
     try:
-        return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+        cls: type = getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+        return cls
     except (ImportError, AttributeError) as exc:
         raise BagError(f'message type {msgtype} is not available in this environment') from exc
 
 
-def _record_qos(topic: str) -> Any:
+def _record_qos(topic: str) -> QoSProfile:
     # Volatile for every data and result topic: compatible with any reliable
     # publisher (a TRANSIENT_LOCAL subscription would not match a volatile one).
     entry = topic_table.by_full_name(topic)
@@ -58,8 +67,10 @@ SUBSCRIBER_SETTLE_S = 0.3
 
 
 def _in_namespace(topic: str, namespace: str) -> str:
-    """A root-namespace name (``/rig/speed``) moved into ``namespace``; absolute table
-    names (``/diagnostics``) stay."""
+    """Move a root-namespace name (``/rig/speed``) into ``namespace``.
+
+    Absolute table names (``/diagnostics``) stay.
+    """
     entry = topic_table.by_full_name(topic)
     if entry is not None and entry.name.startswith('/'):
         return topic
@@ -217,10 +228,10 @@ class Replayer(Node):
         self.bag = Path(bag)
         self.rate = rate
         self.topics = set(topics) if topics is not None else None
-        self._pubs: dict[str, Any] = {}
+        self._pubs: dict[str, Publisher] = {}
         self.published = 0
 
-    def publisher_for(self, topic: str, msgtype: str) -> Any:
+    def publisher_for(self, topic: str, msgtype: str) -> Publisher:
         """Create (once) the publisher of a topic."""
         pub = self._pubs.get(topic)
         if pub is None:
@@ -231,10 +242,13 @@ class Replayer(Node):
     def wait_for_subscribers(
         self, topics: Iterable[str], timeout: float, min_count: int = 1
     ) -> bool:
-        """Wait until every listed topic's publisher has ``min_count`` subscribers (or
-        timeout [s]), then a settle time: the publisher sees a subscription before the
-        subscriber has matched the publisher, and a volatile subscriber drops the
-        messages of that interval (the first block of a replay into the estimator)."""
+        """Wait until every listed topic's publisher has ``min_count`` subscribers.
+
+        At most ``timeout`` [s], then a settle time: the publisher sees a
+        subscription before the subscriber has matched the publisher, and a
+        volatile subscriber drops the messages of that interval (the first block of
+        a replay into the estimator). Returns whether all were matched.
+        """
         wanted = set(topics)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:

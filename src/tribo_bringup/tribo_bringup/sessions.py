@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +27,7 @@ from tribo_bringup.errors import BagError, BagTruncatedError
 from tribo_common import topics as topic_table
 
 if TYPE_CHECKING:
+    from tribo_common.msgconv import StampedMessage
     from tribo_estimation.core.align import AlignEvent
     from tribo_nvct.core.counting import Dwell
 
@@ -41,8 +42,8 @@ RIG_CHANNELS: dict[str, str] = {t.resolve(): t.channel for t in topic_table.RIG_
 COUNTS_TOPIC = topic_table.NVCT_COUNTS.resolve()
 
 
-def _stamp_s(msg: Any) -> float:
-    """Header stamp of a message [s]."""
+def _stamp_s(msg: StampedMessage) -> float:
+    """Return the header stamp [s] of a message."""
     return float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
 
 
@@ -57,9 +58,11 @@ def rig_bag_events(path: Path, namespace: str | None = None) -> Iterator[AlignEv
     namespace if it holds the streams, else the only rig of the bag
     (:func:`tribo_bringup.bagio.find_namespace`).
 
-    Raises:
-        BagError: the bag holds none of the three rig streams (raised once the
-            bag has been read).
+    Raises
+    ------
+    BagError
+        the bag holds none of the three rig streams (raised once the
+        bag has been read).
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_estimation.core.align import ChannelAligner
@@ -92,9 +95,11 @@ def read_rig_stretch(
     (the simulated rig's drive time base), and the truncation error of a bag
     that ends early (the good part before it is returned).
 
-    Raises:
-        BagError: no aligned rig samples in the window (or the truncation error
-            when the bag breaks before any).
+    Raises
+    ------
+    BagError
+        no aligned rig samples in the window (or the truncation error
+        when the bag breaks before any).
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_estimation.core.align import AlignedChunk, ChannelAligner, GapEvent, RestartEvent
@@ -103,7 +108,7 @@ def read_rig_stretch(
     runs: list[list[AlignedChunk]] = [[]]
     window: list[int] = []  # [first index, end index (or -1: open)] once the rate is known
 
-    def take(events: list[Any]) -> bool:
+    def take(events: list[AlignEvent]) -> bool:
         """Keep the window's part of the events; True once past the window's end."""
         for ev in events:
             if isinstance(ev, AlignedChunk):
@@ -168,12 +173,16 @@ def read_rig_stretch(
 def bag_dwells(
     path: Path, progress: Progress = _quiet
 ) -> tuple[list[Dwell], BagTruncatedError | None]:
-    """The nVCT dwells of ``/nvct/counts`` in a bag, and the truncation error of a
-    bag that ends early (the dwells before it are returned).
+    """Read the nVCT dwells of ``/nvct/counts`` in a bag, and the truncation error.
 
-    Raises:
-        CountsError: a message holds an invalid dwell (names the message).
-        NvctConfigError: no ``/nvct/counts`` message in the bag.
+    A bag that ends early gives the error; the dwells before it are returned.
+
+    Raises
+    ------
+    CountsError
+        a message holds an invalid dwell (names the message).
+    NvctConfigError
+        no ``/nvct/counts`` message in the bag.
     """
     from tribo_bringup.bagio import iter_messages
     from tribo_nvct.core.counting import Dwell

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import array
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -19,7 +20,35 @@ from tribo_msgs.msg import SampleBlock
 NS_PER_S = 1_000_000_000
 
 
-def float64_array(values: npt.ArrayLike) -> array.array:
+class StampLike(Protocol):
+    """A builtin_interfaces/Time as rclpy and rosbags both give it."""
+
+    @property
+    def sec(self) -> int:
+        """Return the whole seconds [s]."""
+
+    @property
+    def nanosec(self) -> int:
+        """Return the nanoseconds [ns] within the second."""
+
+
+class HeaderLike(Protocol):
+    """A std_msgs/Header as far as the stamp goes."""
+
+    @property
+    def stamp(self) -> StampLike:
+        """Return the stamp of the message."""
+
+
+class StampedMessage(Protocol):
+    """Any message with a header (rclpy or rosbags message object)."""
+
+    @property
+    def header(self) -> HeaderLike:
+        """Return the message's header."""
+
+
+def float64_array(values: npt.ArrayLike) -> array.array[float]:
     """Return ``values`` as ``array.array('d')`` (fast path of float64[] fields)."""
     out = array.array('d')
     out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())

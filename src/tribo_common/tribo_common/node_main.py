@@ -11,17 +11,46 @@ import sys
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Protocol, TypedDict
 
 import rclpy
+from rclpy.context import Context
 from rclpy.executors import (
     ExternalShutdownException,
     MultiThreadedExecutor,
     SingleThreadedExecutor,
 )
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.utilities import ok as rclpy_ok
+from rclpy.utilities import try_shutdown
 
 from tribo_common.params import ParameterError
+
+
+class NodeOptions(TypedDict, total=False):
+    """Keyword arguments of ``rclpy.node.Node`` a tribo node passes on unchanged.
+
+    A node class takes them as ``**kwargs: Unpack[NodeOptions]`` (the graph and
+    the tests give parameter overrides and the namespace this way).
+    """
+
+    context: Context
+    cli_args: list[str]
+    namespace: str
+    use_global_arguments: bool
+    enable_rosout: bool
+    start_parameter_services: bool
+    parameter_overrides: list[Parameter]
+    allow_undeclared_parameters: bool
+    automatically_declare_parameters_from_overrides: bool
+
+
+class SpinsOnce(Protocol):
+    """An rclpy executor as :func:`spin_background` uses it."""
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        """Run one callback or wait up to ``timeout_sec`` [s] for one."""
 
 
 class _SigintLatch:
@@ -77,7 +106,7 @@ def run_node(
         # SIGINT shuts the context down from rclpy's handler; a spin that was just
         # building its wait set then fails with RCLError ("context is not valid")
         # instead of ExternalShutdownException: that is the same clean stop.
-        if latch.count == 0 and rclpy.ok():
+        if latch.count == 0 and rclpy_ok():
             raise
     finally:
         if node is not None:
@@ -85,7 +114,7 @@ def run_node(
             if callable(close):
                 close()
             node.destroy_node()
-        rclpy.try_shutdown()
+        try_shutdown()
         if previous is not None:
             # after a Ctrl-C the process is ending: a further SIGINT, even during the
             # interpreter's exit (which resets Python-level handlers to the default,
@@ -95,7 +124,7 @@ def run_node(
 
 
 def _node_name(args: Sequence[str] | None) -> str:
-    """The executable's name for an error raised before the node exists."""
+    """Return the executable's name, for an error raised before the node exists."""
     argv0 = (list(args) if args is not None else sys.argv)[:1]
     return Path(argv0[0]).stem if argv0 and argv0[0] else 'node'
 
@@ -107,7 +136,7 @@ class SpinThread(threading.Thread):
 
 
 def spin_background(
-    executor: Any, stop: threading.Event | None = None
+    executor: SpinsOnce, stop: threading.Event | None = None
 ) -> tuple[SpinThread, threading.Event]:
     """Spin ``executor`` in a daemon thread until the returned event is set.
 
@@ -124,7 +153,7 @@ def spin_background(
         except (ExternalShutdownException, KeyboardInterrupt):
             pass
         except Exception as exc:  # a callback failed, or the context went away
-            if rclpy.ok():
+            if rclpy_ok():
                 thread.error = exc
         finally:
             event.set()

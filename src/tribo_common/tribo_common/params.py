@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, TypeVar, cast
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -28,26 +28,50 @@ class ParameterError(ValueError):
     """A node parameter is out of range or of the wrong type."""
 
 
+#: Value types of a declared ROS parameter (the default's type fixes the parameter's).
+DeclaredValue = bool | int | float | str | list[str]
+_V = TypeVar('_V', bound=DeclaredValue)
+
+
 def declare(
     node: Node,
     name: str,
-    default: Any,
+    default: _V,
     description: str,
     *,
     low: float | None = None,
     high: float | None = None,
     low_exclusive: bool = False,
     read_only: bool = False,
-) -> Any:
+) -> _V:
     """Declare one parameter and return its (checked) value.
 
-    Args:
-        node: the node.
-        name: parameter name.
-        default: default value (its type fixes the parameter type).
-        description: meaning with the SI unit, e.g. ``'chamber inertia I1 [kg m^2]'``.
-        low, high: inclusive range (``low`` exclusive when ``low_exclusive``).
-        read_only: whether the parameter can change after start.
+    Parameters
+    ----------
+    node
+        The node that owns the parameter.
+    name
+        Parameter name.
+    default
+        Default value (its type fixes the parameter type), in the unit of ``description``.
+    description
+        Meaning with the SI unit, e.g. ``'chamber inertia I1 [kg m^2]'``.
+    low, high
+        Inclusive range, in the parameter's unit (``low`` exclusive when ``low_exclusive``).
+    low_exclusive
+        Whether ``low`` itself is refused (e.g. an inertia must be > 0).
+    read_only
+        Whether the parameter cannot change after start.
+
+    Returns
+    -------
+    _V
+        The value the node starts with (default or override), of the default's type.
+
+    Raises
+    ------
+    ParameterError
+        The override has the wrong type, is not finite or is out of range.
     """
     desc = ParameterDescriptor(description=description, read_only=read_only)
     if isinstance(default, bool):
@@ -69,7 +93,7 @@ def declare(
             )
         ]
     try:
-        value = node.declare_parameter(name, default, desc).value
+        value = cast(_V, node.declare_parameter(name, default, desc).value)
     except InvalidParameterValueException as exc:
         raise ParameterError(
             f'parameter {name!r} ({description}): value out of range [{low}, {high}]: {exc}'
@@ -96,19 +120,25 @@ def declare(
     return value
 
 
-def declare_spec(node: Node, spec: ParamSpec) -> Any:
+def declare_spec(node: Node, spec: ParamSpec) -> DeclaredValue:
     """Declare the parameter ``spec`` describes and return its checked value.
 
     The descriptor carries ``spec.label`` (description with the unit), the
     inclusive range (``FloatingPointRange``/``IntegerRange``) and ``read_only``;
     a string list is returned as a list.
+
+    Raises
+    ------
+    ParameterError
+        The value given for the parameter violates the spec.
     """
+    default: DeclaredValue
     if spec.type == 'float':
-        default: Any = float(spec.default)  # type: ignore[arg-type]
+        default = float(spec.default)  # type: ignore[arg-type]
     elif spec.type == 'str_list':
         default = list(spec.default)  # type: ignore[arg-type]
     else:
-        default = spec.default
+        default = spec.default  # type: ignore[assignment]
     value = declare(
         node,
         spec.name,

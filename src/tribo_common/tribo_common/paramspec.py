@@ -58,14 +58,22 @@ def _type_ok(kind: ParamType, value: object) -> bool:
 class ParamSpec:
     """One parameter.
 
-    Attributes:
-        name: the key (ROS parameter name, YAML key).
-        unit: SI unit (``'-'`` dimensionless; ``''`` for text and flags).
-        default: value when none is given (the paper's Tab. 1 for the rig).
-        lower, upper: inclusive bounds of a number (``None``: unbounded).
-        description: meaning, without the unit (:attr:`label` adds it).
-        read_only: the node reads it once at start.
-        type: ``'float'``, ``'int'``, ``'bool'``, ``'str'`` or ``'str_list'``.
+    Attributes
+    ----------
+    name
+        the key (ROS parameter name, YAML key).
+    unit
+        SI unit (``'-'`` dimensionless; ``''`` for text and flags).
+    default
+        value when none is given (the paper's Tab. 1 for the rig).
+    lower, upper
+        inclusive bounds of a number (``None``: unbounded).
+    description
+        meaning, without the unit (:attr:`label` adds it).
+    read_only
+        the node reads it once at start.
+    type
+        ``'float'``, ``'int'``, ``'bool'``, ``'str'`` or ``'str_list'``.
     """
 
     name: str
@@ -78,6 +86,7 @@ class ParamSpec:
     type: ParamType = 'float'
 
     def __post_init__(self) -> None:
+        """Refuse an empty name, an unknown type, bounds on a non-number or a bad default."""
         if not self.name:
             raise SpecError('ParamSpec: empty name')
         if self.type not in ('float', 'int', 'bool', 'str', 'str_list'):
@@ -99,7 +108,7 @@ class ParamSpec:
         return f'{self.description} [{self.unit}]' if self.unit else self.description
 
     def range_text(self) -> str:
-        """The bounds as text, e.g. ``'[0, 1e+06] N'`` (``''`` if unbounded)."""
+        """Return the bounds as text, e.g. ``'[0, 1e+06] N'`` (``''`` if unbounded)."""
         if self.lower is None and self.upper is None:
             return ''
         lo = '-inf' if self.lower is None else f'{self.lower:g}'
@@ -121,7 +130,7 @@ class ParamSpec:
         return None
 
     def with_default(self, default: ParamValue) -> ParamSpec:
-        """The same parameter with another default (checked against the bounds)."""
+        """Return the same parameter with another default (checked against the bounds)."""
         return dataclasses.replace(self, default=default)
 
 
@@ -136,7 +145,7 @@ def spec_table(specs: Iterable[ParamSpec]) -> dict[str, ParamSpec]:
 
 
 def markdown_table(specs: Mapping[str, ParamSpec] | Iterable[ParamSpec]) -> str:
-    """A Markdown table (name, unit, default, range, description) of ``specs``."""
+    """Render ``specs`` as a Markdown table (name, unit, default, range, description)."""
     items = list(specs.values()) if isinstance(specs, Mapping) else list(specs)
     rows = ['| name | unit | default | range | description |', '|---|---|---|---|---|']
     for s in items:

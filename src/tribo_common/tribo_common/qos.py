@@ -67,7 +67,7 @@ def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:
 
 
 def profile(kind: topics.QosKind) -> QoSProfile:
-    """The QoS profile of a :class:`tribo_common.topics.QosKind`."""
+    """Return the QoS profile of a :class:`tribo_common.topics.QosKind`."""
     if kind is topics.QosKind.STATUS:
         return status_qos()
     if kind is topics.QosKind.HISTORY:
@@ -76,7 +76,7 @@ def profile(kind: topics.QosKind) -> QoSProfile:
 
 
 def qos_for_topic(topic: str) -> QoSProfile:
-    """The QoS a publisher of ``topic`` (fully qualified, any namespace) offers in the graph.
+    """Return the QoS a publisher of ``topic`` (fully qualified, any namespace) offers.
 
     Topics not in :data:`tribo_common.topics.TOPICS` get the lossless data QoS.
     """

@@ -13,5 +13,5 @@ def ros_home() -> Path:
 
 
 def default_state_file(package: str, name: str) -> Path:
-    """The default state file ``$ROS_HOME/<package>/<name>`` of a node."""
+    """Return the default state file ``$ROS_HOME/<package>/<name>`` of a node."""
     return ros_home() / package / name

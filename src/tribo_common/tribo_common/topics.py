@@ -34,13 +34,20 @@ class QosKind(enum.Enum):
 class Topic:
     """One topic of the graph.
 
-    Attributes:
-        name: name relative to the node namespace (absolute when it starts with ``/``).
-        msgtype: message type, ``package/msg/Name``.
-        qos: QoS profile offered by its publishers.
-        rate: nominal message rate [1/s] (0: irregular or event-driven).
-        unit: SI unit of the samples ('' for structured messages).
-        description: what the topic carries.
+    Attributes
+    ----------
+    name
+        name relative to the node namespace (absolute when it starts with ``/``).
+    msgtype
+        message type, ``package/msg/Name``.
+    qos
+        QoS profile offered by its publishers.
+    rate
+        nominal message rate [1/s] (0: irregular or event-driven).
+    unit
+        SI unit of the samples ('' for structured messages).
+    description
+        what the topic carries.
     """
 
     name: str
@@ -163,6 +170,6 @@ def split(full_name: str) -> tuple[str, Topic] | None:
 
 
 def by_full_name(full_name: str) -> Topic | None:
-    """The table entry of a fully qualified name in any namespace (None if unknown)."""
+    """Look up the table entry of a fully qualified name in any namespace (None if unknown)."""
     hit = split(full_name)
     return hit[1] if hit is not None else None

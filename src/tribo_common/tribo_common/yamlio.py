@@ -16,9 +16,8 @@ from __future__ import annotations
 
 import difflib
 import re
-from collections.abc import Iterable
+from collections.abc import Hashable, Iterable
 from pathlib import Path
-from typing import Any
 
 import yaml
 
@@ -31,18 +30,29 @@ _FLOAT_12 = re.compile(
 )
 
 
-class DuplicateKeyError(yaml.constructor.ConstructorError):
-    """A mapping names one key twice (raised inside the loader, re-raised as the
-    caller's error)."""
+class DuplicateKeyError(yaml.constructor.ConstructorError):  # type: ignore[misc]
+    """A mapping names one key twice.
+
+    Raised inside the loader and re-raised as the caller's error.
+    """
 
 
-class StrictLoader(yaml.SafeLoader):
+class StrictLoader(yaml.SafeLoader):  # type: ignore[misc]
     """SafeLoader with YAML 1.2 floats and duplicate keys refused."""
 
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen: dict[Any, int] = {}
+    def construct_mapping(
+        self, node: yaml.MappingNode, deep: bool = False
+    ) -> dict[Hashable, object]:
+        """Build a mapping, refusing a key given twice (naming it and both lines).
+
+        Raises
+        ------
+        DuplicateKeyError
+            A key occurs twice in the mapping ``node``.
+        """
+        seen: dict[Hashable, int] = {}
         for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=True)  # type: ignore[no-untyped-call]
+            key = self.construct_object(key_node, deep=True)
             line = key_node.start_mark.line + 1
             try:
                 first = seen.get(key)
@@ -53,7 +63,8 @@ class StrictLoader(yaml.SafeLoader):
                     None, None, f'duplicate key {key!r} on line {line} (first on line {first})'
                 )
             seen[key] = line
-        return super().construct_mapping(node, deep=deep)
+        mapping: dict[Hashable, object] = super().construct_mapping(node, deep=deep)
+        return mapping
 
 
 def _float_resolver_first() -> None:
@@ -69,9 +80,19 @@ def _float_resolver_first() -> None:
 _float_resolver_first()
 
 
-def parse_yaml(text: str, source: str, error: type[Exception]) -> Any:
-    """Parse ``text`` (from ``source``, for messages) with :class:`StrictLoader`;
-    any problem raises ``error`` with one line naming the source."""
+def parse_yaml(text: str, source: str, error: type[Exception]) -> object:
+    """Parse ``text`` (from ``source``, for messages) with :class:`StrictLoader`.
+
+    Returns
+    -------
+    object
+        The document: mappings, lists, str, int, float, bool or None.
+
+    Raises
+    ------
+    Exception
+        ``error``, with one line naming ``source``, for any syntax problem.
+    """
     try:
         return yaml.load(text, Loader=StrictLoader)
     except DuplicateKeyError as exc:
@@ -85,8 +106,14 @@ def parse_yaml(text: str, source: str, error: type[Exception]) -> Any:
         raise error(f'{source}: YAML nested too deeply') from None
 
 
-def load_yaml(path: str | Path, error: type[Exception], what: str = 'config') -> Any:
-    """Read and parse the YAML file ``path`` (``what`` names it in messages)."""
+def load_yaml(path: str | Path, error: type[Exception], what: str = 'config') -> object:
+    """Read and parse the YAML file ``path`` (``what`` names it in messages).
+
+    Raises
+    ------
+    Exception
+        ``error``, naming the file, when it is missing, unreadable or not YAML.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding='utf-8')
@@ -98,7 +125,7 @@ def load_yaml(path: str | Path, error: type[Exception], what: str = 'config') ->
 
 
 def check_keys(
-    data: Iterable[Any],
+    data: Iterable[object],
     known: Iterable[str],
     source: str,
     error: type[Exception],

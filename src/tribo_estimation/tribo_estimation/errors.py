@@ -72,4 +72,5 @@ class UnknownCandidateError(EstimationError, KeyError):
     """A candidate effect name that is not registered (names the known ones)."""
 
     def __str__(self) -> str:  # KeyError would quote the message
+        """Return the message unquoted (KeyError would quote it)."""
         return str(self.args[0]) if self.args else ''

@@ -43,14 +43,19 @@ def _good_mask(table: BlockTable) -> npt.NDArray[np.bool_]:
 
 
 def time_origin(t_first: float) -> float:
-    """Origin of a figure's time axis [s]: 0 for record time, the first block's start
-    for wall-clock stamps (bags; anything after 1 Jan 1971)."""
+    """Return the origin [s] of a figure's time axis.
+
+    0 for record time, the first block's start ``t_first`` [s] for wall-clock
+    stamps (bags; anything after 1 Jan 1971).
+    """
     return float(t_first) if float(t_first) > 3.2e7 else 0.0
 
 
 def _time_axis(table: BlockTable) -> tuple[FloatArray, str]:
-    """Block mid times in s, or min for runs longer than 10 min (from the first block
-    when the times are wall-clock stamps)."""
+    """Return the block mid times [s], or [min] for runs longer than 10 min, and the label.
+
+    Times count from the first block when they are wall-clock stamps.
+    """
     t = 0.5 * (np.asarray(table['t_start'], float) + np.asarray(table['t_end'], float))
     origin = time_origin(float(np.nanmin(t))) if t.size else 0.0
     since = ' since first block' if origin else ''
@@ -106,10 +111,16 @@ def _save(fig: Figure, path: str | os.PathLike[str]) -> None:
 def plot_blocks(
     table: BlockTable, path: str | os.PathLike[str], title: str = ''
 ) -> tuple[int, int]:
-    """Paper Fig. 4/5 layout: upper torsion moment max/min/mean per block [N m],
-    lower mu0 and mu_inf per block (Equ. 8) with standard errors.
+    """Plot the blocks in the layout of the paper's Fig. 4/5.
 
-    Returns (good blocks, flagged blocks) drawn."""
+    Upper panel: torsion moment max/min/mean per block [N m]; lower panel: mu0
+    and mu_inf per block (Equ. 8) with standard errors.
+
+    Returns
+    -------
+    tuple[int, int]
+        The numbers of good and of flagged blocks drawn.
+    """
     x, xlabel = _time_axis(table)
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     _draw_moment(ax1, table, x)
@@ -139,9 +150,11 @@ def plot_mu_slip(
     n_curves: int = 6,
     title: str = '',
 ) -> None:
-    """mu versus slip speed: fitted Stribeck curves (Equ. 8) of up to ``n_curves``
-    good blocks spread over the run, and the observer's samples
-    mu = |M| / (F_N R) against |v| [rad/s] as points."""
+    """Plot the friction coefficient against slip speed [rad/s].
+
+    Fitted Stribeck curves (Equ. 8) of up to ``n_curves`` good blocks spread over
+    the run, and the observer's samples mu = |M| / (F_N R) against |v| as points.
+    """
     fig, ax = plt.subplots(figsize=(7, 5))
     if slip_speed is not None and mu_samples is not None and len(slip_speed):
         ax.plot(np.abs(slip_speed), mu_samples, '.', ms=1.5, color='0.45', alpha=0.4)
@@ -181,13 +194,20 @@ def plot_mu_slip(
 class DetailTrace:
     """Signals of one stretch of a run for a Fig. 6 style detail plot.
 
-    Attributes:
-        title: panel title (e.g. "stick-slip, block at 12 s").
-        time: time [s].
-        torsion: measured torsion moment C1*phi1 [N m].
-        moment: observer friction moment M [N m] (NaN where unknown).
-        simulated: torsion moment simulated by the fit [N m] (NaN where not simulated).
-        stick: True where the discs stick.
+    Attributes
+    ----------
+    title
+        panel title (e.g. "stick-slip, block at 12 s").
+    time
+        time [s].
+    torsion
+        measured torsion moment C1*phi1 [N m].
+    moment
+        observer friction moment M [N m] (NaN where unknown).
+    simulated
+        torsion moment simulated by the fit [N m] (NaN where not simulated).
+    stick
+        True where the discs stick.
     """
 
     title: str
@@ -206,8 +226,11 @@ def _stick_spans(time: FloatArray, stick: npt.NDArray[np.bool_]) -> list[tuple[f
 
 
 def plot_detail(traces: Sequence[DetailTrace], path: str | os.PathLike[str]) -> None:
-    """Paper Fig. 6 style: torsion moment over a short window with the stick
-    phases shaded, one panel per trace (e.g. stick-slip above, slip-slip below)."""
+    """Plot the torsion moment [N m] over a short window, as the paper's Fig. 6.
+
+    The stick phases are shaded; one panel per trace (e.g. stick-slip above,
+    slip-slip below).
+    """
     n = max(1, len(traces))
     fig, axes = plt.subplots(n, 1, figsize=(8, 3.0 * n), squeeze=False)
     for ax, tr in zip(axes[:, 0], traces, strict=False):
@@ -246,11 +269,16 @@ class CampaignRun:
 def plot_campaign(
     runs: Sequence[CampaignRun], path: str | os.PathLike[str], title: str = ''
 ) -> tuple[int, int]:
-    """Several runs side by side, as the paper's Fig. 4 (oil "A") vs Fig. 5 (oil "B"):
-    one column per run of a group, two rows per group (torsion moment envelope
-    above, mu0/mu_inf below), shared axes so runs compare at a glance.
+    """Plot several runs side by side, as the paper's Fig. 4 (oil "A") vs Fig. 5 (oil "B").
 
-    Returns the grid (rows, columns)."""
+    One column per run of a group, two rows per group (torsion moment envelope
+    [N m] above, mu0/mu_inf below), shared axes so runs compare at a glance.
+
+    Returns
+    -------
+    tuple[int, int]
+        The grid drawn (rows, columns).
+    """
     if not runs:
         raise InvalidDataError('campaign: no runs to plot')
     groups: list[str] = []

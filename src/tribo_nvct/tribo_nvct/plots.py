@@ -161,12 +161,14 @@ def plot_wear_states(
 
 
 def plot_campaign_kw(path: str | Path, rows: Sequence[Mapping[str, object]]) -> Path:
-    """Fig. 12: progressive and running-in wear coefficients k_w [um^3/(N m)] of
-    several runs against load [N], oil temperature [K], stroke [mm] and frequency
-    [Hz]. ``rows``: one run summary each (keys of ``tribo wear``'s summary.json:
+    """Plot Fig. 12: wear coefficients k_w [um^3/(N m)] of several runs against conditions.
+
+    Progressive and running-in k_w against load [N], oil temperature [K], stroke
+    [mm] and frequency [Hz]. ``rows``: one run summary each (keys of ``tribo wear``'s summary.json:
     ``load_N``, ``temperature_K``, ``stroke_m``, ``frequency_hz``, ``k_w_progressive``,
     ``k_w_running_in`` and their ``*_se``, ``sliding_distance_convention``).
-    Returns ``path``."""
+    Returns ``path``.
+    """
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     panels = (
         ('load_N', 'load [N]', 1.0),
@@ -197,5 +199,5 @@ def plot_campaign_kw(path: str | Path, rows: Sequence[Mapping[str, object]]) -> 
 
 
 def _num(x: object) -> float:
-    """A summary value as float (summary.json numbers)."""
+    """Convert a summary.json number to float."""
     return float(x)  # type: ignore[arg-type]

@@ -18,12 +18,15 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.errors import ConfigError
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``campaign`` subcommand."""
     p = sub.add_parser(
         'campaign',

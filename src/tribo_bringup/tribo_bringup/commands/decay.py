@@ -14,12 +14,15 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.argtypes import bounded_float
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``decay`` subcommand."""
     p = sub.add_parser(
         'decay',

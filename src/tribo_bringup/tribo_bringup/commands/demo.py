@@ -20,7 +20,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -28,10 +28,15 @@ from tribo_bringup.errors import BringupError, ConfigError
 from tribo_bringup.paths import CONFIG
 from tribo_estimation.core.config import load_rig_config
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
+    from tribo_bringup.bagio import BagWriter
+    from tribo_bringup.graph import Graph
+
 MARKER = '.tribo-demo'
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the ``demo`` subcommand."""
     p = sub.add_parser(
         'demo',
@@ -74,18 +79,19 @@ def register(sub: Any) -> None:
 
 
 def _effect_names() -> tuple[str, ...]:
-    """The candidate effects of the discrepancy library (the registry)."""
+    """Return the names of the candidate effects of the discrepancy library (the registry)."""
     from tribo_estimation.core.discrepancy import candidates
 
     return candidates.names()
 
 
-def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
-    """RIG.yaml contents with the hidden effect, and the file they came from.
+def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]:
+    """Return the RIG.yaml contents with the hidden effect, and the file they came from.
 
     ``effect`` names a registered candidate: its ``config/rig_hidden_<effect>.yaml``
     if present, else ``config/rig.yaml`` with the candidate's ``demo_effects``.
     """
+    from tribo_bringup.report.page import as_mapping
     from tribo_estimation.core.discrepancy import candidates
 
     demo_effects: dict[str, float] | None = None
@@ -105,10 +111,10 @@ def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, Any], str]:
             demo_effects = dict(spec)
             path = CONFIG / 'rig.yaml'
     load_rig_config(path)  # validates (names a missing key, a bad value)
-    data = dict(yaml.safe_load(path.read_text(encoding='utf-8')))
+    data: dict[str, object] = dict(yaml.safe_load(path.read_text(encoding='utf-8')))
     if demo_effects is None:
         return data, str(path)
-    data['effects'] = {**(data.get('effects') or {}), **demo_effects}
+    data['effects'] = {**as_mapping(data.get('effects') or {}), **demo_effects}
     return data, f'{path} + {effect} demo values'
 
 
@@ -148,7 +154,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
             'state_file': '',
             'rate_window_s': 600.0,
         },
-        'live_bridge': {'C1': float(over['friction_estimator']['C1'])},
+        'live_bridge': dict(over['live_bridge']),
     }
     # the rig last: its stream starts at once, every subscriber should be there first
     wanted = ['sim_detector', 'friction_estimator', 'model_monitor', 'wear_monitor', 'sim_rig']
@@ -167,6 +173,9 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
             node = graph.add(name)
             ran.append(name)
             if name == 'live_bridge':
+                from tribo_bringup.nodes.live_bridge import LiveBridgeNode
+
+                assert isinstance(node, LiveBridgeNode)
                 _say(
                     f'watch live in Foxglove: open ws://127.0.0.1:{node.port} with the layout '
                     f'{CONFIG / "foxglove_layout.json"}'
@@ -190,9 +199,13 @@ def warm_up(rig_file: Path) -> None:
     _say(f'rig model ready ({time.monotonic() - t0:.1f} s)')
 
 
-def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 600.0) -> None:
-    """Spin the graph until the recorder holds the rig's whole ``duration`` [s] of stream
-    (the simulated rig stops after it), with progress.
+def _spin_recording(
+    graph: Graph, writer: BagWriter, duration: float, wait_max: float = 600.0
+) -> None:
+    """Spin the graph until the recorder holds the rig's whole ``duration`` [s] of stream.
+
+    The simulated rig stops after it; progress lines go to stderr, and the rig
+    must start streaming within ``wait_max`` [s].
 
     Completion is counted in recorded rig blocks, not wall-clock time: if the machine
     is slow the run takes longer, but the session is always complete.
@@ -251,6 +264,7 @@ def _spin_recording(graph: Any, writer: Any, duration: float, wait_max: float = 
 def run(args: argparse.Namespace) -> int:
     """Run the demo; prints the report location and the summary."""
     from tribo_bringup.report import build_report
+    from tribo_bringup.report.page import as_mapping
 
     if not 2.0 <= args.duration <= 3600.0:
         raise ConfigError(f'--duration must be between 2 and 3600 s, got {args.duration}')
@@ -265,7 +279,7 @@ def run(args: argparse.Namespace) -> int:
     # the analyses get the nominal rig: the hidden effect is for them to find
     nominal_file = out / 'rig_nominal.yaml'
     nominal_file.write_text(yaml.safe_dump({**rig, 'effects': {}}, sort_keys=False), 'utf-8')
-    effects = rig.get('effects') or {}
+    effects = as_mapping(rig.get('effects') or {})
     _say(
         f'hidden effect: {args.effect} ('
         + (', '.join(f'{k}={v}' for k, v in effects.items()) or 'none')

@@ -5,12 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.errors import ConfigError
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``record`` subcommand."""
     p = sub.add_parser(
         'record',
@@ -52,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f'--idle-stop must be >= 0, got {args.idle_stop}')
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.utilities import try_shutdown
 
     from tribo_bringup import bagio
     from tribo_bringup.recorder import Recorder, RecordingError
@@ -107,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
             node.close()  # writes what is queued and finishes the bag
             failure = node.error or failure
             node.destroy_node()
-        rclpy.try_shutdown()
+        try_shutdown()
     for topic, n in sorted(writer.counts.items()):
         print(f'  {topic}: {n} messages', file=sys.stderr)
     if failure is not None:

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the ``replay`` subcommand."""
     from tribo_bringup.argtypes import bounded_float
 
@@ -47,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
     """Replay the bag once."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.utilities import try_shutdown
 
     from tribo_bringup.recorder import Replayer
     from tribo_common.node_main import spin_background
@@ -69,6 +73,6 @@ def run(args: argparse.Namespace) -> int:
         spin.join(timeout=2.0)
         node.destroy_node()
     finally:
-        rclpy.try_shutdown()
+        try_shutdown()
     print(f'replay: published {n} messages from {args.bag}', file=sys.stderr)
     return 0

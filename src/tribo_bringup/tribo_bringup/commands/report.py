@@ -5,12 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.paths import CONFIG
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``report`` subcommand."""
     p = sub.add_parser(
         'report',

@@ -5,13 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.errors import ConfigError
 from tribo_bringup.paths import CONFIG
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``run`` subcommand."""
     p = sub.add_parser(
         'run',
@@ -89,7 +92,7 @@ def register(sub: Any) -> None:
 
 
 def default_params(nodes: list[str] | None = None) -> list[str]:
-    """The parameter files in config/ used by default (those of the drivers run too)."""
+    """Return the parameter files in config/ used by default (those of the drivers run too)."""
     names = ['friction_estimator.yaml', 'wear_monitor.yaml', 'model_monitor.yaml']
     names += [f'{n}.yaml' for n in DRIVERS if nodes is not None and n in nodes]
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
@@ -100,8 +103,11 @@ DRIVERS = {'daq_driver': 'daq', 'can_driver': 'can', 'counter_driver': 'counter'
 
 
 def select_nodes(args: argparse.Namespace) -> list[str]:
-    """The nodes of a ``tribo run``: explicit ``--nodes``, else the simulators (unless
-    ``--no-sim``), the drivers asked for, the estimator, the wear monitor, the bridge."""
+    """Return the nodes of a ``tribo run``.
+
+    Explicit ``--nodes``, else the simulators (unless ``--no-sim``), the drivers
+    asked for, the estimator, the wear monitor and the bridge.
+    """
     if args.nodes:
         nodes = list(args.nodes)
     else:

@@ -15,9 +15,12 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.argtypes import bounded_float, bounded_int
+
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
 
 CHUNK_S = 1.0
 #: Longest simulated time [s] (one day) and rate range [Hz]: a record beyond
@@ -26,7 +29,7 @@ MAX_DURATION_S = 86_400.0
 FS_RANGE = (100.0, 100_000.0)
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the ``simulate`` subcommand."""
     p = sub.add_parser(
         'simulate',

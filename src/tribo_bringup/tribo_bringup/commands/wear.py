@@ -19,15 +19,20 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.argtypes import bounded_int
 from tribo_bringup.paths import CONFIG
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
+    from tribo_nvct.core.counting import Dwell
+    from tribo_nvct.core.wear import WearPoint
+
 UM3 = 1e-18
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the ``wear`` subcommand."""
     p = sub.add_parser(
         'wear',
@@ -109,9 +114,12 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
-    """Dwells of a counts CSV or bag, and the truncation error of a bag that ends early
-    (the dwells before it are evaluated and written; the error is raised afterwards)."""
+def _read_counts(path: Path) -> tuple[list[Dwell], Exception | None]:
+    """Read the dwells of a counts CSV or bag, and the truncation error of a bag that ends early.
+
+    The dwells before the damage are evaluated and written; the error is raised
+    afterwards.
+    """
     from tribo_nvct.core.countsio import read_counts_csv
 
     if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):
@@ -125,7 +133,9 @@ def _read_counts(path: Path) -> tuple[list[Any], Exception | None]:
     return list(dwells), truncated
 
 
-def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace) -> dict[str, Any]:
+def _evaluate_run(
+    counts: Path, nvct: Path, out: Path, args: argparse.Namespace
+) -> dict[str, object]:
     from tribo_nvct.core.config import config_from_dict, load_config
     from tribo_nvct.core.streaming import WearEvaluator
 
@@ -197,7 +207,7 @@ def _evaluate_run(counts: Path, nvct: Path, out: Path, args: argparse.Namespace)
     return summary
 
 
-def _jsonable(x: Any) -> Any:
+def _jsonable(x: object) -> object:
     """NaN/inf -> None so the JSON is strict."""
     if isinstance(x, float):
         return x if math.isfinite(x) else None
@@ -208,7 +218,7 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
-def _write_csv(path: Path, pts: list[Any]) -> None:
+def _write_csv(path: Path, pts: list[WearPoint]) -> None:
     cols = [
         't',
         't_start',
@@ -303,7 +313,7 @@ def _run_all(inputs: list[Path], nvcts: list[Path], out: Path, args: argparse.Na
             file=sys.stderr,
         )
         return 0
-    rows = []
+    rows: list[dict[str, object]] = []
     used: set[str] = set()
     for c, n in zip(inputs, nvcts, strict=True):
         name = c.stem
@@ -311,7 +321,7 @@ def _run_all(inputs: list[Path], nvcts: list[Path], out: Path, args: argparse.Na
             name += '_'
         used.add(name)
         s = _evaluate_run(c, n, out / name, args)
-        rows.append(_jsonable(s))
+        rows.append({k: _jsonable(v) for k, v in s.items()})
     keys = [
         'input',
         'label',
@@ -349,5 +359,5 @@ def _run_all(inputs: list[Path], nvcts: list[Path], out: Path, args: argparse.Na
     return 0
 
 
-def _fmt(x: Any) -> str:
+def _fmt(x: object) -> str:
     return 'n/a' if x is None or (isinstance(x, float) and not math.isfinite(x)) else f'{x:.5g}'

@@ -32,30 +32,34 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Unpack
 
 import foxglove
+from foxglove.websocket import WebSocketServer
 from rclpy.node import Node
 
 from tribo_bringup import bridge_core as bc
 from tribo_bringup.nodes.specs import LIVE_BRIDGE_PARAMS
 from tribo_common import topics
-from tribo_common.msgconv import block_from_msg
-from tribo_common.node_main import run_node
+from tribo_common.msgconv import StampedMessage, block_from_msg
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos
+
+if TYPE_CHECKING:
+    from tribo_msgs.msg import SampleBlock as SampleBlockMsg
 
 #: Declared parameters (``C1`` from the one rig table): :mod:`tribo_bringup.nodes.specs`.
 PARAMS = LIVE_BRIDGE_PARAMS
 
 
 def _json_channel(
-    topic: str, schema: Mapping[str, Any], ctx: foxglove.Context, meta: dict[str, str]
+    topic: str, schema: Mapping[str, object], ctx: foxglove.Context, meta: dict[str, str]
 ) -> foxglove.Channel:
     return foxglove.Channel(
         topic,
         schema=foxglove.Schema(
-            name=schema['title'], encoding='jsonschema', data=json.dumps(schema).encode()
+            name=str(schema['title']), encoding='jsonschema', data=json.dumps(schema).encode()
         ),
         message_encoding='json',
         context=ctx,
@@ -66,7 +70,7 @@ def _json_channel(
 class LiveBridgeNode(Node):
     """Foxglove WebSocket server fed by the graph's topics."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('live_bridge', **kwargs)
         v = declare_specs(self, PARAMS)
         host = str(v['host'])
@@ -92,7 +96,7 @@ class LiveBridgeNode(Node):
             )
         except Exception as exc:  # the SDK raises its own types (e.g. address in use)
             raise ParameterError(f'cannot serve on {host}:{port}: {exc}') from exc
-        self.server: foxglove.WebSocketServer | None = server
+        self.server: WebSocketServer | None = server
         self.port = int(server.port)
         self.rate = rate
         meta = {'downsampled': f'{rate:g} Hz {self.mode}'}
@@ -129,12 +133,12 @@ class LiveBridgeNode(Node):
 
     # -- callbacks (light: bin with numpy, hand small JSON to the server) -----
 
-    def _on_block(self, topic: str) -> Callable[[Any], None]:
+    def _on_block(self, topic: str) -> Callable[[SampleBlockMsg], None]:
         channel, down = self._samples[topic]
         is_torsion = topic == topics.TORSION_MOMENT.resolve()
         is_speed = topic == topics.SPEED.resolve()
 
-        def on_block(msg: Any) -> None:
+        def on_block(msg: SampleBlockMsg) -> None:
             wanted_stick = (is_torsion or is_speed) and self._stick_ch.has_sinks()
             if not channel.has_sinks() and not wanted_stick:
                 down.reset()
@@ -158,10 +162,10 @@ class LiveBridgeNode(Node):
         topic: str,
         fields: Mapping[str, tuple[str, str]],
         bands: Mapping[str, tuple[str, str]],
-    ) -> Callable[[Any], None]:
+    ) -> Callable[[StampedMessage], None]:
         channel = self._records[topic]
 
-        def on_record(msg: Any) -> None:
+        def on_record(msg: StampedMessage) -> None:
             if not channel.has_sinks():
                 return
             channel.log(bc.record_message(msg, fields, bands), log_time=bc.stamp_ns_of(msg))

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from tribo_bringup.errors import BagError
 from tribo_bringup.sessions import bag_dwells, read_rig_stretch, rig_bag_events
 
-from .page import fmt
+from .page import as_list, as_mapping, fmt
 
 if TYPE_CHECKING:
     from tribo_estimation.core.blockfit import BlockResult
@@ -45,20 +45,34 @@ MIN_DISCREPANCY_SAMPLES = 100
 class AnalysisOutcome:
     """What one offline analysis produced.
 
-    Attributes:
-        key: analysis name (``friction``, ``wear``, ``discrepancy``).
-        ok: it ran to the end.
-        directory: its output directory relative to the report directory.
-        what: the library call it made (one line).
-        seconds: wall time [s].
-        note: a note shown with the section (e.g. the analysed window).
-        reason: why it failed ('' when ok).
-        summary: its numbers (SI; keys name the unit where not SI).
-        figures: PNG files it wrote (absolute paths).
-        files: other result files it wrote (absolute paths).
-        finding: one-line finding (discrepancy workflow).
-        blocks: per-block estimates as /friction/estimate dicts (friction fit).
-        traceback: the failure's traceback (not in results.json).
+    Attributes
+    ----------
+    key
+        analysis name (``friction``, ``wear``, ``discrepancy``).
+    ok
+        it ran to the end.
+    directory
+        its output directory relative to the report directory.
+    what
+        the library call it made (one line).
+    seconds
+        wall time [s].
+    note
+        a note shown with the section (e.g. the analysed window).
+    reason
+        why it failed ('' when ok).
+    summary
+        its numbers (SI; keys name the unit where not SI).
+    figures
+        PNG files it wrote (absolute paths).
+    files
+        other result files it wrote (absolute paths).
+    finding
+        one-line finding (discrepancy workflow).
+    blocks
+        per-block estimates as /friction/estimate dicts (friction fit).
+    traceback
+        the failure's traceback (not in results.json).
     """
 
     key: str
@@ -75,7 +89,7 @@ class AnalysisOutcome:
     blocks: list[dict[str, Any]] = field(default_factory=list)
     traceback: str = ''
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> dict[str, object]:
         """Plain mapping for results.json (paths relative to the report, no traceback)."""
         out: dict[str, Any] = {
             'ok': self.ok,
@@ -98,8 +112,10 @@ def run_analysis(
     progress: Progress,
     note: str = '',
 ) -> AnalysisOutcome:
-    """Run ``work(outcome, directory)`` for analysis ``key`` writing into
-    ``out/analyses/<key>``; never raises (a failure is recorded in the outcome)."""
+    """Run ``work(outcome, directory)`` for analysis ``key``, writing into ``out/analyses/<key>``.
+
+    Never raises: a failure is recorded in the outcome.
+    """
     rel = Path('analyses') / key
     res = AnalysisOutcome(key, directory=str(rel), note=note)
     t0 = time.monotonic()
@@ -120,7 +136,7 @@ def run_analysis(
 
 
 def failed(key: str, reason: str) -> AnalysisOutcome:
-    """An analysis that could not start (input missing)."""
+    """Record an analysis that could not start (input missing)."""
     return AnalysisOutcome(key, reason=reason)
 
 
@@ -128,8 +144,10 @@ def failed(key: str, reason: str) -> AnalysisOutcome:
 
 
 def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
-    """Block-wise mu0/mu_inf fit of the bag's rig streams (paper 2.5, Equ. 8): writes
-    ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout)."""
+    """Make the block-wise mu0/mu_inf fit of the bag's rig streams (paper 2.5, Equ. 8).
+
+    The work writes ``blocks.csv`` and ``blocks.png`` (Fig. 4/5 layout).
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         from tribo_bringup import bridge_core as bc
@@ -169,9 +187,12 @@ def friction_work(bag: Path, rig_file: Path) -> Callable[[AnalysisOutcome, Path]
     return work
 
 
-def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
-    """A block result as a /friction/estimate dict (``fields``: name -> (JSON type,
-    description)); NaN becomes None, the quality ``ok`` or its ``;``-joined flags."""
+def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dict[str, object]:
+    """Convert a block result to a /friction/estimate dict.
+
+    ``fields`` maps name -> (JSON type, description); NaN becomes None, the
+    quality ``ok`` or its ``;``-joined flags.
+    """
     out: dict[str, Any] = {}
     for name, (kind, _desc) in fields.items():
         if name == 'quality':
@@ -190,8 +211,10 @@ def block_estimate(r: BlockResult, fields: Mapping[str, tuple[str, str]]) -> dic
 
 
 def wear_work(bag: Path, nvct_file: Path) -> Callable[[AnalysisOutcome, Path], None]:
-    """nVCT evaluation of the bag's /nvct/counts (paper 3, Equ. 8-10): writes
-    ``summary.json`` and ``wear.png`` (Fig. 10/11)."""
+    """Make the nVCT evaluation of the bag's /nvct/counts (paper 3, Equ. 8-10).
+
+    The work writes ``summary.json`` and ``wear.png`` (Fig. 10/11).
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         import json
@@ -230,8 +253,11 @@ def wear_work(bag: Path, nvct_file: Path) -> Callable[[AnalysisOutcome, Path], N
 def discrepancy_work(
     bag: Path, rig_file: Path, window: tuple[float, float], progress: Progress
 ) -> Callable[[AnalysisOutcome, Path], None]:
-    """Missing-physics workflow on ``window`` = (start, duration) [s] of the bag's rig
-    streams (duration 0: to the end): writes ``discrepancy.json`` and its plots."""
+    """Make the missing-physics workflow on a window of the bag's rig streams.
+
+    ``window`` = (start, duration) [s] (duration 0: to the end); the work writes
+    ``discrepancy.json`` and its plots.
+    """
 
     def work(res: AnalysisOutcome, d: Path) -> None:
         import numpy as np
@@ -270,22 +296,26 @@ def discrepancy_work(
     return work
 
 
-def discrepancy_finding(data: Mapping[str, Any]) -> str:
-    """One-line text of a discrepancy result (the mapping of
-    :func:`tribo_estimation.core.discrepancy.report.to_dict`): effects found, their
-    values, torque residual RMS before and after."""
-    added = data.get('added') or []
-    base = (data.get('baseline') or {}).get('rms')
-    final = (data.get('final') or {}).get('rms')
+def discrepancy_finding(data: Mapping[str, object]) -> str:
+    """Summarise a discrepancy result in one line.
+
+    ``data`` is the mapping of :func:`tribo_estimation.core.discrepancy.report.to_dict`;
+    the line names the effects found, their values and the torque residual RMS [N m]
+    before and after.
+    """
+    added = as_list(data.get('added') or [])
+    base = as_mapping(data.get('baseline') or {}).get('rms')
+    final = as_mapping(data.get('final') or {}).get('rms')
     rms = f'torque residual RMS {fmt(base, 3)} -> {fmt(final, 3)} N m'
     if not added:
         return f'no missing effect found ({rms})'
     parts = []
-    for a in added:
-        units = a.get('units') or {}
+    for item in added:
+        a = as_mapping(item)
+        units = as_mapping(a.get('units') or {})
         params = ', '.join(
-            f'{k} = {fmt(v, 3)} {units.get(k, "").strip("-")}'.rstrip()
-            for k, v in (a.get('params') or {}).items()
+            f'{k} = {fmt(v, 3)} {str(units.get(k, "")).strip("-")}'.rstrip()
+            for k, v in as_mapping(a.get('params') or {}).items()
         )
         parts.append(f'{a.get("effect")} ({params})')
     return f'found {"; ".join(parts)}; {rms}'

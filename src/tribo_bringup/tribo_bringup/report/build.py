@@ -36,8 +36,14 @@ if TYPE_CHECKING:
 Progress = an.Progress
 
 
-def load_rig(path: str | Path | None) -> dict[str, Any]:
-    """RIG.yaml as a mapping (empty when ``path`` is None)."""
+def load_rig(path: str | Path | None) -> dict[str, object]:
+    """Read RIG.yaml as a mapping (empty when ``path`` is None).
+
+    Raises
+    ------
+    ConfigError
+        The file is unreadable, not YAML or not a mapping.
+    """
     if path is None:
         return {}
     p = Path(path)
@@ -51,7 +57,7 @@ def load_rig(path: str | Path | None) -> dict[str, Any]:
 
 
 def load_nvct(path: str | Path | None) -> NvctConfig | None:
-    """The run's NvctConfig (tribo_nvct's loader), or None when not given."""
+    """Load the run's NvctConfig (tribo_nvct's loader), or None when not given."""
     if path is None:
         return None
     from tribo_nvct.core.config import load_config
@@ -128,25 +134,40 @@ def build_report(
 ) -> ReportResult:
     """Write the session report of ``bag`` into directory ``out``.
 
-    Args:
-        bag: recorded bag (directory or .mcap).
-        out: output directory (written atomically: on an error it keeps what it held).
-        rig: RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
-        nvct: NVCT.yaml (wear analysis, k_w).
-        discrepancy: also run the discrepancy workflow on the bag.
-        discrepancy_window: (start, duration) [s] of the rig streams the discrepancy
-            workflow analyses, from the first sample (duration 0: to the end).
-        analysis_rig: RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
-            rig without the hidden effects the simulated rig ran with.
-        analyses: offline analyses to run besides the discrepancy workflow
-            (``friction``, ``wear``).
-        notes: a note per analysis shown in its section (e.g. analysed window).
-        command: the command line to record (default ``sys.argv``).
-        progress: callback for progress lines (default: stderr).
+    Parameters
+    ----------
+    bag
+        recorded bag (directory or .mcap).
+    out
+        output directory (written atomically: on an error it keeps what it held).
+    rig
+        RIG.yaml of the run (rig parameter table; rig parameters of the stick detection).
+    nvct
+        NVCT.yaml (wear analysis, k_w).
+    discrepancy
+        also run the discrepancy workflow on the bag.
+    discrepancy_window
+        (start, duration) [s] of the rig streams the discrepancy
+        workflow analyses, from the first sample (duration 0: to the end).
+    analysis_rig
+        RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
+        rig without the hidden effects the simulated rig ran with.
+    analyses
+        offline analyses to run besides the discrepancy workflow
+        (``friction``, ``wear``).
+    notes
+        a note per analysis shown in its section (e.g. analysed window).
+    command
+        the command line to record (default ``sys.argv``).
+    progress
+        callback for progress lines (default: stderr).
 
-    Raises:
-        BagError: the bag does not exist or holds no known message.
-        ConfigError, EstimationError, NvctError: RIG.yaml or NVCT.yaml unreadable.
+    Raises
+    ------
+    BagError
+        the bag does not exist or holds no known message.
+    ConfigError, EstimationError, NvctError
+        RIG.yaml or NVCT.yaml unreadable.
     """
     say = progress or (lambda s: print(f'report: {s}', file=sys.stderr, flush=True))
     bag_p = Path(bag)

@@ -14,16 +14,19 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, SupportsInt
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from tribo_bringup.report.provenance import Provenance
 
 FloatArray = npt.NDArray[np.float64]
 
 
 def fmt(x: object, digits: int = 4) -> str:
-    """Number as text with ``digits`` significant digits ('n/a' for None/NaN)."""
+    """Format a number with ``digits`` significant digits ('n/a' for None/NaN)."""
     if x is None:
         return 'n/a'
     if isinstance(x, bool):
@@ -37,8 +40,65 @@ def fmt(x: object, digits: int = 4) -> str:
     return str(x)
 
 
+def as_float(x: object) -> float:
+    """Return a JSON number as float.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no number (as ``float()`` raises it, e.g. for None).
+    """
+    if isinstance(x, str | SupportsFloat | SupportsIndex):
+        return float(x)
+    raise TypeError(f'expected a number, got {type(x).__name__}')
+
+
+def as_opt_float(x: object) -> float | None:
+    """Return a JSON number as float, None as None (see :func:`as_float`)."""
+    return None if x is None else as_float(x)
+
+
+def as_int(x: object) -> int:
+    """Return a JSON integer as int.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no integer (as ``int()`` raises it, e.g. for None).
+    """
+    if isinstance(x, str | SupportsInt | SupportsIndex):
+        return int(x)
+    raise TypeError(f'expected an integer, got {type(x).__name__}')
+
+
+def as_mapping(x: object) -> Mapping[str, object]:
+    """Return a JSON object (a mapping) as such.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no mapping.
+    """
+    if isinstance(x, Mapping):
+        return x
+    raise TypeError(f'expected a mapping, got {type(x).__name__}')
+
+
+def as_list(x: object) -> list[object]:
+    """Return a JSON array (list or tuple) as a list.
+
+    Raises
+    ------
+    TypeError
+        ``x`` is no list or tuple.
+    """
+    if isinstance(x, list | tuple):
+        return list(x)
+    raise TypeError(f'expected a list, got {type(x).__name__}')
+
+
 def finite(values: Iterable[float | None]) -> FloatArray:
-    """The finite values of ``values`` (None and NaN dropped) as an array."""
+    """Return the finite values of ``values`` (None and NaN dropped) as an array."""
     arr = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
     return arr[np.isfinite(arr)]
 
@@ -68,12 +128,12 @@ def figure(draw: Callable[[Path], object], path: Path, caption: str) -> str:
 
 
 def embed_png(path: Path, caption: str) -> str:
-    """An existing PNG file embedded with its caption."""
+    """Embed an existing PNG file with its caption."""
     return img(base64.b64encode(path.read_bytes()).decode('ascii'), caption)
 
 
 def img(b64: str, caption: str) -> str:
-    """A base64 PNG as a figure with caption."""
+    """Wrap a base64 PNG in a figure with caption."""
     return (
         f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{b64}">'
         f'<figcaption>{html.escape(caption)}</figcaption></figure>'
@@ -83,7 +143,7 @@ def img(b64: str, caption: str) -> str:
 def table(
     rows: Sequence[Sequence[object]], header: Sequence[str], table_id: str = '', digits: int = 4
 ) -> str:
-    """An HTML table; numbers formatted by :func:`fmt`."""
+    """Render an HTML table; numbers formatted by :func:`fmt`."""
     tid = f' id="{table_id}"' if table_id else ''
     head = ''.join(f'<th>{html.escape(h)}</th>' for h in header)
     body = ''.join(
@@ -94,7 +154,7 @@ def table(
 
 
 def kv(items: Mapping[str, object], table_id: str, units: Mapping[str, str] | None = None) -> str:
-    """A key / value / unit table."""
+    """Render a key / value / unit table."""
     rows = []
     for k, v in items.items():
         unit = (units or {}).get(k, '')
@@ -121,7 +181,7 @@ def json_html(data: object, depth: int = 0) -> str:
     return html.escape(text)
 
 
-def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> None:
+def write_csv(path: Path, rows: Sequence[Mapping[str, object]], columns: Sequence[str]) -> None:
     """Rows as CSV; floats in full precision (repr), None as empty."""
     with path.open('w', newline='', encoding='utf-8') as fh:
         w = csv.writer(fh)
@@ -150,7 +210,7 @@ class Section:
 
 
 def unavailable(key: str, title: str, reason: str) -> Section:
-    """A section that says why it has nothing to show."""
+    """Make a section that says why it has nothing to show."""
     return Section(key, title, f'<p class="na">Unavailable: {html.escape(reason)}</p>', False)
 
 
@@ -170,9 +230,9 @@ ul.summary li{margin:.2em 0}
 
 
 def render_html(
-    title: str, summary: Sequence[str], sections: Sequence[Section], prov: Mapping[str, Any]
+    title: str, summary: Sequence[str], sections: Sequence[Section], prov: Provenance
 ) -> str:
-    """The whole page: summary, navigation, sections, provenance."""
+    """Render the whole page: summary, navigation, sections, provenance."""
     nav = ''.join(f'<a href="#{s.key}">{html.escape(s.title.split(" (")[0])}</a>' for s in sections)
     parts = [
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',

@@ -14,7 +14,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 #: The workspace's packages whose package.xml versions are recorded.
 PACKAGES = (
@@ -67,8 +67,11 @@ def _git(root: Path, *args: str) -> str | None:
 
 
 def git_state(root: Path) -> tuple[str | None, bool | None]:
-    """(commit of HEAD, working tree has uncommitted changes) of the repository at
-    ``root``; (None, None) without git or outside a repository."""
+    """Return (commit of HEAD, whether the working tree has uncommitted changes).
+
+    For the repository at ``root``; (None, None) without git or outside a
+    repository.
+    """
     commit = _git(root, 'rev-parse', 'HEAD')
     if not commit:
         return None, None
@@ -76,8 +79,19 @@ def git_state(root: Path) -> tuple[str | None, bool | None]:
     return commit, (bool(status) if status is not None else None)
 
 
-def provenance(command: Sequence[str] | None, root: Path | None = None) -> dict[str, Any]:
-    """Command line, versions and git commit that produced a report.
+class Provenance(TypedDict):
+    """What produced a report (results.json ``provenance``; shown at the page's end)."""
+
+    command: str
+    versions: dict[str, str]
+    git_commit: str | None
+    git_dirty: bool | None
+    platform: str
+    created: str
+
+
+def provenance(command: Sequence[str] | None, root: Path | None = None) -> Provenance:
+    """Collect the command line, versions and git commit that produced a report.
 
     ``command``: the command line to record (default ``sys.argv``); ``root``: the
     workspace (default: the source tree this module lives in).

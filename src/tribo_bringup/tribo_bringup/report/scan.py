@@ -1,5 +1,7 @@
-"""Bag scan of the session report: message counts, live results, stream continuity,
-and full-rate rig windows for the motion detail (paper Fig. 6).
+"""Bag scan of the session report.
+
+Message counts, live results, stream continuity, and full-rate rig windows for
+the motion detail (paper Fig. 6).
 
 Times in ns where they are bag receive times, else s; values SI.
 """
@@ -37,15 +39,23 @@ MONITOR_TOPIC = topic_table.MODEL_DISCREPANCY.resolve()
 class BagScan:
     """What the report needs from a bag (all times in ns, values SI).
 
-    Attributes:
-        counts: messages per topic.
-        t_first_ns, t_last_ns: receive time of the first and last message [ns].
-        estimates: one dict per /friction/estimate message (bridge_core field names).
-        wear: one dict per /nvct/wear message.
-        monitor: one dict per /model/discrepancy window (live model monitor; bridge_core
-            field names plus ``params``, the candidate's fitted values as text).
-        streams: sample continuity per SampleBlock topic.
-        truncated: the warning of a bag that ends early ('' if none).
+    Attributes
+    ----------
+    counts
+        messages per topic.
+    t_first_ns, t_last_ns
+        receive time of the first and last message [ns].
+    estimates
+        one dict per /friction/estimate message (bridge_core field names).
+    wear
+        one dict per /nvct/wear message.
+    monitor
+        one dict per /model/discrepancy window (live model monitor; bridge_core
+        field names plus ``params``, the candidate's fitted values as text).
+    streams
+        sample continuity per SampleBlock topic.
+    truncated
+        the warning of a bag that ends early ('' if none).
     """
 
     counts: dict[str, int] = field(default_factory=dict)
@@ -61,8 +71,10 @@ class BagScan:
 def scan_bag(path: str | Path) -> BagScan:
     """Read counts, estimates, wear states and stream continuity from a bag.
 
-    Raises:
-        BagError: the bag holds no message of a known type.
+    Raises
+    ------
+    BagError
+        the bag holds no message of a known type.
     """
     scan = BagScan()
     small = {FRICTION_TOPIC, WEAR_TOPIC, MONITOR_TOPIC}
@@ -101,11 +113,16 @@ def scan_bag(path: str | Path) -> BagScan:
 class RigWindow:
     """Aligned full-rate rig samples of a window (NaN where a channel lost samples).
 
-    Attributes:
-        sample_rate: sample rate [Hz].
-        torsion: torsion moment C1*phi1 [N m].
-        accel: chamber angular acceleration w1' [rad/s^2].
-        speed: shaft speed w2 [rad/s].
+    Attributes
+    ----------
+    sample_rate
+        sample rate [Hz].
+    torsion
+        torsion moment C1*phi1 [N m].
+    accel
+        chamber angular acceleration w1' [rad/s^2].
+    speed
+        shaft speed w2 [rad/s].
     """
 
     sample_rate: float
@@ -115,11 +132,15 @@ class RigWindow:
 
 
 def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWindow | None:
-    """``seconds`` [s] of the /rig/* streams from sample ``first_index``, aligned by
-    sample index as the friction analysis aligns them; None when the bag has none there.
+    """Read ``seconds`` [s] of the /rig/* streams from sample ``first_index``.
 
-    Raises:
-        BagError: no rig stream in the bag, or the bag is truncated before the window.
+    The channels are aligned by sample index as the friction analysis aligns them;
+    None when the bag has no samples there.
+
+    Raises
+    ------
+    BagError
+        no rig stream in the bag, or the bag is truncated before the window.
     """
     from tribo_estimation.core.align import AlignedChunk, RestartEvent
 
@@ -147,9 +168,12 @@ def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWi
 
 
 def stick_flags(win: RigWindow, rig: RigParams) -> npt.NDArray[np.bool_]:
-    """Per-sample stick flags of a window from the friction analysis' own stick detection
-    (:func:`tribo_estimation.core.sticks.detect_sticks`: slip speed w2 - w1 and the stick
-    residual of Equ. 1 + 2, phases >= 2 ms), run on each gap-free stretch."""
+    """Flag the stick samples of a window with the friction analysis' own stick detection.
+
+    :func:`tribo_estimation.core.sticks.detect_sticks` (slip speed w2 - w1 [rad/s]
+    and the stick residual of Equ. 1 + 2, phases >= 2 ms), run on each gap-free
+    stretch.
+    """
     from tribo_estimation.core.sticks import detect_sticks
 
     fs = win.sample_rate

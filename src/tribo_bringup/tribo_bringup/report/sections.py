@@ -1,6 +1,7 @@
-"""Sections of the session report: session, rig, friction per block (Fig. 4/5) with the
-motion detail (Fig. 6), live nVCT wear (Fig. 10/11), the offline analyses, and the
-five-line summary.
+"""Sections of the session report.
+
+Session, rig, friction per block (Fig. 4/5) with the motion detail (Fig. 6),
+live nVCT wear (Fig. 10/11), the offline analyses, and the five-line summary.
 
 Every section function fills its part of ``results`` (results.json; SI units, keys
 name the unit where it is not SI) and returns the HTML; figures are written into
@@ -23,6 +24,11 @@ from tribo_estimation.errors import EstimationError
 from .analyses import AnalysisOutcome
 from .page import (
     Section,
+    as_float,
+    as_int,
+    as_list,
+    as_mapping,
+    as_opt_float,
     embed_png,
     figure,
     finite,
@@ -65,51 +71,56 @@ RIG_UNITS: dict[str, tuple[str, str]] = {
 }
 
 
-def rig_section(rig: Mapping[str, Any], rig_path: str | None, results: dict[str, Any]) -> Section:
+def rig_section(
+    rig: Mapping[str, object], rig_path: str | None, results: dict[str, object]
+) -> Section:
+    """Render the rig parameters used (RIG.yaml) and fill ``results['rig']``."""
     title = 'Rig parameters used'
     if not rig:
         results['rig'] = None
         return unavailable('rig', title, 'no RIG.yaml given (--rig)')
     params = {k: rig[k] for k in RIG_UNITS if k in rig}
-    effects = rig.get('effects') or {}
+    effects = as_mapping(rig.get('effects') or {})
     results['rig'] = {'file': rig_path, 'params': params, 'effects': dict(effects)}
-    rows = [(k, float(v), RIG_UNITS[k][0], RIG_UNITS[k][1]) for k, v in params.items()]
+    rows = [(k, as_float(v), RIG_UNITS[k][0], RIG_UNITS[k][1]) for k, v in params.items()]
     body = f'<p>From <code>{html.escape(str(rig_path))}</code>.</p>'
     body += table(rows, ('parameter', 'value', 'unit', 'meaning'), 'rig-params', digits=6)
     if effects:
         body += '<p>Hidden model extensions switched on in the simulated rig: '
         body += ', '.join(
-            f'<code>{html.escape(k)} = {fmt(float(v))}</code>' for k, v in effects.items()
+            f'<code>{html.escape(k)} = {fmt(as_float(v))}</code>' for k, v in effects.items()
         )
         body += '</p>'
     return Section('rig', title, body)
 
 
-def session_section(bag: Path, scan: BagScan, results: dict[str, Any], out: Path) -> Section:
+def session_section(bag: Path, scan: BagScan, results: dict[str, object], out: Path) -> Section:
+    """Render the session overview (bag, duration [s], streams and their gaps)."""
     duration = (scan.t_last_ns - scan.t_first_ns) / NS
     missing = sum(s.missing for s in scan.streams)
+    streams: list[dict[str, object]] = [
+        {
+            'topic': s.topic,
+            'first_index': s.first_index,
+            'messages': s.messages,
+            'samples': s.samples,
+            'missing': s.missing,
+            'gaps': s.gaps,
+            'duplicates': s.duplicates,
+        }
+        for s in scan.streams
+    ]
     results['session'] = {
         'bag': str(bag),
         'duration_s': duration,
         'messages': dict(sorted(scan.counts.items())),
         'missing_samples': missing,
         'truncated': scan.truncated or None,
-        'streams': [
-            {
-                'topic': s.topic,
-                'first_index': s.first_index,
-                'messages': s.messages,
-                'samples': s.samples,
-                'missing': s.missing,
-                'gaps': s.gaps,
-                'duplicates': s.duplicates,
-            }
-            for s in scan.streams
-        ],
+        'streams': streams,
     }
     write_csv(
         out / 'streams.csv',
-        results['session']['streams'],
+        streams,
         ('topic', 'first_index', 'messages', 'samples', 'missing', 'gaps', 'duplicates'),
     )
     body = kv(
@@ -140,9 +151,11 @@ FRICTION_COLUMNS = (
 )  # fmt: skip
 
 
-def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
-    """Estimates as a block table: ``blocks.csv`` column -> array (None -> NaN), the input
-    of :mod:`tribo_estimation.plots`."""
+def block_table(ests: Sequence[Mapping[str, object]]) -> dict[str, np.ndarray]:
+    """Convert estimates to a block table: ``blocks.csv`` column -> array (None -> NaN).
+
+    The table is the input of :mod:`tribo_estimation.plots`.
+    """
     from tribo_estimation.core.blockfit import CSV_COLUMNS
 
     table: dict[str, np.ndarray] = {}
@@ -155,21 +168,25 @@ def block_table(ests: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
 
 
 def detail_trace(
-    bag: Path, est: Mapping[str, Any], t_ref: float, rig: RigParams | None, seconds: float
+    bag: Path, est: Mapping[str, object], t_ref: float, rig: RigParams | None, seconds: float
 ) -> DetailTrace | None:
-    """Fig. 6 trace: ``seconds`` [s] of torsion moment from the start of block ``est``
-    with the stick phases of the core detection (:func:`stick_flags`, run over the whole
-    block as the friction fit does; none without rig parameters). Time axis [s] from
-    ``t_ref``, the first block's start. None when the bag has no rig samples there."""
+    """Read the Fig. 6 trace: ``seconds`` [s] of torsion moment [N m] from block ``est``.
+
+    The stick phases come from the core detection (:func:`stick_flags`, run over
+    the whole block as the friction fit does; none without rig parameters). Time
+    axis [s] from ``t_ref``, the first block's start. None when the bag has no rig
+    samples there.
+    """
     from tribo_estimation.plots import DetailTrace
 
-    span = float(est['t_end'] - est['t_start']) if est.get('t_end') is not None else seconds
-    win = read_rig_window(bag, int(est['first_index']), min(max(span, seconds), 5.0))
+    t_start = as_float(est['t_start'])
+    span = as_float(est['t_end']) - t_start if est.get('t_end') is not None else seconds
+    win = read_rig_window(bag, as_int(est['first_index']), min(max(span, seconds), 5.0))
     if win is None:
         return None
     stick = stick_flags(win, rig) if rig is not None else np.zeros(win.torsion.size, bool)
     n = min(win.torsion.size, max(1, round(seconds * win.sample_rate)))
-    t0 = float(est['t_start']) - t_ref
+    t0 = t_start - t_ref
     nan = np.full(n, np.nan)
     title = f'{est["motion"]} block at t = {t0:.0f} s'
     return DetailTrace(
@@ -178,9 +195,9 @@ def detail_trace(
 
 
 def friction_section(
-    ests: list[dict[str, Any]],
+    ests: Sequence[Mapping[str, object]],
     source: str,
-    results: dict[str, Any],
+    results: dict[str, object],
     out: Path,
     bag: Path,
     rig: RigParams | None,
@@ -203,12 +220,13 @@ def friction_section(
         ]
     write_csv(out / 'friction_blocks.csv', ests, FRICTION_COLUMNS)
     good = [e for e in ests if e['quality'] == 'ok']
-    mu0 = finite(e['mu0'] for e in good)
-    muinf = finite(e['mu_inf'] for e in good)
+    mu0 = finite(as_opt_float(e['mu0']) for e in good)
+    muinf = finite(as_opt_float(e['mu_inf']) for e in good)
     motions: dict[str, int] = {}
     for e in good:
-        motions[e['motion']] = motions.get(e['motion'], 0) + 1
-    summary: dict[str, Any] = {
+        motion = str(e['motion'])
+        motions[motion] = motions.get(motion, 0) + 1
+    summary: dict[str, object] = {
         'blocks': len(ests),
         'blocks_ok': len(good),
         'mu0_min': float(mu0.min()) if mu0.size else None,
@@ -218,7 +236,9 @@ def friction_section(
         'mu_inf_max': float(muinf.max()) if muinf.size else None,
         'mu_inf_mean': float(muinf.mean()) if muinf.size else None,
         'motion_types': motions,
-        'stick_fraction_mean': float(np.mean(finite(e['stick_fraction'] for e in good)))
+        'stick_fraction_mean': float(
+            np.mean(finite(as_opt_float(e['stick_fraction']) for e in good))
+        )
         if good
         else None,
     }
@@ -243,7 +263,7 @@ def friction_section(
     )
     rows = [
         (
-            e['t_start'] - ests[0]['t_start'],
+            as_float(e['t_start']) - as_float(ests[0]['t_start']),
             e['mu0'],
             e['mu0_se'],
             e['mu_inf'],
@@ -274,7 +294,7 @@ def friction_section(
     body += '</details>'
     sections = [Section('friction', title, body)]
     # Fig. 6: one stick-slip and one slip-slip block in detail (0.25 s each)
-    picks: list[dict[str, Any]] = []
+    picks: list[Mapping[str, object]] = []
     for motion in ('stick-slip', 'slip-slip'):
         cand = [e for e in good if e['motion'] == motion]
         if cand:
@@ -285,7 +305,7 @@ def friction_section(
         if e.get('first_index') is None:
             continue
         try:
-            d = detail_trace(bag, e, float(ests[0]['t_start']), rig, DETAIL_S)
+            d = detail_trace(bag, e, as_float(ests[0]['t_start']), rig, DETAIL_S)
         except (BagError, EstimationError) as exc:
             reasons.append(f'{e["motion"]} block: {exc}')
             continue
@@ -311,7 +331,7 @@ def friction_section(
 
 
 def wear_section(
-    scan: BagScan, nvct: NvctConfig | None, results: dict[str, Any], out: Path
+    scan: BagScan, nvct: NvctConfig | None, results: dict[str, object], out: Path
 ) -> Section:
     """Live wear states; ``nvct`` is the run's NvctConfig (k_w, window) or None."""
     title = 'nVCT wear (live wear monitor, /nvct/wear)'
@@ -370,8 +390,8 @@ def wear_section(
     return Section('wear', title, body)
 
 
-def monitor_section(scan: BagScan, results: dict[str, Any], out: Path) -> Section | None:
-    """The live model monitor's windows (/model/discrepancy), or None if the bag has none.
+def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Section | None:
+    """Render the live model monitor's windows (/model/discrepancy); None if the bag has none.
 
     One row per window: end time from the first window [s], baseline mu0/mu_inf
     (Equ. 8), torsion residual rms and noise floor [N m] and their ratio, where the
@@ -435,7 +455,7 @@ def monitor_section(scan: BagScan, results: dict[str, Any], out: Path) -> Sectio
 
 
 def analysis_section(res: AnalysisOutcome, title: str) -> Section:
-    """An offline analysis: what it called, its finding, numbers, figures and files."""
+    """Render an offline analysis: what it called, its finding, numbers, figures and files."""
     if not res.ok:
         return unavailable(res.key, title, res.reason or 'not run')
     body = f'<p>Library call: <code>{html.escape(res.what)}</code> '
@@ -462,17 +482,17 @@ def analysis_section(res: AnalysisOutcome, title: str) -> Section:
     return Section(res.key, title, body)
 
 
-def summary_lines(results: Mapping[str, Any]) -> list[str]:
-    """Five lines telling the story of the session (used by the page and ``tribo demo``)."""
+def summary_lines(results: Mapping[str, object]) -> list[str]:
+    """Tell the story of the session in five lines (used by the page and ``tribo demo``)."""
     lines: list[str] = []
-    fr = results.get('friction')
-    if fr:
+    if results.get('friction'):
+        fr = as_mapping(results['friction'])
         lines.append(
             f'Friction: {fr["blocks_ok"]} of {fr["blocks"]} blocks fitted; mu0 '
             f'{fmt(fr["mu0_min"], 3)}..{fmt(fr["mu0_max"], 3)}, mu_inf '
             f'{fmt(fr["mu_inf_min"], 3)}..{fmt(fr["mu_inf_max"], 3)}'
         )
-        mt = fr['motion_types']
+        mt = as_mapping(fr['motion_types'])
         lines.append(
             'Motion types: '
             + (', '.join(f'{k} {v} blocks' for k, v in sorted(mt.items())) or 'none')
@@ -481,20 +501,21 @@ def summary_lines(results: Mapping[str, Any]) -> list[str]:
     else:
         lines.append('Friction: no block estimates in the bag')
         lines.append('Motion types: unavailable')
-    we = results.get('wear')
-    if we:
-        v = we['wear_volume_m3']
-        rate = we['progressive_rate_m3_per_s']
-        kw = we['k_w_progressive_m3_per_N_m']
+    if results.get('wear'):
+        we = as_mapping(results['wear'])
+        v = as_opt_float(we['wear_volume_m3'])
+        rate = as_opt_float(we['progressive_rate_m3_per_s'])
+        kw = as_opt_float(we['k_w_progressive_m3_per_N_m'])
         lines.append(
-            f'Wear after {fmt(we["test_time_s"] / 60.0, 4)} min test time: '
+            f'Wear after {fmt(as_float(we["test_time_s"]) / 60.0, 4)} min test time: '
             f'V_W = {fmt(None if v is None else v / UM3, 4)} um^3, progressive rate '
             f'{fmt(None if rate is None else rate * 60.0 / UM3, 4)} um^3/min, k_w = '
             f'{fmt(None if kw is None else kw / UM3, 3)} um^3/(N m)'
         )
     else:
         lines.append('Wear: no wear states in the bag')
-    disc = results.get('analyses', {}).get('discrepancy')
+    disc_raw = as_mapping(results.get('analyses', {})).get('discrepancy')
+    disc = None if disc_raw is None else as_mapping(disc_raw)
     if disc is None:
         lines.append('Discrepancy workflow: not run')
     elif disc.get('finding'):
@@ -504,10 +525,10 @@ def summary_lines(results: Mapping[str, Any]) -> list[str]:
         )
     else:
         lines.append(f'Discrepancy workflow: unavailable ({disc.get("reason", "no result")})')
-    sess = results.get('session') or {}
-    streams = sess.get('streams') or []
+    sess = as_mapping(results.get('session') or {})
+    streams = as_list(sess.get('streams') or [])
     if streams:
-        samples = sum(int(st['samples']) for st in streams)
+        samples = sum(as_int(as_mapping(st)['samples']) for st in streams)
         lines.append(
             f'Recording: {fmt(sess.get("duration_s"), 3)} s, {len(streams)} sample streams, '
             f'{samples} samples, missing samples = {sess.get("missing_samples", "n/a")}'

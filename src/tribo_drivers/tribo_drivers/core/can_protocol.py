@@ -87,9 +87,17 @@ DEFAULT_SPECS: dict[int, CanStreamSpec] = {
 FRAME_RATE_ATTRIBUTE = 'TriboFrameRate'
 
 
-def dbc_frame_rate(msg: Any, spec: CanStreamSpec, path: Path) -> float:
-    """Frame rate [1/s] of a DBC message: ``TriboFrameRate``, else 1000/``GenMsgCycleTime``,
-    else the spec's nominal rate."""
+def dbc_frame_rate(msg: object, spec: CanStreamSpec, path: Path) -> float:
+    """Return the frame rate [1/s] of a DBC message (a cantools message).
+
+    The rate is the message attribute ``TriboFrameRate``, else 1000/``GenMsgCycleTime``
+    [ms], else the spec's nominal rate.
+
+    Raises
+    ------
+    ConfigError
+        An attribute is not a finite number >= 0.
+    """
     attrs = getattr(getattr(msg, 'dbc', None), 'attributes', None) or {}
     where = f'DBC {path} frame 0x{spec.frame_id:03X} ({spec.message})'
     if FRAME_RATE_ATTRIBUTE in attrs:

@@ -1,4 +1,4 @@
-"""ASCII line protocol of the radiation counter (nVCT detector electronics).
+r"""ASCII line protocol of the radiation counter (nVCT detector electronics).
 
 Sentences are ``$<body>*<XX>`` terminated by CR LF, where XX is the two-digit upper-case hex
 XOR of all characters of <body> (between ``$`` and ``*``), as in NMEA 0183.
@@ -32,7 +32,7 @@ def xor_checksum(body: str) -> int:
 
 
 def format_sentence(body: str) -> bytes:
-    """``$body*XX\\r\\n`` as bytes."""
+    r"""Frame ``body`` as the sentence ``$body*XX\r\n`` (bytes)."""
     if '$' in body or '*' in body or '\r' in body or '\n' in body:
         raise FrameError(f'sentence body must not contain $, *, CR or LF: {body!r}')
     return f'${body}*{xor_checksum(body):02X}\r\n'.encode('ascii')
@@ -127,6 +127,7 @@ def format_dwell(dwell_ms: int) -> bytes:
 
 
 def format_ack_dwell(dwell_ms: int) -> bytes:
+    """Frame the counter's acknowledgement of a dwell time ``dwell_ms`` [ms]."""
     return format_sentence(f'ACK,DWELL,{dwell_ms}')
 
 
@@ -164,6 +165,7 @@ class LineSplitter:
         self.overflows = 0
 
     def feed(self, data: bytes) -> list[bytes]:
+        """Append received bytes; return the complete lines (CR LF stripped) now available."""
         self._buf.extend(data)
         lines: list[bytes] = []
         while True:
@@ -182,4 +184,5 @@ class LineSplitter:
         return lines
 
     def reset(self) -> None:
+        """Drop a partial line (after a reconnect)."""
         self._buf.clear()

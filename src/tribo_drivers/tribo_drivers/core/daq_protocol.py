@@ -119,6 +119,7 @@ class DaqScaling:
     gain: tuple[float, float, float] = (1e-6, 1e-3, 1e-4)
 
     def __post_init__(self) -> None:
+        """Refuse anything but three offsets and three non-zero finite gains."""
         if len(self.offset) != 3 or len(self.gain) != 3:
             raise ConfigError(
                 f'DAQ scaling needs 3 offsets and 3 gains, got {len(self.offset)} and '
@@ -157,6 +158,7 @@ class DaqSamples:
     discarded_bytes: int = 0
 
     def __len__(self) -> int:
+        """Return the number of decoded frames."""
         return int(self.sample_index.size)
 
 
@@ -302,11 +304,12 @@ class DaqDecoder:
 
     @property
     def pending_bytes(self) -> int:
+        """Return the bytes [B] kept for the next feed (an incomplete frame)."""
         return len(self._tail)
 
 
 def decode_scalar(data: bytes, scaling: DaqScaling) -> list[tuple[int, int, float, float, float]]:
-    """Reference byte-by-byte decoder: (position, sample_index, torque, accel, speed) per frame.
+    """Decode ``data`` byte by byte: (position, sample_index, torque, accel, speed) per frame.
 
     Slow; used to check the vectorised decoder.  At each position it accepts a frame if the
     sync bytes and the CRC match and then jumps past it, otherwise it advances by one byte.

@@ -37,6 +37,7 @@ class DiagnosticStatus:
     values: tuple[tuple[str, str], ...] = ()
 
     def value(self, key: str) -> str:
+        """Return the value of ``key`` (KeyError if the status has none)."""
         for k, v in self.values:
             if k == key:
                 return v
@@ -72,9 +73,11 @@ class DriverCounters:
     last_error: str = ''
 
     def as_pairs(self) -> tuple[tuple[str, str], ...]:
+        """Return the counters as (name, value text) pairs for a DiagnosticStatus."""
         return tuple((f.name, str(getattr(self, f.name))) for f in fields(self))
 
     def copy(self) -> DriverCounters:
+        """Return an independent snapshot of the counters."""
         return DriverCounters(**{f.name: getattr(self, f.name) for f in fields(self)})
 
 
@@ -86,10 +89,12 @@ class RateMeter:
     _events: deque[tuple[float, int]] = field(default_factory=deque)
 
     def __post_init__(self) -> None:
+        """Refuse a rate window that is not > 0 s."""
         if not self.window > 0:
             raise ConfigError(f'rate window must be > 0 s, got {self.window}')
 
     def add(self, now: float, count: int = 1) -> None:
+        """Count ``count`` events at host time ``now`` [s]."""
         self._events.append((now, count))
         self._trim(now)
 
@@ -98,6 +103,7 @@ class RateMeter:
             self._events.popleft()
 
     def rate(self, now: float) -> float:
+        """Return the event rate [1/s] over the window ending at ``now`` [s]."""
         self._trim(now)
         return sum(c for _, c in self._events) / self.window
 
@@ -158,13 +164,16 @@ class DiagnosticUpdater:
     _last: float = -math.inf
 
     def __post_init__(self) -> None:
+        """Refuse a diagnostic period that is not > 0 s."""
         if not self.period > 0:
             raise ConfigError(f'diagnostic period must be > 0 s, got {self.period}')
 
     def add(self, task: StatusTask) -> None:
+        """Add a status task, evaluated at every update."""
         self.tasks.append(task)
 
     def update(self, now: float, force: bool = False) -> list[DiagnosticStatus]:
+        """Return the tasks' statuses if a period [s] has passed since the last (or ``force``)."""
         if not force and now - self._last < self.period:
             return []
         self._last = now

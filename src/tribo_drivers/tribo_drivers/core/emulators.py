@@ -29,7 +29,6 @@ import tty
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -67,6 +66,7 @@ class PtyPort:
 
     @property
     def plugged(self) -> bool:
+        """Return whether the pty pair exists (the device is plugged in)."""
         return self.master >= 0
 
     def plug(self) -> None:
@@ -89,7 +89,7 @@ class PtyPort:
             os.replace(tmp, self.path)
 
     def driver_attached(self) -> bool:
-        """True once a driver has opened and configured the port (its speed replaced B50).
+        """Tell whether a driver has opened and configured the port (its speed replaced B50).
 
         Data written before that would be flushed by the driver's open (pyserial discards the
         input buffer), so emulators wait for this before they count a frame as sent. The
@@ -104,7 +104,7 @@ class PtyPort:
             return bool(termios.tcgetattr(self._slave)[4] != termios.B50)
 
     def notify_opened(self) -> None:
-        """The driver's open has returned (called by a test transport, see faultsim)."""
+        """Note that the driver's open has returned (called by a test transport, see faultsim)."""
         with self.lock:
             if self.plugged:
                 self._open_noticed = True
@@ -139,6 +139,7 @@ class PtyPort:
             self.master = self._slave = -1
 
     def replug(self) -> None:
+        """Unplug and plug again: a new pty behind the same path."""
         self.unplug()
         self.plug()
 
@@ -185,6 +186,7 @@ class PtyPort:
         return b''
 
     def close(self) -> None:
+        """Unplug and remove the temporary directory of the link."""
         self.unplug()
         if self._tmp is not None:
             self._tmp.cleanup()
@@ -202,8 +204,10 @@ def default_daq_signal(
 
 
 class _EmulatorThread:
-    """Thread lifecycle shared by the device emulators: ``start`` runs ``_run`` in a
-    daemon thread until ``stop``."""
+    """Thread lifecycle shared by the device emulators.
+
+    ``start`` runs ``_run`` in a daemon thread until ``stop``.
+    """
 
     THREAD_NAME = 'emulator'
 
@@ -215,6 +219,7 @@ class _EmulatorThread:
         raise NotImplementedError
 
     def start(self) -> None:
+        """Start streaming at the current time, from ``next_index``."""
         self._thread = threading.Thread(target=self._run, name=self.THREAD_NAME, daemon=True)
         self._thread.start()
 
@@ -235,6 +240,7 @@ class _PtyEmulator(_EmulatorThread):
         return str(self.port.path)
 
     def close(self) -> None:
+        """Unplug and remove the temporary directory of the link."""
         self.stop()
         self.port.close()
 
@@ -254,12 +260,15 @@ class DaqTruth:
     unplugs: int = 0
 
     def intact_indices(self) -> npt.NDArray[np.int64]:
+        """Return the sample indices of the frames sent intact."""
         return np.concatenate(self.intact) if self.intact else np.zeros(0, dtype=np.int64)
 
     def uncertain_indices(self) -> npt.NDArray[np.int64]:
+        """Return the sample indices of frames that may or may not arrive (sent around a fault)."""
         return np.concatenate(self.uncertain) if self.uncertain else np.zeros(0, dtype=np.int64)
 
     def count(self, what: str) -> int:
+        """Return the number of indices in the ground-truth list ``what`` (e.g. ``'intact'``)."""
         return int(sum(a.size for a in getattr(self, what)))
 
 
@@ -309,6 +318,7 @@ class DaqEmulator(_PtyEmulator):
         self._index0 = start_index
 
     def start(self) -> None:
+        """Start streaming at the current time, from ``next_index``."""
         self._t0 = time.monotonic()
         self._index0 = self.next_index
         super().start()
@@ -335,6 +345,7 @@ class DaqEmulator(_PtyEmulator):
         self.truth.unplugs += 1
 
     def replug(self) -> None:
+        """Plug the port in again and resume streaming."""
         self.port.plug()
         self._paused.clear()
 
@@ -524,6 +535,7 @@ class SlcanPtyDevice(_PtyEmulator):
         self.port.write(b'\r')
 
     def send(self, frame_id: int, data: bytes) -> bool:
+        """Send one CAN frame as an slcan line; return False if the port is closed."""
         if not self.is_open:
             return False
         return self.port.write(f't{frame_id:03X}{len(data)}{data.hex().upper()}\r'.encode())
@@ -556,7 +568,7 @@ class CanEmulator(_EmulatorThread):
     def __init__(
         self,
         codec: CanCodec,
-        send: Callable[[int, bytes], Any],
+        send: Callable[[int, bytes], object],
         rates: dict[int, float] | None = None,
         start_seq: int = 0,
         skip: set[tuple[int, int]] | None = None,
@@ -571,6 +583,7 @@ class CanEmulator(_EmulatorThread):
         self._start_seq = start_seq
 
     def frame(self, frame_id: int, seq: int) -> bytes:
+        """Return the encoded payload of frame ``frame_id`` with sequence number ``seq``."""
         return self.codec.encode(frame_id, seq, default_can_signal(frame_id, seq))
 
     def _run(self) -> None:

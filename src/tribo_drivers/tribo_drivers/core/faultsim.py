@@ -51,6 +51,7 @@ class FaultReport:
 
     @property
     def ok(self) -> bool:
+        """Tell whether nothing intact was lost, invented or altered."""
         return (
             self.intact_missing == 0
             and self.invented == 0
@@ -61,12 +62,16 @@ class FaultReport:
         )
 
     def lines(self) -> list[str]:
+        """Return the tally as ``name: value`` lines."""
         return [f'{k}: {v}' for k, v in self.__dict__.items()] + [f'ok: {self.ok}']
 
 
 class _NotifyingSerialTransport(SerialTransport):
-    """SerialTransport that tells the emulator's pty when its open (with the input
-    flush) has returned: frames sent from then on are counted as intact ground truth."""
+    """SerialTransport that tells the emulator's pty when its open has returned.
+
+    The open flushes the input; frames sent from then on are counted as intact
+    ground truth.
+    """
 
     def __init__(self, port: PtyPort, baudrate: int) -> None:
         super().__init__(str(port.path), baudrate)

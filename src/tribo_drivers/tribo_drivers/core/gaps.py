@@ -45,6 +45,7 @@ class SampleBlock:
 
     @property
     def next_index(self) -> int:
+        """Return the index [samples] of the sample after the block."""
         return self.first_index + int(self.data.size)
 
 
@@ -97,6 +98,7 @@ class IndexTracker:
     _last_unwrapped: int = 0
 
     def __post_init__(self) -> None:
+        """Refuse a counter width outside 2..62 bits or a jump outside the half range."""
         if not 2 <= self.bits <= 62:
             raise ConfigError(f'counter width must be 2..62 bits, got {self.bits}')
         if not 1 <= self.confirm_jump < (1 << (self.bits - 1)):
@@ -108,6 +110,7 @@ class IndexTracker:
 
     @property
     def modulus(self) -> int:
+        """Return the counter modulus 2**bits."""
         return 1 << self.bits
 
     def reset(self) -> None:
@@ -252,6 +255,7 @@ class BlockBatcher:
     _pending: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Refuse an empty channel list and a sample rate [Hz] that is not positive and finite."""
         if not self.channels:
             raise ConfigError('BlockBatcher needs at least one channel')
         if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
@@ -262,6 +266,7 @@ class BlockBatcher:
 
     @property
     def pending(self) -> int:
+        """Return the samples held for the next block [samples]."""
         return int(self._pending_index.size)
 
     def push(

@@ -22,6 +22,7 @@ class Backoff:
     maximum: float = 5.0
 
     def __post_init__(self) -> None:
+        """Refuse a delay [s] that is not > 0 or a factor < 1."""
         if not (math.isfinite(self.initial) and self.initial > 0):
             raise ConfigError(f'back-off initial delay must be > 0 s, got {self.initial}')
         if not (math.isfinite(self.factor) and self.factor >= 1):
@@ -55,15 +56,18 @@ class ReconnectState:
         return max(self.connects - 1, 0)
 
     def failed(self, message: str, now: float) -> None:
+        """Record a failed open with its message at host time ``now`` [s]."""
         self.failures += 1
         self.last_error = message
         self.last_error_time = now
 
     def connected(self) -> None:
+        """Record a successful open (the back-off starts over)."""
         self.failures = 0
         self.connects += 1
 
     def lost(self, message: str, now: float) -> None:
+        """Record the loss of an open device at host time ``now`` [s]."""
         self.disconnects += 1
         self.last_error = message
         self.last_error_time = now

@@ -13,7 +13,7 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import numpy as np
 
@@ -25,7 +25,18 @@ from tribo_drivers.core.gaps import BlockBatcher, IndexTracker, SampleBlock, blo
 from tribo_drivers.core.reconnect import Backoff, ReconnectState
 from tribo_drivers.core.timing import SampleClock
 from tribo_drivers.core.transports import ByteTransport, CanTransport, Link
-from tribo_drivers.errors import ConfigError, DriverError, FrameError, ProtocolError, TransportError
+
+if TYPE_CHECKING:
+    import can
+
+from tribo_drivers.errors import (
+    ChecksumError,
+    ConfigError,
+    DriverError,
+    FrameError,
+    ProtocolError,
+    TransportError,
+)
 
 T = TypeVar('T')
 
@@ -52,6 +63,7 @@ class DeviceStream(ABC, Generic[T]):
 
     # --- the device, through its transport ---------------------------------------------
     def describe(self) -> str:
+        """Return the transport's description, e.g. ``/dev/ttyUSB0@921600``."""
         return self.transport.describe()
 
     def _is_open(self) -> bool:
@@ -77,6 +89,7 @@ class DeviceStream(ABC, Generic[T]):
         self._stop.set()
 
     def resume(self) -> None:
+        """Allow reading again after a close."""
         self._stop.clear()
 
     def poll(self, timeout: float = 0.05) -> list[T]:
@@ -121,6 +134,7 @@ class DeviceStream(ABC, Generic[T]):
         self.counters.connected = True
 
     def take_pending(self) -> list[T]:
+        """Return and forget the items decoded during the last open."""
         out, self._pending_open = self._pending_open, []
         return out
 
@@ -290,7 +304,7 @@ class CounterStream(DeviceStream[CountMessage]):
             return '', None
         try:
             fields = cp.parse_sentence(line)
-        except cp.ChecksumError as exc:
+        except ChecksumError as exc:
             c.crc_errors += 1
             c.last_error = str(exc)
             return '', None
@@ -378,7 +392,7 @@ class CanStream(DeviceStream[SampleBlock]):
 
     def _read(self, timeout: float) -> list[SampleBlock]:
         out: list[SampleBlock] = []
-        msg: Any = self.transport.recv(timeout)
+        msg = self.transport.recv(timeout)
         n = 0
         while msg is not None:
             out.extend(self._frame(msg))
@@ -390,7 +404,7 @@ class CanStream(DeviceStream[SampleBlock]):
             out.extend(self._flush())
         return out
 
-    def _frame(self, msg: Any) -> list[SampleBlock]:
+    def _frame(self, msg: can.Message) -> list[SampleBlock]:
         c = self.counters
         if getattr(msg, 'is_error_frame', False) or getattr(msg, 'is_remote_frame', False):
             return []

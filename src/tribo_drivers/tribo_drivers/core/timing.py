@@ -38,6 +38,7 @@ class SampleClock:
     _suspect_since: float | None = None
 
     def __post_init__(self) -> None:
+        """Refuse a sample rate [Hz], drift, step threshold [s] or step timeout [s] out of range."""
         if not (math.isfinite(self.sample_rate) and self.sample_rate > 0):
             raise TimestampError(f'sample_rate must be positive and finite, got {self.sample_rate}')
         if not (self.drift >= 0 and self.step_threshold > 0 and self.step_timeout > 0):
@@ -49,6 +50,7 @@ class SampleClock:
         return self._offset
 
     def reset(self) -> None:
+        """Forget the clock offset (the next observation starts a new fit)."""
         self._offset = None
         self._suspect_since = None
 

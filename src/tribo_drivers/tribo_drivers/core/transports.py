@@ -9,8 +9,12 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
+
+if TYPE_CHECKING:
+    import can
 
 from tribo_drivers.errors import ConfigError, TransportError
 
@@ -19,21 +23,27 @@ class Link(Protocol):
     """What every transport (serial, replay, CAN) offers the streams: open, close, state."""
 
     @property
-    def is_open(self) -> bool: ...
+    def is_open(self) -> bool:
+        """Tell whether the link is open."""
 
-    def open(self) -> None: ...
+    def open(self) -> None:
+        """Open the link (raises TransportError if it cannot)."""
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Close the link; never raises."""
 
-    def describe(self) -> str: ...
+    def describe(self) -> str:
+        """Return a short description for messages, e.g. ``/dev/ttyUSB0@921600``."""
 
 
 class ByteTransport(Link, Protocol):
     """A byte stream that can be opened, read with a timeout, written and closed."""
 
-    def read(self, timeout: float) -> bytes: ...
+    def read(self, timeout: float) -> bytes:
+        """Return the bytes received within ``timeout`` [s] (b'' if none)."""
 
-    def write(self, data: bytes) -> None: ...
+    def write(self, data: bytes) -> None:
+        """Send ``data``."""
 
 
 class SerialTransport:
@@ -55,12 +65,15 @@ class SerialTransport:
 
     @property
     def is_open(self) -> bool:
+        """Tell whether the serial port is open."""
         return self._serial is not None
 
     def describe(self) -> str:
+        """Return ``interface:channel``."""
         return f'{self.port}@{self.baudrate}'
 
     def open(self) -> None:
+        """Open the bus (or the replay log); raise TransportError if it cannot."""
         import serial
 
         self.close()
@@ -73,12 +86,14 @@ class SerialTransport:
             raise TransportError(f'cannot open serial port {self.port}: {exc}') from exc
 
     def close(self) -> None:
+        """Shut the bus down; never raises."""
         ser, self._serial = self._serial, None
         if ser is not None:
             with contextlib.suppress(Exception):  # closing a dead port must never raise
                 ser.close()
 
     def read(self, timeout: float) -> bytes:
+        """Return the next chunk, paced to ``bytes_per_second`` [B/s] if set (b'' at the end)."""
         import serial
 
         ser = self._serial
@@ -97,6 +112,7 @@ class SerialTransport:
             raise TransportError(f'serial port {self.port} failed: {exc}') from exc
 
     def write(self, data: bytes) -> None:
+        """Keep ``data`` in ``written`` (a replay has no device to send to)."""
         import serial
 
         ser = self._serial
@@ -130,12 +146,15 @@ class ReplayTransport:
 
     @property
     def is_open(self) -> bool:
+        """Tell whether the serial port is open."""
         return self._fh is not None
 
     def describe(self) -> str:
+        """Return ``interface:channel``."""
         return f'replay:{self.path}'
 
     def open(self) -> None:
+        """Open the bus (or the replay log); raise TransportError if it cannot."""
         try:
             self._fh = self.path.open('rb')
         except OSError as exc:
@@ -144,11 +163,13 @@ class ReplayTransport:
         self._sent = 0
 
     def close(self) -> None:
+        """Shut the bus down; never raises."""
         if self._fh is not None:
             self._fh.close()
         self._fh = None
 
     def read(self, timeout: float) -> bytes:
+        """Return the next chunk, paced to ``bytes_per_second`` [B/s] if set (b'' at the end)."""
         if self._fh is None:
             raise TransportError(f'replay file {self.path} is not open')
         n = self.chunk_size
@@ -166,6 +187,7 @@ class ReplayTransport:
         return bytes(data)
 
     def write(self, data: bytes) -> None:
+        """Keep ``data`` in ``written`` (a replay has no device to send to)."""
         self.written.extend(data)
 
 
@@ -183,7 +205,7 @@ class CanTransport:
         channel: str,
         bitrate: int | None = 500_000,
         can_filters: list[dict[str, int]] | None = None,
-        **kwargs: Any,
+        **kwargs: object,
     ) -> None:
         if not interface:
             raise ConfigError('CAN interface must not be empty')
@@ -193,18 +215,22 @@ class CanTransport:
         self.channel = channel
         self.bitrate = bitrate
         self.can_filters = can_filters
-        self.kwargs = kwargs
-        self._bus: Any = None
-        self._replay: Any = None
+        # passed through to can.Bus, whose interface options are **kwargs: Any
+        self.kwargs: dict[str, Any] = dict(kwargs)
+        self._bus: can.BusABC | None = None
+        self._replay: Iterator[can.Message] | None = None
 
     @property
     def is_open(self) -> bool:
+        """Tell whether the serial port is open."""
         return self._bus is not None or self._replay is not None
 
     def describe(self) -> str:
+        """Return ``interface:channel``."""
         return f'{self.interface}:{self.channel}'
 
     def open(self) -> None:
+        """Open the bus (or the replay log); raise TransportError if it cannot."""
         import can
 
         self.close()
@@ -228,14 +254,21 @@ class CanTransport:
             ) from exc
 
     def close(self) -> None:
+        """Shut the bus down; never raises."""
         bus, self._bus = self._bus, None
         self._replay = None
         if bus is not None:
             with contextlib.suppress(Exception):  # shutting down a dead bus must never raise
                 bus.shutdown()
 
-    def recv(self, timeout: float) -> Any:
-        """Next ``can.Message`` or None after ``timeout`` seconds."""
+    def recv(self, timeout: float) -> can.Message | None:
+        """Return the next CAN message, or None after ``timeout`` [s] without one.
+
+        Raises
+        ------
+        TransportError
+            The bus or the replay log failed, or the transport is not open.
+        """
         import can
 
         if self._replay is not None:

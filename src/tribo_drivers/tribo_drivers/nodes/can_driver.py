@@ -12,11 +12,12 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.can_protocol import CanCodec
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import CanStream, DeviceStream
 from tribo_drivers.core.transports import CanTransport
 from tribo_drivers.errors import DriverError
@@ -38,10 +39,13 @@ def default_dbc() -> str:
 
 
 class CanDriver(SampleBlockDriver):
-    def __init__(self, **kwargs: Any) -> None:
+    """Lifecycle driver of the rig's CAN bus: the DBC's frames decoded into sample blocks."""
+
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('can_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
+        """Declare the CAN parameters (interface, channel, bitrate [bit/s], DBC file, topics)."""
         v = declare_specs(self, CAN_PARAMS)
         self.interface = v['interface']
         self.channel = v['channel']
@@ -54,7 +58,8 @@ class CanDriver(SampleBlockDriver):
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[SampleBlock]:
+        """Build the CAN stream over a python-can bus."""
         kwargs: dict[str, Any] = {}
         if self.interface == 'slcan':
             kwargs['sleep_after_open'] = 0.0
@@ -66,13 +71,16 @@ class CanDriver(SampleBlockDriver):
         )
 
     def channel_topics(self) -> dict[str, str]:
+        """Return the topic of each decoded signal."""
         return dict(self.topics)
 
     def expected_rate(self) -> float:
+        """Return the nominal frame rate [1/s] summed over the DBC's frames."""
         return float(sum(s.frame_rate for s in self.codec.specs.values()))
 
 
 def main(args: Sequence[str] | None = None) -> None:
+    """Run the ``can_driver`` executable."""
     raise SystemExit(run_node(CanDriver, args))
 
 

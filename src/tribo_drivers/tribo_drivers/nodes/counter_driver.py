@@ -9,11 +9,11 @@ input of the nVCT wear evaluation (paper section 3).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Unpack
 
 from tribo_common import topics
 from tribo_common.msgconv import time_from_ns
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import declare_specs
 from tribo_common.qos import profile
 from tribo_drivers.core.streams import CounterStream, CountMessage, DeviceStream
@@ -22,11 +22,14 @@ from tribo_drivers.nodes.driver_base import DriverNode
 from tribo_drivers.nodes.specs import COUNTER_PARAMS
 
 
-class CounterDriver(DriverNode):
-    def __init__(self, **kwargs: Any) -> None:
+class CounterDriver(DriverNode[CountMessage]):
+    """Lifecycle driver of the nVCT radiation counter (ASCII lines over serial)."""
+
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('counter_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
+        """Declare the counter parameters (port, baudrate [bit/s], dwell [s], ack timeout [s])."""
         v = declare_specs(self, COUNTER_PARAMS)
         self.port = v['port']
         self.baudrate = v['baudrate']
@@ -36,7 +39,8 @@ class CounterDriver(DriverNode):
         self.topic = v['topic']
         self._pub: Any = None
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[CountMessage]:
+        """Build the counter stream over the serial port."""
         return CounterStream(
             SerialTransport(self.port, self.baudrate),
             dwell_ms=max(1, round(self.dwell * 1000.0)),
@@ -46,6 +50,7 @@ class CounterDriver(DriverNode):
         )
 
     def create_publishers(self) -> None:
+        """Create the lifecycle publisher of DetectorCounts."""
         from tribo_msgs.msg import DetectorCounts
 
         self._pub = self.create_lifecycle_publisher(
@@ -53,11 +58,13 @@ class CounterDriver(DriverNode):
         )
 
     def destroy_publishers(self) -> None:
+        """Destroy the DetectorCounts publisher."""
         if self._pub is not None:
             self.destroy_lifecycle_publisher(self._pub)
         self._pub = None
 
     def publish_items(self, items: list[CountMessage]) -> None:
+        """Publish each count message as DetectorCounts."""
         from tribo_msgs.msg import DetectorCounts
 
         for m in items:
@@ -73,10 +80,12 @@ class CounterDriver(DriverNode):
                 self._pub.publish(msg)
 
     def expected_rate(self) -> float:
+        """Return the nominal count messages per second [1/s] (one per dwell)."""
         return 1.0 / float(self.dwell)
 
 
 def main(args: Sequence[str] | None = None) -> None:
+    """Run the ``counter_driver`` executable."""
     raise SystemExit(run_node(CounterDriver, args))
 
 

@@ -11,12 +11,13 @@ Scaling per channel: value = (raw - offset) * gain.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Unpack
 
 from tribo_common import topics
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_drivers.core.daq_protocol import DaqScaling
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.streams import DaqStream, DeviceStream
 from tribo_drivers.core.transports import SerialTransport
 from tribo_drivers.errors import DriverError
@@ -28,10 +29,13 @@ SCALING = DAQ_SCALING
 
 
 class DaqDriver(SampleBlockDriver):
-    def __init__(self, **kwargs: Any) -> None:
+    """Lifecycle driver of the rig's DAQ (binary frames of torque, acceleration, speed)."""
+
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('daq_driver', **kwargs)
 
     def declare_driver_parameters(self) -> None:
+        """Declare the DAQ parameters (port, baudrate [bit/s], sample rate [Hz], scaling)."""
         v = declare_specs(self, DAQ_PARAMS)
         self.port = v['port']
         self.baudrate = v['baudrate']
@@ -40,7 +44,7 @@ class DaqDriver(SampleBlockDriver):
         offsets = [v[f'{key}_offset'] for key, *_ in SCALING]
         gains = [v[f'{key}_gain'] for key, *_ in SCALING]
         try:
-            self.scaling = DaqScaling(tuple(offsets), tuple(gains))  # type: ignore[arg-type]
+            self.scaling = DaqScaling(tuple(offsets), tuple(gains))
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
         if self.sample_rate * 20 * 10 > self.baudrate:
@@ -49,7 +53,8 @@ class DaqDriver(SampleBlockDriver):
                 '(20 bytes of 10 bits each per frame)'
             )
 
-    def build_stream(self) -> DeviceStream[Any]:
+    def build_stream(self) -> DeviceStream[SampleBlock]:
+        """Build the DAQ stream over the serial port."""
         return DaqStream(
             SerialTransport(self.port, self.baudrate),
             self.scaling,
@@ -59,13 +64,16 @@ class DaqDriver(SampleBlockDriver):
         )
 
     def channel_topics(self) -> dict[str, str]:
+        """Return the topic of each DAQ channel."""
         return dict(TOPICS)
 
     def expected_rate(self) -> float:
+        """Return the nominal sample rate [Hz]."""
         return float(self.sample_rate)
 
 
 def main(args: Sequence[str] | None = None) -> None:
+    """Run the ``daq_driver`` executable."""
     raise SystemExit(run_node(DaqDriver, args))
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from abc import abstractmethod
-from typing import Any
+from typing import Any, Generic, TypeVar, Unpack
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.lifecycle import Node as LifecycleNode
@@ -21,19 +21,24 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
+from tribo_common.node_main import NodeOptions
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
+from tribo_drivers.core.gaps import SampleBlock
 from tribo_drivers.core.reconnect import Backoff
 from tribo_drivers.core.streams import DeviceStream
 from tribo_drivers.errors import DriverError
 from tribo_drivers.nodes.specs import DRIVER_PARAMS
 
+#: Item type of a driver's stream (sample blocks, count messages).
+ItemT = TypeVar('ItemT')
 
-class DriverNode(LifecycleNode):
+
+class DriverNode(LifecycleNode, Generic[ItemT]):
     """Base class: subclasses build the stream and publish its items."""
 
-    def __init__(self, name: str, **kwargs: Any) -> None:
+    def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__(name, **kwargs)
         v = declare_specs(self, DRIVER_PARAMS)
         self.autostart = v['autostart']
@@ -49,7 +54,7 @@ class DriverNode(LifecycleNode):
             )
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
-        self.stream: DeviceStream[Any] | None = None
+        self.stream: DeviceStream[ItemT] | None = None
         self._thread: threading.Thread | None = None
         self._running = threading.Event()
         self._prev: DriverCounters | None = None
@@ -62,19 +67,24 @@ class DriverNode(LifecycleNode):
 
     # --- subclass hooks -----------------------------------------------------------------
     @abstractmethod
-    def declare_driver_parameters(self) -> None: ...
+    def declare_driver_parameters(self) -> None:
+        """Declare the driver's own parameters (called by ``__init__``)."""
 
     @abstractmethod
-    def build_stream(self) -> DeviceStream[Any]: ...
+    def build_stream(self) -> DeviceStream[ItemT]:
+        """Build the core stream from the parameters (raises DriverError if they do not fit)."""
 
     @abstractmethod
-    def create_publishers(self) -> None: ...
+    def create_publishers(self) -> None:
+        """Create the lifecycle publishers of the items."""
 
     @abstractmethod
-    def destroy_publishers(self) -> None: ...
+    def destroy_publishers(self) -> None:
+        """Destroy the item publishers."""
 
     @abstractmethod
-    def publish_items(self, items: list[Any]) -> None: ...
+    def publish_items(self, items: list[ItemT]) -> None:
+        """Publish a batch of the stream's items."""
 
     @abstractmethod
     def expected_rate(self) -> float:
@@ -87,6 +97,7 @@ class DriverNode(LifecycleNode):
         self.trigger_activate()
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
+        """Build the stream and open the device (a missing device is retried once active)."""
         try:
             self.stream = self.build_stream()
         except DriverError as exc:
@@ -102,6 +113,7 @@ class DriverNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
+        """Activate the publishers and start the reader thread."""
         if self.stream is None:
             return TransitionCallbackReturn.FAILURE
         ret = super().on_activate(state)
@@ -112,6 +124,7 @@ class DriverNode(LifecycleNode):
         return ret
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        """Stop the reader, publish the partial block and release the port."""
         self._stop_reader()
         if self.stream is not None:
             rest = self.stream.close()
@@ -120,6 +133,7 @@ class DriverNode(LifecycleNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        """Stop the reader, close the stream and destroy the publishers."""
         self._stop_reader()
         if self.stream is not None:
             self.stream.close()
@@ -128,6 +142,7 @@ class DriverNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        """Close the driver (reader stopped, port released)."""
         self.close()
         return TransitionCallbackReturn.SUCCESS
 
@@ -145,9 +160,12 @@ class DriverNode(LifecycleNode):
             self._thread.join(5.0)
             self._thread = None
 
-    def _publish_or_stop(self, items: list[Any]) -> bool:
-        """Publish; False once the context is shut down (Ctrl-C while streaming): the
-        reader then ends quietly instead of failing on an invalid publisher."""
+    def _publish_or_stop(self, items: list[ItemT]) -> bool:
+        """Publish ``items``; return False once the context is shut down.
+
+        After a Ctrl-C while streaming the reader then ends quietly instead of
+        failing on an invalid publisher.
+        """
         try:
             self.publish_items(items)
         except Exception:
@@ -209,14 +227,14 @@ class DriverNode(LifecycleNode):
         self._diag_pub.publish(arr)
 
 
-class SampleBlockDriver(DriverNode):
+class SampleBlockDriver(DriverNode[SampleBlock]):
     """A driver whose items are sample blocks, published per channel as SampleBlock.
 
     Subclasses provide :meth:`channel_topics` (channel -> topic; empty topic: not
     published) and the stream.
     """
 
-    def __init__(self, name: str, **kwargs: Any) -> None:
+    def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
         self._pubs: dict[str, Any] = {}
         super().__init__(name, **kwargs)
 
@@ -225,6 +243,7 @@ class SampleBlockDriver(DriverNode):
         """Topic of each channel of the stream (empty: the channel is not published)."""
 
     def create_publishers(self) -> None:
+        """Create one SampleBlock lifecycle publisher per published channel."""
         from tribo_msgs.msg import SampleBlock as SampleBlockMsg
 
         self._pubs = {
@@ -234,11 +253,13 @@ class SampleBlockDriver(DriverNode):
         }
 
     def destroy_publishers(self) -> None:
+        """Destroy the SampleBlock publishers."""
         for pub in self._pubs.values():
             self.destroy_lifecycle_publisher(pub)
         self._pubs = {}
 
-    def publish_items(self, items: list[Any]) -> None:
+    def publish_items(self, items: list[SampleBlock]) -> None:
+        """Publish each sample block on its channel's topic."""
         for b in items:
             pub = self._pubs.get(b.channel)
             if pub is None:

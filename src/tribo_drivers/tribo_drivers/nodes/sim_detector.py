@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from typing import Any
+from typing import Unpack
 
 import numpy as np
 from rclpy.node import Node
 
 from tribo_common.msgconv import time_from_ns
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos
 from tribo_drivers.nodes.specs import SIM_DETECTOR_PARAMS
@@ -33,7 +33,7 @@ from tribo_nvct.errors import NvctError
 class SimDetector(Node):
     """Publish one DetectorCounts per simulated dwell on an accelerated clock."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('sim_detector', **kwargs)
         v = declare_specs(self, SIM_DETECTOR_PARAMS)
         sim_path = v['sim_config']

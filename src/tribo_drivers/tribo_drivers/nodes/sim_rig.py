@@ -25,14 +25,14 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
-from typing import Any
+from typing import Unpack
 
 import numpy as np
 from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare, declare_specs
 from tribo_common.qos import data_qos
 from tribo_drivers.nodes.specs import SIM_RIG_PARAMS
@@ -63,7 +63,7 @@ SUBSCRIBER_SETTLE_S = 0.3
 class SimRigNode(Node):
     """Publishes the simulated rig's sensor streams in real time."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('sim_rig', **kwargs)
         values = declare_specs(self, SIM_RIG_PARAMS)
         self.fs = float(values['sample_rate'])
@@ -145,10 +145,12 @@ class SimRigNode(Node):
         self.index += self.block
 
     def _wait_for_subscribers(self) -> None:
-        """Hold the stream until every rig topic has ``min_subscribers`` subscriptions
-        (at most ``wait_subscribers`` s), then a short settle time: a publisher sees a
-        subscription before the subscriber has matched the publisher, and a volatile
-        subscriber drops what arrives in between."""
+        """Hold the stream until every rig topic has ``min_subscribers`` subscriptions.
+
+        The wait lasts at most ``wait_subscribers`` [s], then a short settle time: a
+        publisher sees a subscription before the subscriber has matched the
+        publisher, and a volatile subscriber drops what arrives in between.
+        """
         if self.min_subscribers <= 0:
             return
         deadline = time.monotonic() + self.wait_subscribers
@@ -202,10 +204,11 @@ class SimRigNode(Node):
             self._thread.join(timeout=2.0)
 
 
-def _msg_type() -> Any:
+def _msg_type() -> type:
     from tribo_msgs.msg import SampleBlock
 
-    return SampleBlock
+    msg_type: type = SampleBlock  # the generated message class (untyped module)
+    return msg_type
 
 
 def main(args: list[str] | None = None) -> None:

@@ -46,13 +46,20 @@ _RATE_RTOL = 1e-9
 class AlignedChunk:
     """Contiguous samples of all channels for indices ``first_index ...``.
 
-    Attributes:
-        first_index: index of the first sample since the stream started [samples].
-        t0: stream time of the first sample [s] (stamp of the torsion channel).
-        sample_rate: sample rate [Hz].
-        torsion: torsion moment C1*phi1 [N m].
-        accel: angular acceleration of the chamber w1' [rad/s^2].
-        speed: shaft speed w2 [rad/s].
+    Attributes
+    ----------
+    first_index
+        index of the first sample since the stream started [samples].
+    t0
+        stream time of the first sample [s] (stamp of the torsion channel).
+    sample_rate
+        sample rate [Hz].
+    torsion
+        torsion moment C1*phi1 [N m].
+    accel
+        angular acceleration of the chamber w1' [rad/s^2].
+    speed
+        shaft speed w2 [rad/s].
     """
 
     first_index: int
@@ -63,6 +70,7 @@ class AlignedChunk:
     speed: FloatArray
 
     def __len__(self) -> int:
+        """Return the number of samples in the chunk."""
         return int(self.torsion.shape[0])
 
     @property
@@ -75,11 +83,16 @@ class AlignedChunk:
 class GapEvent:
     """Samples ``[start_index, end_index)`` are missing in at least one channel.
 
-    Attributes:
-        start_index: first missing index [samples].
-        end_index: first index after the gap [samples].
-        channels: channels that lost samples in this range.
-        t_start: stream time of ``start_index`` [s] (NaN if unknown).
+    Attributes
+    ----------
+    start_index
+        first missing index [samples].
+    end_index
+        first index after the gap [samples].
+    channels
+        channels that lost samples in this range.
+    t_start
+        stream time of ``start_index`` [s] (NaN if unknown).
     """
 
     start_index: int
@@ -97,10 +110,14 @@ class GapEvent:
 class RestartEvent:
     """A channel's ``first_index`` went backwards: a new stream epoch starts.
 
-    Attributes:
-        channel: the channel whose index went backwards first.
-        old_index: index the aligner expected next for that channel [samples].
-        new_index: first index of the restarted stream [samples].
+    Attributes
+    ----------
+    channel
+        the channel whose index went backwards first.
+    old_index
+        index the aligner expected next for that channel [samples].
+    new_index
+        first index of the restarted stream [samples].
     """
 
     channel: str
@@ -129,7 +146,7 @@ class _Channel:
         if not self.blocks:
             return None
         last = self.blocks[-1]
-        return last.first_index + last.data.shape[0]
+        return last.first_index + int(last.data.shape[0])
 
 
 class ChannelAligner:
@@ -142,11 +159,14 @@ class ChannelAligner:
     than ``max_skew`` samples ahead of a silent one, the silent channel's
     missing range is declared a gap rather than buffering without bound.
 
-    Args:
-        channels: channel names (default :data:`CHANNELS`); the first one gives
-            the stream time.
-        max_skew: largest lead of one channel over another before the laggard's
-            missing samples are declared a gap [samples].
+    Parameters
+    ----------
+    channels
+        channel names (default :data:`CHANNELS`); the first one gives
+        the stream time.
+    max_skew
+        largest lead of one channel over another before the laggard's
+        missing samples are declared a gap [samples].
     """
 
     def __init__(self, channels: tuple[str, ...] = CHANNELS, max_skew: int = 200_000) -> None:
@@ -176,16 +196,24 @@ class ChannelAligner:
     ) -> list[AlignEvent]:
         """Add one block of one channel; return the events now ready.
 
-        Args:
-            channel: channel name (one of ``channels``).
-            first_index: index of the block's first sample since the stream started.
-            sample_rate: sample rate [Hz]; all channels must share it.
-            stamp: stream time of the block's first sample [s].
-            data: samples in the channel's SI unit.
+        Parameters
+        ----------
+        channel
+            channel name (one of ``channels``).
+        first_index
+            index of the block's first sample since the stream started.
+        sample_rate
+            sample rate [Hz]; all channels must share it.
+        stamp
+            stream time of the block's first sample [s].
+        data
+            samples in the channel's SI unit.
 
-        Raises:
-            AlignmentError: unknown channel, bad sample rate, negative index or
-                non-finite stamp.
+        Raises
+        ------
+        AlignmentError
+            unknown channel, bad sample rate, negative index or
+            non-finite stamp.
         """
         ch = self._ch.get(channel)
         if ch is None:

@@ -16,7 +16,6 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from tribo_common.yamlio import check_keys, load_yaml
 from tribo_estimation.core.model import DriveProfile, Extensions, FrictionLaw, RigParams
@@ -52,7 +51,7 @@ class RigConfig:
     source: str = '<dict>'
 
 
-def _number(data: Mapping[str, Any], key: str, source: str) -> float:
+def _number(data: Mapping[str, object], key: str, source: str) -> float:
     val = data[key]
     if isinstance(val, bool) or not isinstance(val, int | float):
         raise InvalidParameterError(f'{source}: key {key!r} must be a number, got {val!r}')
@@ -66,7 +65,7 @@ def _number(data: Mapping[str, Any], key: str, source: str) -> float:
     return x
 
 
-def rig_config_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> RigConfig:
+def rig_config_from_dict(data: object, source: str = '<dict>') -> RigConfig:
     """Build a :class:`RigConfig` from a parsed RIG.yaml mapping."""
     if not isinstance(data, Mapping):
         raise ConfigFileError(f'{source}: expected a mapping of keys, got {type(data).__name__}')

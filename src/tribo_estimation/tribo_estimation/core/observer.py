@@ -112,7 +112,8 @@ class FrictionObserver:
         self.last_speed = w1
         rig = self.rig
         ac = np.asarray(accel, dtype=float)
-        return rig.I1 * ac + rig.K1 * w1 + np.asarray(torsion, dtype=float)
+        moment: np.ndarray = rig.I1 * ac + rig.K1 * w1 + np.asarray(torsion, dtype=float)
+        return moment
 
 
 def friction_moment(

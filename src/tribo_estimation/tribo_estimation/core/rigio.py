@@ -50,10 +50,13 @@ MAX_SPEED = 100.0
 
 @dataclass(frozen=True)
 class RigRecord:
-    """A block of rig samples: ``time`` [s], ``torsion_moment`` [N m],
-    ``angular_acceleration`` [rad/s^2], ``speed`` [rad/s]; ``extra`` further columns
-    by name; ``metadata`` the ``# key: value`` comments; ``first_line`` the file
-    line of the first sample (1-based)."""
+    """A block of rig samples read from or written to a rig CSV file.
+
+    ``time`` [s], ``torsion_moment`` [N m], ``angular_acceleration`` [rad/s^2],
+    ``speed`` [rad/s]; ``extra`` further columns by name; ``metadata`` the
+    ``# key: value`` comments; ``first_line`` the file line of the first sample
+    (1-based).
+    """
 
     time: np.ndarray
     torsion_moment: np.ndarray
@@ -64,6 +67,7 @@ class RigRecord:
     first_line: int = 0
 
     def __len__(self) -> int:
+        """Return the number of samples."""
         return int(self.time.shape[0])
 
     @property
@@ -111,11 +115,13 @@ class RigCsvWriter:
         self.rows += n
 
     def close(self) -> None:
+        """Flush and close the file (idempotent)."""
         if self._fh is not None:
             self._fh.close()
             self._fh = None
 
     def __enter__(self) -> RigCsvWriter:
+        """Return the writer itself."""
         return self
 
     def __exit__(
@@ -124,6 +130,7 @@ class RigCsvWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """Close the file, also after an exception."""
         self.close()
 
 
@@ -338,10 +345,14 @@ JITTER_SNAP = 0.01
 class TimeGrid:
     """A regular time base: sample ``i`` at ``t0 + i / fs``.
 
-    Attributes:
-        t0: time of the first sample as written in the file (epoch or relative) [s].
-        fs: sample rate [Hz].
-        max_jitter: largest distance of a written time from the grid [sample intervals].
+    Attributes
+    ----------
+    t0
+        time of the first sample as written in the file (epoch or relative) [s].
+    fs
+        sample rate [Hz].
+    max_jitter
+        largest distance of a written time from the grid [sample intervals].
     """
 
     t0: float
@@ -380,8 +391,11 @@ def estimate_rate(t: np.ndarray, source: str = '<record>') -> float:
 
 
 def centred_anchor(t: np.ndarray, fs: float) -> float:
-    """Grid time of the first sample of ``t`` [s] such that the stamps' offsets from
-    the grid have median zero (a jittered first stamp does not shift the grid)."""
+    """Return the grid time [s] of the first sample of ``t`` [s].
+
+    The grid is placed so that the stamps' offsets from it have median zero (a
+    jittered first stamp does not shift the grid).
+    """
     pos = (np.asarray(t, dtype=np.float64) - float(t[0])) * fs
     off = float(np.median(pos - np.rint(pos))) if pos.size else 0.0
     return float(t[0]) + off / fs
@@ -423,16 +437,20 @@ def grid_positions(
 
 
 def resample_on_grid(idx: np.ndarray, frac: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """``values`` at the grid points ``idx`` (linear interpolation between the
-    samples at ``idx + frac``); unchanged where the jitter is below :data:`JITTER_SNAP`."""
+    """Interpolate ``values`` at the grid points ``idx``.
+
+    Linear interpolation between the samples at ``idx + frac`` [samples];
+    ``values`` is returned unchanged where the jitter is below :data:`JITTER_SNAP`.
+    """
     if frac.size == 0 or float(np.max(np.abs(frac))) < JITTER_SNAP:
         return values
     pos = idx + frac
-    return np.interp(idx.astype(np.float64), pos, values)
+    out: np.ndarray = np.interp(idx.astype(np.float64), pos, values)
+    return out
 
 
 def regularise(rec: RigRecord, source: str = '<record>') -> tuple[RigRecord, TimeGrid]:
-    """The record on a regular time base relative to its first sample.
+    """Put the record on a regular time base relative to its first sample.
 
     Returns the record with ``time = index / fs`` [s] (gaps kept as missing grid
     points) and every channel resampled onto the grid where the stamps jitter, and

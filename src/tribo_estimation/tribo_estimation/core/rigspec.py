@@ -80,7 +80,7 @@ ESTIMATOR_RIG_KEYS: tuple[str, ...] = (*RIG_REQUIRED, 'ramp_time')
 
 
 def rig_specs(names: tuple[str, ...]) -> tuple[ParamSpec, ...]:
-    """The specs of ``names`` (rig parameter names), in that order."""
+    """Return the specs of ``names`` (rig parameter names), in that order."""
     return tuple(RIG_SPEC[n] for n in names)
 
 

@@ -19,7 +19,7 @@ _MONITOR = MonitorConfig()
 
 
 def _estimating(name: str) -> ParamSpec:
-    """The rig spec of ``name`` as an estimating node reads it."""
+    """Return the rig spec of ``name`` as an estimating node reads it."""
     s = RIG_SPEC[name]
     if name in ('mu0', 'mu_inf'):
         return dataclasses.replace(s, description=f'start value of the {s.description}')

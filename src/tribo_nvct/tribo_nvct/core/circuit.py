@@ -59,6 +59,7 @@ class OilCircuit:
     mixing_tolerance: float = 0.05
 
     def __post_init__(self) -> None:
+        """Refuse a circulation time [s] or a fraction outside its range."""
         checks = (
             ('circulation_time_s', self.circulation_time, 0.0, math.inf, False),
             ('transit_fraction', self.transit_fraction, 0.0, 1.0, False),
@@ -127,7 +128,7 @@ class OilCircuit:
         return self.transit - 0.5 * T - 0.5 * self.dispersion_fraction**2 * T
 
     def detector_activity(self, t: FloatArray, released: FloatArray) -> FloatArray:
-        """Reading A_det(t) [Bq] for a released-activity history on a uniform grid ``t`` [s].
+        """Compute the reading A_det(t) [Bq] of a released-activity history on a grid ``t`` [s].
 
         ``released`` is the cumulative released activity A_rel(t) [Bq] with A_rel(0) = 0.
         Convolution A_det = dA_rel * R (discrete, exact for piecewise-constant release rate).

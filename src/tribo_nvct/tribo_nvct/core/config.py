@@ -31,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -163,7 +164,7 @@ class NvctConfig:
 
     @property
     def decay_constant(self) -> float:
-        """lambda [1/s]."""
+        """Return the decay constant lambda [1/s] of the nuclide."""
         return self.nuclide.decay_constant
 
     def sliding_distance(self, duration_s: float) -> float:
@@ -177,13 +178,15 @@ class NvctConfig:
         return self.tagged_area * self.profile.total
 
 
-def _num(d: dict[str, Any], key: str, src: str, *, lo: float = 0.0, strict: bool = True) -> float:
+def _num(
+    d: Mapping[str, object], key: str, src: str, *, lo: float = 0.0, strict: bool = True
+) -> float:
     if key not in d:
         raise NvctConfigError(f'{src}: missing key {key!r}')
     return _value(d[key], key, src, lo=lo, strict=strict)
 
 
-def _value(v: Any, key: str, src: str, *, lo: float = 0.0, strict: bool = True) -> float:
+def _value(v: object, key: str, src: str, *, lo: float = 0.0, strict: bool = True) -> float:
     if isinstance(v, str):
         # PyYAML (YAML 1.1) reads 2.0e6 without an exponent sign as a string.
         try:
@@ -204,7 +207,7 @@ def _value(v: Any, key: str, src: str, *, lo: float = 0.0, strict: bool = True) 
     return x
 
 
-def _material(d: Any, name: str, src: str) -> Material:
+def _material(d: object, name: str, src: str) -> Material:
     if not isinstance(d, dict):
         raise NvctConfigError(f'{src}: contact.{name} must be a mapping with E_Pa and nu')
     check_keys(d, MATERIAL_KEYS, f'{src}: contact.{name}', NvctConfigError)
@@ -214,7 +217,7 @@ def _material(d: Any, name: str, src: str) -> Material:
         raise NvctConfigError(f'{src}: contact.{name}: {exc}') from None
 
 
-def geometry_from_dict(d: dict[str, Any], src: str = '<contact>') -> RingLinerGeometry:
+def geometry_from_dict(d: Mapping[str, object], src: str = '<contact>') -> RingLinerGeometry:
     """Ring/liner geometry from the ``contact`` mapping of NVCT.yaml."""
     check_keys(d, CONTACT_KEYS, f'{src}: contact', NvctConfigError)
     crown = d.get('crown_radius_m')
@@ -228,7 +231,7 @@ def geometry_from_dict(d: dict[str, Any], src: str = '<contact>') -> RingLinerGe
     )
 
 
-def config_from_dict(raw: dict[str, Any], base_dir: Path, source: str = '<config>') -> NvctConfig:
+def config_from_dict(raw: object, base_dir: Path, source: str = '<config>') -> NvctConfig:
     """Build and validate an :class:`NvctConfig` from the YAML mapping."""
     src = source
     if not isinstance(raw, dict):

@@ -43,6 +43,7 @@ class Material:
     nu: float
 
     def __post_init__(self) -> None:
+        """Refuse a Young's modulus [Pa] that is not > 0 or a Poisson ratio outside (-1, 0.5)."""
         if not (math.isfinite(self.E) and self.E > 0.0):
             raise ContactError(f"Young's modulus must be > 0 Pa, got {self.E!r}")
         if not (math.isfinite(self.nu) and -1.0 < self.nu < 0.5):

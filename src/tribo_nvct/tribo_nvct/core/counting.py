@@ -51,6 +51,7 @@ class Dwell:
     live_time: float
 
     def __post_init__(self) -> None:
+        """Refuse non-finite times [s], an end before the start or a live time [s] out of range."""
         for name in ('t_start', 't_end', 'live_time'):
             v = getattr(self, name)
             if not isinstance(v, int | float) or not math.isfinite(v):
@@ -113,6 +114,7 @@ class Background:
     se: float = 0.0
 
     def __post_init__(self) -> None:
+        """Refuse a negative or non-finite background rate [counts/s] or standard error."""
         if not (math.isfinite(self.rate) and self.rate >= 0.0):
             raise NvctConfigError(f'background rate must be >= 0 counts/s, got {self.rate!r}')
         if not (math.isfinite(self.se) and self.se >= 0.0):
@@ -163,7 +165,7 @@ class ActivityEstimate:
 def counts_to_activity(
     dwell: Dwell, background: Background, k_det: float, lam: float, offset_s: float
 ) -> ActivityEstimate:
-    """Counts of one dwell to decay-corrected activity (see module docstring).
+    """Convert the counts of one dwell to decay-corrected activity (see module docstring).
 
     k_det: detector coefficient [Bq per count/s]; lam: decay constant [1/s];
     offset_s: reference date to test start [s].

@@ -72,7 +72,7 @@ class LineFit:
         return self.a + self.b * t
 
     def value_se(self, t: float) -> float:
-        """Standard error of V(t) [m^3]."""
+        """Return the standard error of V(t) [m^3] at time ``t`` [s]."""
         (caa, cab), (_, cbb) = self.cov
         return math.sqrt(max(caa + 2.0 * t * cab + t * t * cbb, 0.0))
 
@@ -475,7 +475,7 @@ def _profile_spread(
 
 
 def recent_rate(points: Sequence[WearPoint], window_s: float) -> tuple[float, float]:
-    """Current wear rate dV/dt [m^3/s] and SE from usable points of the last ``window_s`` [s]."""
+    """Estimate the wear rate dV/dt [m^3/s] and its SE from the last ``window_s`` [s]."""
     if not points:
         return math.nan, math.nan
     t_last = points[-1].t_mid

@@ -84,7 +84,7 @@ def get_nuclide(name: str) -> Nuclide:
 
 
 def custom_nuclide(half_life_days: float, name: str = 'custom') -> Nuclide:
-    """A nuclide given only by its half-life [d] (> 0)."""
+    """Make a nuclide given only by its half-life [d] (> 0)."""
     if not (math.isfinite(half_life_days) and half_life_days > 0.0):
         raise NvctConfigError(f'half_life_days must be a positive number, got {half_life_days!r}')
     return Nuclide(name, float(half_life_days))

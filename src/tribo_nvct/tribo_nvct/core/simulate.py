@@ -1,5 +1,7 @@
-"""Forward simulator of an nVCT test: true wear -> released activity -> oil circuit
--> detector counts (Poisson, background, decay, non-paralysable dead time).
+"""Forward simulator of an nVCT test.
+
+True wear -> released activity -> oil circuit -> detector counts (Poisson,
+background, decay, non-paralysable dead time).
 
 Used by the tests, the benchmark, ``tribo wear --simulate`` and the simulated
 detector node. The true wear curve is the running-in + progressive model of
@@ -11,7 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +36,7 @@ class TrueWear:
     progressive_rate: float
 
     def __post_init__(self) -> None:
+        """Refuse a negative running-in volume [m^3] or rate [m^3/s], or tau [s] <= 0."""
         if not (self.running_in_volume >= 0.0 and self.tau > 0.0 and self.progressive_rate >= 0.0):
             raise NvctConfigError(
                 'true wear needs running_in_volume >= 0, tau > 0, progressive_rate >= 0'
@@ -58,6 +60,7 @@ class SimSettings:
     pause: float = 0.0
 
     def __post_init__(self) -> None:
+        """Refuse a duration or dwell [s] <= 0, or a negative dead time or pause [s]."""
         if not (self.duration > 0 and self.dwell > 0 and self.dead_time >= 0 and self.pause >= 0):
             raise NvctConfigError('simulation needs duration > 0, dwell > 0, dead_time/pause >= 0')
 
@@ -108,7 +111,7 @@ class ForwardSimulator:
         self.expected_true_counts = sig + cfg.background.rate * s.dwell
 
     def true_volume(self, t: FloatArray | float) -> FloatArray:
-        """True wear volume [m^3]."""
+        """Return the true wear volume [m^3] at time ``t`` [s]."""
         return self.truth.volume(t)
 
     def dwell(self, i: int, rng: np.random.Generator) -> Dwell:
@@ -165,7 +168,7 @@ class SimDetectorConfig:
 MAX_DWELLS = 1e6
 
 
-def _pos(d: dict[str, Any], key: str, src: str, default: float | None = None) -> float:
+def _pos(d: dict[str, object], key: str, src: str, default: float | None = None) -> float:
     v = d.get(key, default)
     if v is None:
         raise NvctConfigError(f'{src}: missing key {key!r}')

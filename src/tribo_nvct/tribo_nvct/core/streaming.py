@@ -14,7 +14,6 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from tribo_nvct.core.config import NvctConfig
 from tribo_nvct.core.counting import Dwell, check_sequence, counts_to_activity
@@ -114,7 +113,7 @@ class WearEvaluator:
         return RateEstimate(r, se)
 
     # --- persistence -------------------------------------------------------
-    def state_dict(self) -> dict[str, Any]:
+    def state_dict(self) -> dict[str, object]:
         """JSON-ready state (version, config fingerprint, dwells)."""
         return {
             'version': STATE_VERSION,
@@ -143,7 +142,7 @@ class WearEvaluator:
             raise
 
     @classmethod
-    def from_state_dict(cls, cfg: NvctConfig, state: dict[str, Any]) -> WearEvaluator:
+    def from_state_dict(cls, cfg: NvctConfig, state: dict[str, object]) -> WearEvaluator:
         """Rebuild an evaluator by replaying the saved dwells."""
         if not isinstance(state, dict) or state.get('version') != STATE_VERSION:
             raise StateError(f'unsupported evaluator state (version {state.get("version")!r})')
@@ -152,7 +151,10 @@ class WearEvaluator:
                 f'saved state belongs to another configuration ({state.get("config_source")!r}, '
                 f'fingerprint {state.get("config_fingerprint")!r} != {cfg.fingerprint!r})'
             )
-        ev = cls(cfg, float(state.get('rate_window_s', 600.0)))
+        window = state.get('rate_window_s', 600.0)
+        if isinstance(window, bool) or not isinstance(window, int | float | str):
+            raise StateError(f'saved state: rate_window_s is not a number: {window!r}')
+        ev = cls(cfg, float(window))
         rows = state.get('dwells')
         if not isinstance(rows, list):
             raise StateError('saved state has no dwell list')

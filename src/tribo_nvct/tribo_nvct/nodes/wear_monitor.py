@@ -29,12 +29,12 @@ import os
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Unpack
 
 from rclpy.node import Node
 
 from tribo_common.msgconv import time_from_ns
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_common.rosenv import default_state_file
@@ -43,6 +43,9 @@ from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
 from tribo_nvct.errors import NvctError, StateError
 from tribo_nvct.nodes.specs import WEAR_MONITOR_PARAMS
+
+if TYPE_CHECKING:
+    from tribo_msgs.msg import DetectorCounts
 
 
 def _nan_if_none(x: float | None) -> float:
@@ -56,7 +59,7 @@ PARAMS = WEAR_MONITOR_PARAMS
 class WearMonitor(Node):
     """Subscribe DetectorCounts, publish WearState per dwell, persist the state."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('wear_monitor', **kwargs)
         default_state = str(default_state_file('tribo_nvct', 'wear_state.json'))
         v = declare_specs(
@@ -125,7 +128,7 @@ class WearMonitor(Node):
         """Write any unsaved dwells (called by run_node at shutdown)."""
         self._flush()
 
-    def _on_counts(self, msg: Any) -> None:
+    def _on_counts(self, msg: DetectorCounts) -> None:
         try:
             dwell = Dwell(
                 float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time)

@@ -97,7 +97,7 @@ def binned_for(name: str, problem: Problem, sim: SimulatedRecord, r: FloatArray)
     return binned(x, r, name=name, unit=unit, bins=12)
 
 
-def localise(problem: Problem, sim: SimulatedRecord) -> dict[str, Any]:
+def localise(problem: Problem, sim: SimulatedRecord) -> dict[str, object]:
     """Localising statistics of the torsion-moment residual (JSON-ready, N m)."""
     rec = problem.record
     r_full = torque_residual(problem, sim)

@@ -21,8 +21,11 @@ from .stats import FloatArray
 
 @dataclass(frozen=True)
 class SparseTerm:
-    """One selected term: ``coefficient * feature``; ``contribution_rms`` is the
-    rms of that product over the record (residual unit, N m for torque)."""
+    """One selected term: ``coefficient * feature``.
+
+    ``contribution_rms`` is the rms of that product over the record (residual
+    unit, N m for torque).
+    """
 
     name: str
     coefficient: float
@@ -107,7 +110,7 @@ def feature_library(
     line_frequencies: tuple[float, ...] = (),
     include_angle: bool = True,
 ) -> dict[str, FloatArray]:
-    """The default term library (names say what each feature is, SI units).
+    """Build the default term library (names say what each feature is, SI units).
 
     ``time`` s, ``slip_speed`` rad/s (simulated), ``stick`` 0/1,
     ``shaft_angle`` rad, ``chamber_speed`` rad/s, ``line_frequencies`` Hz;

@@ -1,4 +1,4 @@
-"""Residual statistics of the discrepancy workflow: where does the gap concentrate?
+"""Residual statistics of the discrepancy workflow: where the gap concentrates.
 
 Pure array functions (no model, no I/O) so they can be tested on synthetic
 arrays. Units: time in s, residuals in the unit of their channel (the torsion
@@ -290,9 +290,11 @@ def spectral_lines(
 
 @dataclass(frozen=True)
 class Trend:
-    """Linear trend of a residual with time: slope (unit/s), change over the
-    record (unit) and its t statistic computed on block means (robust to the
-    residual's autocorrelation)."""
+    """Fit the linear trend of a residual with time.
+
+    Returns the slope (unit/s), the change over the record (unit) and its t
+    statistic computed on block means (robust to the residual's autocorrelation).
+    """
 
     slope: float
     change: float
