@@ -20,13 +20,13 @@ import math
 import queue
 import threading
 from collections.abc import Sequence
-from typing import Any
+from typing import Unpack
 
 from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import Block, make_sample_block, time_from_ns
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
@@ -51,7 +51,7 @@ PARAMS = FRICTION_ESTIMATOR_PARAMS
 class FrictionEstimatorNode(Node):
     """Online friction estimator (see the module docstring)."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('friction_estimator', **kwargs)
         v = declare_specs(self, PARAMS)
         require_contact(v)

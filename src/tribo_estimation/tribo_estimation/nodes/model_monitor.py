@@ -23,14 +23,14 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Sequence
-from typing import Any
+from typing import Unpack
 
 import numpy as np
 from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import Block, float64_array, time_from_ns
-from tribo_common.node_main import run_node
+from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import history_qos
 from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
@@ -59,7 +59,7 @@ PARAMS = MODEL_MONITOR_PARAMS
 class ModelMonitorNode(Node):
     """Live model monitor (see the module docstring)."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('model_monitor', **kwargs)
         v = declare_specs(self, PARAMS)
         require_contact(v)
