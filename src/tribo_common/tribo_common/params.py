@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
-from typing import Any, TypeVar, cast
+from collections.abc import Iterable, Iterator, Mapping
+from typing import TypeVar, cast
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -154,6 +154,68 @@ def declare_spec(node: Node, spec: ParamSpec) -> DeclaredValue:
     return value
 
 
-def declare_specs(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
-    """Declare every parameter of ``specs``; name -> checked value."""
-    return {s.name: declare_spec(node, s) for s in specs}
+class DeclaredParams(Mapping[str, DeclaredValue]):
+    """The checked values of a node's declared parameters, read with their type.
+
+    A read-only mapping name -> value whose typed getters (:meth:`number`,
+    :meth:`integer`, :meth:`text`, :meth:`flag`, :meth:`strings`) narrow the value
+    and name the parameter when its type is not the one the node expects.
+    """
+
+    def __init__(self, values: Mapping[str, DeclaredValue]) -> None:
+        self._values = dict(values)
+
+    def __getitem__(self, name: str) -> DeclaredValue:
+        """Return the value of parameter ``name``."""
+        return self._values[name]
+
+    def __iter__(self) -> Iterator[str]:
+        """Iterate over the parameter names."""
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        """Return the number of parameters."""
+        return len(self._values)
+
+    def _typed(self, name: str, kinds: tuple[type, ...], what: str) -> DeclaredValue:
+        value = self._values[name]
+        if isinstance(value, bool) and bool not in kinds:
+            raise ParameterError(f'parameter {name!r} is {value!r}, expected {what}')
+        if not isinstance(value, kinds):
+            raise ParameterError(f'parameter {name!r} is {value!r}, expected {what}')
+        return value
+
+    def number(self, name: str) -> float:
+        """Return parameter ``name`` as a float (an integer value is widened)."""
+        return float(cast(float, self._typed(name, (float, int), 'a number')))
+
+    def integer(self, name: str) -> int:
+        """Return parameter ``name`` as an integer."""
+        return cast(int, self._typed(name, (int,), 'an integer'))
+
+    def text(self, name: str) -> str:
+        """Return parameter ``name`` as a string."""
+        return cast(str, self._typed(name, (str,), 'a string'))
+
+    def flag(self, name: str) -> bool:
+        """Return parameter ``name`` as a boolean."""
+        return cast(bool, self._typed(name, (bool,), 'true or false'))
+
+    def numbers(self, names: Iterable[str]) -> dict[str, float]:
+        """Return the parameters ``names`` as floats, by name."""
+        return {name: self.number(name) for name in names}
+
+    def strings(self, name: str) -> list[str]:
+        """Return parameter ``name`` as a list of strings."""
+        return list(cast(list[str], self._typed(name, (list,), 'a list of strings')))
+
+
+def declare_specs(node: Node, specs: Iterable[ParamSpec]) -> DeclaredParams:
+    """Declare every parameter of ``specs``.
+
+    Returns
+    -------
+    DeclaredParams
+        Parameter name -> checked value, with typed getters.
+    """
+    return DeclaredParams({s.name: declare_spec(node, s) for s in specs})

@@ -73,18 +73,18 @@ class LiveBridgeNode(Node):
     def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('live_bridge', **kwargs)
         v = declare_specs(self, PARAMS)
-        host = str(v['host'])
-        port = int(v['port'])
-        rate = float(v['downsample_rate'])
-        self.mode = str(v['downsample_mode'])
+        host = v.text('host')
+        port = v.integer('port')
+        rate = v.number('downsample_rate')
+        self.mode = v.text('downsample_mode')
         if self.mode not in bc.MODES:
             raise ParameterError(
                 f"parameter 'downsample_mode' must be one of {', '.join(bc.MODES)}, "
                 f'got {self.mode!r}'
             )
-        c1 = float(v['C1'])
-        tol = float(v['stick_tolerance'])
-        backlog = int(v['message_backlog'])
+        c1 = v.number('C1')
+        tol = v.number('stick_tolerance')
+        backlog = v.integer('message_backlog')
         self.ctx = foxglove.Context()
         try:
             server = foxglove.start_server(

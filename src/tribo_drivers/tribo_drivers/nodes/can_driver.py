@@ -47,12 +47,12 @@ class CanDriver(SampleBlockDriver):
     def declare_driver_parameters(self) -> None:
         """Declare the CAN parameters (interface, channel, bitrate [bit/s], DBC file, topics)."""
         v = declare_specs(self, CAN_PARAMS)
-        self.interface = v['interface']
-        self.channel = v['channel']
-        self.bitrate = v['bitrate']
-        self.dbc = v['dbc'] or default_dbc()
-        self.blocks_per_second = v['blocks_per_second']
-        self.topics = {ch: v[f'{ch}_topic'] for ch in CHANNEL_TOPICS}
+        self.interface = v.text('interface')
+        self.channel = v.text('channel')
+        self.bitrate = v.integer('bitrate')
+        self.dbc = v.text('dbc') or default_dbc()
+        self.blocks_per_second = v.number('blocks_per_second')
+        self.topics = {ch: v.text(f'{ch}_topic') for ch in CHANNEL_TOPICS}
         try:
             self.codec = CanCodec(self.dbc)
         except DriverError as exc:

@@ -31,12 +31,12 @@ class CounterDriver(DriverNode[CountMessage]):
     def declare_driver_parameters(self) -> None:
         """Declare the counter parameters (port, baudrate [bit/s], dwell [s], ack timeout [s])."""
         v = declare_specs(self, COUNTER_PARAMS)
-        self.port = v['port']
-        self.baudrate = v['baudrate']
-        self.dwell = v['dwell']
-        self.ack_timeout = v['ack_timeout']
-        self.ack_retries = v['ack_retries']
-        self.topic = v['topic']
+        self.port = v.text('port')
+        self.baudrate = v.integer('baudrate')
+        self.dwell = v.number('dwell')
+        self.ack_timeout = v.number('ack_timeout')
+        self.ack_retries = v.integer('ack_retries')
+        self.topic = v.text('topic')
         self._pub: Any = None
 
     def build_stream(self) -> DeviceStream[CountMessage]:

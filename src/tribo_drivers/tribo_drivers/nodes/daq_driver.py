@@ -37,14 +37,16 @@ class DaqDriver(SampleBlockDriver):
     def declare_driver_parameters(self) -> None:
         """Declare the DAQ parameters (port, baudrate [bit/s], sample rate [Hz], scaling)."""
         v = declare_specs(self, DAQ_PARAMS)
-        self.port = v['port']
-        self.baudrate = v['baudrate']
-        self.sample_rate = v['sample_rate']
-        self.block_size = v['block_size']
-        offsets = [v[f'{key}_offset'] for key, *_ in SCALING]
-        gains = [v[f'{key}_gain'] for key, *_ in SCALING]
+        self.port = v.text('port')
+        self.baudrate = v.integer('baudrate')
+        self.sample_rate = v.number('sample_rate')
+        self.block_size = v.integer('block_size')
+        offsets = [v.number(f'{key}_offset') for key, *_ in SCALING]
+        gains = [v.number(f'{key}_gain') for key, *_ in SCALING]
         try:
-            self.scaling = DaqScaling(tuple(offsets), tuple(gains))
+            self.scaling = DaqScaling(
+                (offsets[0], offsets[1], offsets[2]), (gains[0], gains[1], gains[2])
+            )
         except DriverError as exc:
             raise ParameterError(str(exc)) from exc
         if self.sample_rate * 20 * 10 > self.baudrate:

@@ -41,12 +41,12 @@ class DriverNode(LifecycleNode, Generic[ItemT]):
     def __init__(self, name: str, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__(name, **kwargs)
         v = declare_specs(self, DRIVER_PARAMS)
-        self.autostart = v['autostart']
-        self.poll_timeout = v['poll_timeout']
-        self.diagnostic_period = v['diagnostic_period']
-        self.backoff_initial = v['backoff_initial']
-        self.backoff_max = v['backoff_max']
-        self.hardware_id = v['hardware_id']
+        self.autostart = v.flag('autostart')
+        self.poll_timeout = v.number('poll_timeout')
+        self.diagnostic_period = v.number('diagnostic_period')
+        self.backoff_initial = v.number('backoff_initial')
+        self.backoff_max = v.number('backoff_max')
+        self.hardware_id = v.text('hardware_id')
         self.declare_driver_parameters()
         try:
             self.backoff = Backoff(

@@ -36,12 +36,12 @@ class SimDetector(Node):
     def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('sim_detector', **kwargs)
         v = declare_specs(self, SIM_DETECTOR_PARAMS)
-        sim_path = v['sim_config']
-        nvct_path = v['nvct_config']
-        scale = v['time_scale']
-        seed = v['seed']
-        topic = v['topic']
-        self.wait_subscribers = float(v['wait_subscribers'])
+        sim_path = v.text('sim_config')
+        nvct_path = v.text('nvct_config')
+        scale = v.number('time_scale')
+        seed = v.integer('seed')
+        topic = v.text('topic')
+        self.wait_subscribers = v.number('wait_subscribers')
         if not sim_path:
             raise ParameterError("parameter 'sim_config' (path of sim_detector.yaml) is required")
         try:

@@ -66,12 +66,12 @@ class SimRigNode(Node):
     def __init__(self, **kwargs: Unpack[NodeOptions]) -> None:
         super().__init__('sim_rig', **kwargs)
         values = declare_specs(self, SIM_RIG_PARAMS)
-        self.fs = float(values['sample_rate'])
-        self.block = int(values['block_size'])
-        self.duration = float(values['duration'])
-        seed = int(values['seed'])
-        self.min_subscribers = int(values['min_subscribers'])
-        self.wait_subscribers = float(values['wait_subscribers'])
+        self.fs = values.number('sample_rate')
+        self.block = values.integer('block_size')
+        self.duration = values.number('duration')
+        seed = values.integer('seed')
+        self.min_subscribers = values.integer('min_subscribers')
+        self.wait_subscribers = values.number('wait_subscribers')
         eff: dict[str, float] = {}
         for field in dataclasses.fields(Extensions):
             default = float(field.default)  # type: ignore[arg-type]
@@ -85,12 +85,16 @@ class SimRigNode(Node):
                 'rate is between 50 and 1000 blocks/s (about 100-500 recommended)'
             )
         try:
-            self.rig = RigParams.from_mapping(values)
-            self.friction = FrictionLaw(values['mu0'], values['mu_inf'], values['k'])
-            self.drive = DriveProfile(values['nominal_speed'], values['ramp_time'])
+            self.rig = RigParams.from_mapping(values.numbers(RigParams.field_names()))
+            self.friction = FrictionLaw(
+                values.number('mu0'), values.number('mu_inf'), values.number('k')
+            )
+            self.drive = DriveProfile(values.number('nominal_speed'), values.number('ramp_time'))
             self.extensions = Extensions(**eff)
             self.noise = NoiseSpec(
-                values['noise_torque'], values['noise_accel'], values['noise_speed']
+                values.number('noise_torque'),
+                values.number('noise_accel'),
+                values.number('noise_speed'),
             )
         except ValueError as exc:
             raise ParameterError(str(exc)) from exc

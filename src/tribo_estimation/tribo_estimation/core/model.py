@@ -84,6 +84,11 @@ class RigParams:
         return cls(**{f.name: float(values[f.name]) for f in fields(cls)})
 
     @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """Return the names of the eight fields, in declaration order."""
+        return tuple(f.name for f in fields(cls))
+
+    @classmethod
     def tab1(cls, F_N: float | None = None, R: float | None = None) -> RigParams:
         """Return the paper's Tab. 1 rig with the given contact load and radius.
 

@@ -56,13 +56,15 @@ class FrictionEstimatorNode(Node):
         v = declare_specs(self, PARAMS)
         require_contact(v)
         try:
-            rig = RigParams.from_mapping(v)
-            friction = FrictionLaw(v['mu0'], v['mu_inf'], v['k'])
+            rig = RigParams.from_mapping(v.numbers(RigParams.field_names()))
+            friction = FrictionLaw(v.number('mu0'), v.number('mu_inf'), v.number('k'))
             cfg = BlockConfig(
-                block_length=v['block_length'],
-                fit_k=bool(v['fit_k']),
-                nominal_speed=v['nominal_speed'] if v['nominal_speed'] != 0.0 else None,
-                ramp_time=v['ramp_time'],
+                block_length=v.number('block_length'),
+                fit_k=v.flag('fit_k'),
+                nominal_speed=v.number('nominal_speed')
+                if v.number('nominal_speed') != 0.0
+                else None,
+                ramp_time=v.number('ramp_time'),
             )
         except EstimationError as exc:
             raise ParameterError(str(exc)) from exc

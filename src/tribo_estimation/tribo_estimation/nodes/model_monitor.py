@@ -64,22 +64,22 @@ class ModelMonitorNode(Node):
         v = declare_specs(self, PARAMS)
         require_contact(v)
         try:
-            rig = RigParams.from_mapping(v)
-            drive = DriveProfile(v['nominal_speed'], v['ramp_time'])
+            rig = RigParams.from_mapping(v.numbers(RigParams.field_names()))
+            drive = DriveProfile(v.number('nominal_speed'), v.number('ramp_time'))
             cfg = MonitorConfig(
-                window=v['window'],
-                hop=v['hop'],
-                candidates=tuple(str(c) for c in v['candidates'] if str(c)),
-                max_candidates=int(v['max_candidates']),
-                time_budget=v['time_budget'],
-                ratio_threshold=v['ratio_threshold'],
-                min_gain=v['min_gain'],
-                max_rel_se=v['max_rel_se'],
-                max_correlation=v['max_correlation'],
+                window=v.number('window'),
+                hop=v.number('hop'),
+                candidates=tuple(str(c) for c in v.strings('candidates') if str(c)),
+                max_candidates=v.integer('max_candidates'),
+                time_budget=v.number('time_budget'),
+                ratio_threshold=v.number('ratio_threshold'),
+                min_gain=v.number('min_gain'),
+                max_rel_se=v.number('max_rel_se'),
+                max_correlation=v.number('max_correlation'),
             )
         except EstimationError as exc:
             raise ParameterError(str(exc)) from exc
-        self._monitor = WindowMonitor(rig, drive, k=v['k'], config=cfg)
+        self._monitor = WindowMonitor(rig, drive, k=v.number('k'), config=cfg)
         self._aligner = ChannelAligner()
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)

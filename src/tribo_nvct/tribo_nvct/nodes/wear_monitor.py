@@ -66,13 +66,13 @@ class WearMonitor(Node):
             self,
             (s.with_default(default_state) if s.name == 'state_file' else s for s in PARAMS),
         )
-        cfg_path = v['nvct_config']
-        self.state_file = v['state_file']
-        self.rate_window = v['rate_window_s']
-        self.save_interval = float(v['save_interval_s'])
-        counts_topic = v['counts_topic']
-        wear_topic = v['wear_topic']
-        fresh = v['fresh_start']
+        cfg_path = v.text('nvct_config')
+        self.state_file = v.text('state_file')
+        self.rate_window = v.number('rate_window_s')
+        self.save_interval = v.number('save_interval_s')
+        counts_topic = v.text('counts_topic')
+        wear_topic = v.text('wear_topic')
+        fresh = v.flag('fresh_start')
         if not cfg_path:
             raise ParameterError("parameter 'nvct_config' (path of NVCT.yaml) is required")
         try:
