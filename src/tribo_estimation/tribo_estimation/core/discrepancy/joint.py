@@ -40,10 +40,10 @@ from .localise import torque_residual
 from .select import (
     Progress,
     SelectionSettings,
-    _start_context,
     fit_baseline,
     instrument_record,
     record_facts,
+    start_context,
 )
 from .stats import FloatArray, noise_floor
 
@@ -235,7 +235,7 @@ def run_joint_discrepancy(
     durations = np.concatenate([f[0] for f in facts])
     speeds = np.concatenate([f[1] for f in facts])
     length = sum(f[2] for f in facts)
-    ctx = _start_context(problems[0], sims[0])
+    ctx = start_context(problems[0], sims[0])
     names = st.candidates if st.candidates is not None else cand_lib.names()
     scores: dict[str, dict[str, Any]] = {}
     fits: dict[str, dict[str, float]] = {}
