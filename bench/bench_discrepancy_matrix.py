@@ -145,6 +145,8 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
     else:
         outcome = 'nothing'
     verdict = res.identifiable.get(h)
+    named = [s for s in res.rounds[0] if s.effect == res.added[0].effect] if res.added else []
+    loss = named[0].block_loss if named else math.nan
     perr = math.nan
     if res.added and res.added[0].effect == h:
         truth = hidden(h, scale)
@@ -169,6 +171,8 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
         'wall': wall,
         'unexplained': '; '.join(f'{u.kind} {u.where} {u.size:.3g} N m' for u in res.unexplained),
         'blocked': ','.join(res.blocked),
+        'inconsistent': ','.join(res.inconsistent),
+        'block_loss': loss,
     }
 
 
@@ -194,8 +198,9 @@ def main() -> int:
         print(
             f'{h:<20s} x{scale:<4g} {cond:<8s} -> {r["outcome"]:<20s} ident={r["ident"]!s:<5s} '
             f'rms {r["rms0"]:.3f} -> {r["rms1"]:.3f} N m ({r["rms1"] / r["floor"]:.2f} floor) '
-            f'perr {r["perr"]:.2f} {r["wall"]:.1f} s'
-            + (f' (not identifiable: {r["blocked"]})' if r['blocked'] else ''),
+            f'perr {r["perr"]:.2f} worst block {r["block_loss"]:+.2f} {r["wall"]:.1f} s'
+            + (f' (not identifiable: {r["blocked"]})' if r['blocked'] else '')
+            + (f' (inconsistent: {r["inconsistent"]})' if r['inconsistent'] else ''),
             flush=True,
         )
     total = time.perf_counter() - t_all

@@ -30,7 +30,10 @@ class SelectionSettings:
     registered); ``propose_terms`` run the sparse regression on what remains;
     ``torsion_lag`` identify the torsion amplifier's lag as part of the instrument
     model and compensate it (:func:`.fitting.identify_torsion_lag`; off: the lag is
-    left to the ``torque_sensor_lag`` candidate).
+    left to the ``torque_sensor_lag`` candidate); ``max_block_loss`` the largest
+    relative cost increase (-) of any time block that a named effect may cause (an
+    effect of the library improves the whole record; one that trades a block for
+    the others absorbs a mismatch that changes during the record).
 
     Raises
     ------
@@ -51,6 +54,7 @@ class SelectionSettings:
     candidates: tuple[str, ...] | None = None
     propose_terms: bool = True
     torsion_lag: bool = True
+    max_block_loss: float = 0.1
 
     def __post_init__(self) -> None:
         """Check the ranges."""
@@ -60,6 +64,8 @@ class SelectionSettings:
             raise InvalidParameterError(f'folds must be >= 2, got {self.folds}')
         if self.max_effects < 0:
             raise InvalidParameterError(f'max_effects must be >= 0, got {self.max_effects}')
+        if not self.max_block_loss >= 0.0:
+            raise InvalidParameterError(f'max_block_loss must be >= 0, got {self.max_block_loss}')
         for name in ('block_time', 'corr_time'):
             if not getattr(self, name) > 0:
                 raise InvalidParameterError(f'{name} must be > 0 s, got {getattr(self, name)}')
@@ -71,7 +77,8 @@ class ModelScore:
 
     ``effects`` the added candidates; ``params`` all values (SI); ``cost`` whole-record
     weighted cost (-) and ``rms`` torque residual rms (N m); ``cv_cost`` / ``cv_rms``
-    the same held out (cross validation); ``bic`` (-); ``n_params`` parameter count.
+    the same held out (cross validation); ``bic`` (-); ``n_params`` parameter count;
+    ``block_cost`` the whole-record fit's cost per time block (-; NaN: not covered).
     """
 
     effects: tuple[str, ...]
@@ -82,17 +89,24 @@ class ModelScore:
     cv_rms: float
     bic: float
     n_params: int
+    block_cost: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
 class CandidateScore:
-    """One candidate's score in one round (relative to the current model)."""
+    """One candidate's score in one round (relative to the current model).
+
+    ``gain`` relative decrease of the held-out cost (-); ``delta_bic`` (-);
+    ``block_loss`` the largest relative cost increase of a time block (-; <= 0: no
+    block worse; :func:`.scoring.worst_block_loss`).
+    """
 
     effect: str
     model: ModelScore
     gain: float
     delta_bic: float
     accepted: bool
+    block_loss: float = float('nan')
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON-ready form.
@@ -111,6 +125,7 @@ class CandidateScore:
             'cv_cost': self.model.cv_cost,
             'gain': self.gain,
             'delta_bic': self.delta_bic,
+            'block_loss': self.block_loss,
             'accepted': self.accepted,
         }
 
@@ -138,10 +153,11 @@ class AddedEffect:
 class Unexplained:
     """Residual structure no candidate explains.
 
-    ``kind`` one of 'spectral_line', 'phase', 'trend', 'shaft_angle',
+    ``kind`` one of 'spectral_line', 'phase', 'trend', 'time', 'shaft_angle',
     'broadband'; ``where`` says where it concentrates; ``size`` its magnitude
-    (N m: line amplitude, phase excess rms, trend change over the record,
-    angle-harmonic amplitude); ``frequency`` Hz for lines (else None).
+    (N m: line amplitude, phase excess rms, trend change over the record, excess
+    rms of the worst time block, angle-harmonic amplitude); ``frequency`` Hz for
+    lines (else None).
     """
 
     kind: str
@@ -196,6 +212,7 @@ class DiscrepancyResult:
     drive: dict[str, Any] = field(default_factory=dict)
     identifiable: dict[str, Identifiability] = field(default_factory=dict)
     blocked: tuple[str, ...] = ()
+    inconsistent: tuple[str, ...] = ()
 
 
 __all__ = [

@@ -22,7 +22,7 @@ from .results import (
     SelectionSettings,
     Traces,
 )
-from .scoring import Selector, specs_of
+from .scoring import Selector, specs_of, worst_block_loss
 from .unexplained import describe_unexplained, propose_terms
 
 _OK = Identifiability(True, '')
@@ -86,6 +86,7 @@ def run_discrepancy(
     rounds: list[tuple[CandidateScore, ...]] = []
     verdicts: dict[str, Identifiability] = {}
     blocked: list[str] = []
+    inconsistent: list[str] = []
     for rnd in range(st.max_effects):
         scores: list[CandidateScore] = []
         for c in pool:
@@ -100,10 +101,12 @@ def run_discrepancy(
             vals = sel.fit_best(specs_of(effects), starts)
             ms = sel.score(effects, vals)
             gain = (current.cv_cost - ms.cv_cost) / current.cv_cost if current.cv_cost > 0 else 0.0
-            scores.append(CandidateScore(c.name, ms, gain, ms.bic - current.bic, False))
+            loss = worst_block_loss(current.block_cost, ms.block_cost)
+            scores.append(CandidateScore(c.name, ms, gain, ms.bic - current.bic, False, loss))
             say(
                 f'round {rnd + 1}: {c.name:<22s} rms {ms.rms:.4g} N m, held-out gain '
-                f'{100 * gain:6.1f} %, dBIC {ms.bic - current.bic:10.1f}'
+                f'{100 * gain:6.1f} %, dBIC {ms.bic - current.bic:10.1f}, worst block '
+                f'{100 * loss:+.0f} %'
             )
         if not scores:
             break
@@ -137,6 +140,18 @@ def run_discrepancy(
         ]
         if simpler:
             best = min(simpler, key=lambda s: (s.model.n_params, s.model.cost))
+        if ok and best.block_loss > st.max_block_loss:
+            # consistency: an effect of the library acts the same way all through the
+            # record, so its nested fit improves (or keeps) every time block; one that
+            # buys its gain in some blocks by making another clearly worse absorbs a
+            # mismatch that changes over the record (e.g. a stiffness drifting) and is
+            # not named: what remains is described as unexplained
+            inconsistent.append(best.effect)
+            say(
+                f'round {rnd + 1}: {best.effect} improves the record as a whole but makes a '
+                f'time block {100 * best.block_loss:.0f} % worse: not named'
+            )
+            ok = False
         if ok and not verdicts.get(best.effect, _OK).ok:
             # the best explanation is one this record cannot separate: name nothing
             # (another candidate would only absorb its signal) and say so
@@ -144,11 +159,12 @@ def run_discrepancy(
             say(f'round {rnd + 1}: {best.effect} improves but is not identifiable here')
             ok = False
         scores = [
-            CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best) for s in scores
+            CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best, s.block_loss)
+            for s in scores
         ]
         rounds.append(tuple(scores))
         if not ok:
-            if not blocked or blocked[-1] != best.effect:
+            if best.effect not in (*blocked, *inconsistent):
                 say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
             break
         c = cand_lib.get(best.effect)
@@ -200,6 +216,7 @@ def run_discrepancy(
             'folds': st.folds,
             'block_time': st.block_time,
             'corr_time': st.corr_time,
+            'max_block_loss': st.max_block_loss,
             'k': k,
             'segments': pb.segments.n,
             'blocks': pb.segments.n_blocks,
@@ -213,6 +230,7 @@ def run_discrepancy(
         drive=drive_report(pb),
         identifiable=verdicts,
         blocked=tuple(blocked),
+        inconsistent=tuple(inconsistent),
     )
 
 

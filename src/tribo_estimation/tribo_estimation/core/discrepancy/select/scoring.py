@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from .. import candidates as cand_lib
 from ..candidates import ParamSpec
-from ..fitting import MU0, MU_INF, Problem
+from ..fitting import CHANNELS, MU0, MU_INF, Problem, SimulatedRecord
 from ..localise import torque_residual
 from ..stats import FloatArray, rms
 from .results import ModelScore, Progress, SelectionSettings
@@ -82,6 +82,63 @@ def bic(cost: float, n_eff: float, p: int) -> float:
         The BIC (-).
     """
     return n_eff * math.log(max(cost, 1e-300)) + p * math.log(n_eff)
+
+
+def block_costs(problem: Problem, sim: SimulatedRecord) -> FloatArray:
+    """Return the mean squared weighted residual (-) of every time block.
+
+    The cost of :meth:`..fitting.Problem.cost` restricted to the samples of each
+    cross-validation block; a block the simulation does not cover costs NaN.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (weights set).
+    sim : SimulatedRecord
+        The model's simulation.
+
+    Returns
+    -------
+    FloatArray
+        One cost per block, in block order.
+    """
+    seg = problem.segments
+    n = problem.record.time.size
+    sq = np.zeros(n)
+    for c in CHANNELS:
+        w = problem.weights.get(c, 0.0)
+        if w > 0:
+            r = w * (problem.measured(c) - sim.channel(c))
+            sq += np.where(np.isfinite(r), r * r, 1e6)
+    out = np.full(seg.n_blocks, np.nan)
+    for b in range(seg.n_blocks):
+        m = seg.sample_mask(n, seg.block == b) & sim.covered
+        if np.any(m):
+            out[b] = float(np.mean(sq[m]))
+    return out
+
+
+def worst_block_loss(before: Sequence[float], after: Sequence[float]) -> float:
+    """Return the largest relative cost increase of a time block (-; <= 0: none worse).
+
+    Parameters
+    ----------
+    before : Sequence[float]
+        Block costs of the current model (-).
+    after : Sequence[float]
+        Block costs of the candidate model (-), same blocks.
+
+    Returns
+    -------
+    float
+        ``max((after - before) / before)`` over the blocks both cover (-inf if none).
+    """
+    b = np.asarray(before, dtype=np.float64)
+    a = np.asarray(after, dtype=np.float64)
+    ok = np.isfinite(a) & np.isfinite(b) & (b > 0)
+    if a.shape != b.shape or not np.any(ok):
+        return -math.inf
+    return float(np.max((a[ok] - b[ok]) / b[ok]))
 
 
 class Selector:
@@ -186,7 +243,8 @@ class Selector:
             cv_rms=cv_rms,
             bic=bic(cost, ne, len(specs)),
             n_params=len(specs),
+            block_cost=tuple(float(x) for x in block_costs(self.pb, sim)),
         )
 
 
-__all__ = ['Selector', 'bic', 'n_eff', 'specs_of']
+__all__ = ['Selector', 'bic', 'block_costs', 'n_eff', 'specs_of', 'worst_block_loss']

@@ -36,7 +36,9 @@ def describe_unexplained(
     A finding is reported when it is large against the noise: a spectral line
     whose rms exceeds sigma/2 with a PSD prominence >= 30; a motion phase
     whose rms exceeds both 1.5*sigma and 1.5 x the other phases'; a trend
-    whose change over the record exceeds sigma with |t| > 5 on block means;
+    whose change over the record exceeds sigma with |t| > 5 on block means; a
+    time block whose excess rms exceeds sigma and whose rms is more than twice the
+    quietest block's;
     a shaft-angle harmonic whose amplitude exceeds sigma/2 (only when the
     record covers at least two shaft revolutions, else it would be a trend).
 
@@ -118,6 +120,28 @@ def describe_unexplained(
                 {'slope': tr.slope, 't_stat': tr.t_stat},
             )
         )
+    # concentration in test time (a mismatch that grows or changes over the record)
+    seg = problem.segments
+    blocks = []
+    for b in range(seg.n_blocks):
+        m = seg.sample_mask(rec.time.size, seg.block == b) & cov
+        if np.count_nonzero(m) > 10:
+            blocks.append((rms(r[m]), float(rec.time[m][0]), float(rec.time[m][-1])))
+    if len(blocks) >= 3:
+        hi = max(blocks)
+        lo = min(blocks)
+        excess_hi = math.sqrt(max(hi[0] ** 2 - s * s, 0.0))
+        if excess_hi > s and hi[0] > 2.0 * lo[0]:
+            out.append(
+                Unexplained(
+                    'time',
+                    f'residual largest at t = {hi[1]:.2f}-{hi[2]:.2f} s (rms {hi[0]:.3g} N m), '
+                    f'smallest at t = {lo[1]:.2f}-{lo[2]:.2f} s ({lo[0]:.3g} N m)',
+                    excess_hi,
+                    None,
+                    {'t_start': hi[1], 't_end': hi[2], 'rms_min': lo[0], 'rms_max': hi[0]},
+                )
+            )
     # shaft angle (only with >= 2 revolutions)
     revs = float(np.sum(rec.speed) * rec.dt) / (2 * math.pi)
     if revs >= 2.0:
