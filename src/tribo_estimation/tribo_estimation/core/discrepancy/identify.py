@@ -1,4 +1,4 @@
-"""Identifiability of candidate effects: can this record (or these records) decide?
+"""Identifiability of candidate effects: can this record (or these records) decide.
 
 One place for the verdict used by the offline workflow (:func:`.select.run_discrepancy`,
 :func:`.joint.run_joint_discrepancy`) and the live monitor (:mod:`.monitor`):
@@ -51,7 +51,19 @@ SUGGEST_MORE = 'a longer record (more stick-slip cycles)'
 
 
 def suggestion(candidate: str) -> str:
-    """The experiment that would decide ``candidate`` when a record cannot."""
+    """Return the experiment that would decide ``candidate`` when a record cannot.
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+
+    Returns
+    -------
+    str
+        A second drive speed (speed-dependent effects), a longer record (drifts) or
+        more stick-slip cycles.
+    """
     if candidate in SPEED_DEPENDENT:
         return SUGGEST_SPEED
     if candidate in DRIFTS:
@@ -61,14 +73,24 @@ def suggestion(candidate: str) -> str:
 
 @dataclass(frozen=True)
 class Identifiability:
-    """Verdict of :func:`identifiability`: ``ok``, a one-line ``reason`` and, when
-    not ok, the experiment that would decide it (``suggest``; also named in the reason)."""
+    """Verdict of :func:`identifiability`.
+
+    ``ok``, a one-line ``reason`` and, when not ok, the experiment that would decide it
+    (``suggest``; also named in the reason).
+    """
 
     ok: bool
     reason: str
     suggest: str = ''
 
     def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form.
+
+        Returns
+        -------
+        dict[str, object]
+            ``ok``, ``reason`` and ``suggest``.
+        """
         return {'ok': self.ok, 'reason': self.reason, 'suggest': self.suggest}
 
 
@@ -89,15 +111,21 @@ class ResidualModel(Protocol):
     """What :func:`gauss_newton` needs: the weighted residual vector of a value mapping."""
 
     @property
-    def fs(self) -> float: ...
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        ...
 
     def residuals(
         self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
-    ) -> FloatArray: ...
+    ) -> FloatArray:
+        """Return the weighted residual vector (-) of ``values`` on the selected segments."""
+        ...
 
     def residual_blocks(
         self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
-    ) -> npt.NDArray[np.int64]: ...
+    ) -> npt.NDArray[np.int64]:
+        """Return the time block of every element of :meth:`residuals` (-1: none)."""
+        ...
 
 
 def sample_blocks(problem: Problem) -> npt.NDArray[np.int64]:
@@ -152,15 +180,31 @@ class ProblemResiduals:
     """:class:`ResidualModel` of one record's :class:`.fitting.Problem`."""
 
     def __init__(self, problem: Problem) -> None:
+        """Wrap ``problem``."""
         self.problem = problem
 
     @property
     def fs(self) -> float:
+        """Sample rate of the record [Hz]."""
         return self.problem.record.fs
 
     def residuals(
         self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
     ) -> FloatArray:
+        """Return the weighted residual vector (-) (:meth:`.fitting.Problem.residual_vector`).
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Model values (SI).
+        seg_mask : numpy.ndarray of bool or None
+            Segments simulated (None: all).
+
+        Returns
+        -------
+        FloatArray
+            The weighted residuals.
+        """
         return self.problem.residual_vector(self.problem.simulate(values, seg_mask))
 
     def residual_blocks(
@@ -231,6 +275,26 @@ def gauss_newton(
     whatever its correlation within a block. Each standard error is the larger of
     the two (``model_error`` names the parameters where the block term is larger);
     the correlations are those of the noise term (the structure of J).
+
+    Parameters
+    ----------
+    problem : ResidualModel or Problem
+        The residual model (a :class:`.fitting.Problem` is wrapped).
+    specs : Sequence[ParamSpec]
+        The fitted parameters.
+    values : Mapping[str, float]
+        The fit's solution (SI), with every value the simulation needs.
+    seg_mask : numpy.ndarray of bool or None
+        Segments used (None: all).
+    corr_time : float
+        Residual correlation time of the noise term [s].
+    robust : bool
+        Include the block-robust model-error term.
+
+    Returns
+    -------
+    GaussNewton
+        Values, standard errors (SI), correlations, dead and model-error parameters.
     """
     if isinstance(problem, Problem):
         problem = ProblemResiduals(problem)
@@ -345,9 +409,9 @@ def identifiability(
     gain: float | None = None,
     decisive_gain: float = 0.9,
 ) -> Identifiability:
-    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)
-    and the instrument model?
+    """Judge whether this record separates ``candidate`` from baseline and instrument.
 
+    The baseline is mu0, mu_inf of Equ. 8, the instrument model the speed-sensor terms.
     Honest checks on what the fit gives (``gn``: :func:`gauss_newton` of the fit of
     mu0, mu_inf (per record: ``mu0@i``), optionally the speed-sensor terms, and the
     candidate's ``param_names``):
@@ -374,6 +438,37 @@ def identifiability(
 
     ``drive_speeds`` [rad/s] (per block or record) only shapes the reason of a
     speed-dependent effect that fails (one speed: "all at 3.14 rad/s").
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+    param_names : Sequence[str]
+        Its parameters in ``gn``.
+    gn : GaussNewton
+        Linearisation of the candidate's fit.
+    stick_durations_s : FloatArray
+        Complete stick phases [s].
+    drive_speeds : FloatArray or None
+        Mean drive speed per block or record [rad/s].
+    duration : float or None
+        Record length [s].
+    max_rel_se, max_correlation, min_spread, min_drift_duration : float
+        Limits (see above).
+    gain : float or None
+        The candidate's cross-validated relative cost reduction [-].
+    decisive_gain : float
+        Gain that overrules the stick-duration proxy [-].
+
+    Returns
+    -------
+    Identifiability
+        The verdict with its reason and, when not ok, the deciding experiment.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``gn`` lacks mu0/mu_inf or a candidate parameter.
     """
     idx = {n: i for i, n in enumerate(gn.names)}
     have_base = {_base(n) for n in gn.names}

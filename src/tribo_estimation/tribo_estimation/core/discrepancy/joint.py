@@ -75,6 +75,7 @@ class JointProblem:
 
     @property
     def n(self) -> int:
+        """Number of records."""
         return len(self.problems)
 
     @property
@@ -83,8 +84,21 @@ class JointProblem:
         return min(p.record.fs for p in self.problems)
 
     def split(self, values: Mapping[str, float]) -> list[dict[str, float]]:
-        """Per-record value mappings: shared names as they are, ``name@i`` -> ``name``
-        for record i (names of other records dropped)."""
+        """Return the per-record value mappings.
+
+        Shared names as they are, ``name@i`` -> ``name`` for record i (names of other
+        records dropped), on top of each record's fixed values.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Joint values.
+
+        Returns
+        -------
+        list[dict[str, float]]
+            One mapping per record.
+        """
         out = []
         for i, fx in enumerate(self.fixed):
             d = dict(fx)
@@ -148,8 +162,22 @@ class JointProblem:
     def fit(
         self, specs: Sequence[ParamSpec], start: Mapping[str, float], *, max_nfev: int = 60
     ) -> tuple[dict[str, float], float]:
-        """Least-squares fit of ``specs`` (from :meth:`specs`) from ``start``;
-        returns the values and the summed squared weighted residual (-)."""
+        """Fit ``specs`` (from :meth:`specs`) by least squares from ``start``.
+
+        Parameters
+        ----------
+        specs : Sequence[ParamSpec]
+            Fitted parameters (shared and ``name@i``).
+        start : Mapping[str, float]
+            Start values, with every value the simulations need.
+        max_nfev : int
+            Most residual evaluations.
+
+        Returns
+        -------
+        tuple[dict[str, float], float]
+            The values and the summed squared weighted residual (-).
+        """
 
         def to_x(p: ParamSpec, v: float) -> float:
             v = min(max(v, p.lower), p.upper)
@@ -182,7 +210,7 @@ class JointProblem:
         return [p.torque_rms(p.simulate(v)) for p, v in pairs]
 
     def n_samples(self, values: Mapping[str, float]) -> int:
-        """Compared samples over all records."""
+        """Return the number of compared samples over all records."""
         return sum(
             int(np.count_nonzero(p.simulate(v).covered))
             for p, v in zip(self.problems, self.split(values), strict=True)
@@ -210,8 +238,15 @@ class JointResult:
     not_identifiable: tuple[str, ...]
     settings: dict[str, Any] = field(default_factory=dict)
 
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form (the ``discrepancy.json`` of a joint run).
+
+        Returns
+        -------
+        dict[str, object]
+            ``joint``, ``added``, ``records``, ``rounds``, ``identifiable``,
+            ``not_identifiable`` and ``settings``.
+        """
         return {
             'joint': True,
             'added': (
