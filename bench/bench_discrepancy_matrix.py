@@ -16,7 +16,8 @@ effect that explains most is one the record cannot separate) / nothing / unexpla
 (nothing named, residual structure described). Printed: the matrix, the wall
 times, the percent correct among cases the workflow calls identifiable (its own
 verdict on the hidden effect), residual after adding vs the noise floor, parameter
-errors, and the worst cases.
+errors, and the worst cases. A joint row: viscous friction hidden in a 10 and a 60 rpm
+record that neither decides alone, then the joint fit of both (one friction law).
 
     .venv/bin/python bench/bench_discrepancy_matrix.py [--quick | --full] [--duration 3]
 
@@ -40,6 +41,7 @@ sys.path.insert(0, str(ROOT / 'src' / 'tribo_estimation'))
 from tribo_estimation.core.config import load_rig_config  # noqa: E402
 from tribo_estimation.core.discrepancy import candidates as cand_lib  # noqa: E402
 from tribo_estimation.core.discrepancy.fitting import Record  # noqa: E402
+from tribo_estimation.core.discrepancy.joint import run_joint_discrepancy  # noqa: E402
 from tribo_estimation.core.discrepancy.select import (  # noqa: E402
     SelectionSettings,
     run_discrepancy,
@@ -145,6 +147,8 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
     else:
         outcome = 'nothing'
     verdict = res.identifiable.get(h)
+    named = [s for s in res.rounds[0] if s.effect == res.added[0].effect] if res.added else []
+    loss = named[0].block_loss if named else math.nan
     perr = math.nan
     if res.added and res.added[0].effect == h:
         truth = hidden(h, scale)
@@ -169,7 +173,45 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
         'wall': wall,
         'unexplained': '; '.join(f'{u.kind} {u.where} {u.size:.3g} N m' for u in res.unexplained),
         'blocked': ','.join(res.blocked),
+        'inconsistent': ','.join(res.inconsistent),
+        'block_loss': loss,
     }
+
+
+#: The joint row: viscous friction [N m s/rad] hidden in 1 s records at 10 and 60 rpm of
+#: one contact, noise x3 (neither record alone can pin it down: relative SE > 20 %).
+JOINT_VISCOUS, JOINT_SPEEDS, JOINT_NOISE, JOINT_DURATION = 0.009, (10.0, 60.0), 3.0, 1.0
+
+
+def run_joint_case(seed: int) -> dict[str, Any]:
+    """Each record alone, then the joint fit (one friction law, viscous shared)."""
+    tc, ac, sc = rig_channels(JOINT_NOISE)
+    recs, drives = [], []
+    for s in JOINT_SPEEDS:
+        spec = RecordSpec(CFG.rig, CFG.friction, SpeedProfile.startup(rpm(s), 0.2),
+                          extensions=Extensions(viscous=JOINT_VISCOUS), torsion=tc, accel=ac,
+                          speed=sc, seed=seed + int(s), duration=JOINT_DURATION,
+                          start_offset=0.5)  # fmt: skip
+        r = make_record(spec)
+        recs.append(Record(r.time - r.time[0], r.torsion_moment, r.angular_acceleration, r.speed))
+        drives.append(DriveProfile(rpm(s), 0.0))
+    st = SelectionSettings(candidates=('viscous_friction',), max_effects=1, min_gain=0.02,
+                           propose_terms=False)  # fmt: skip
+    t0 = time.perf_counter()
+    singles = []
+    for rec, drv in zip(recs, drives, strict=True):
+        res = run_discrepancy(rec, CFG.rig, drv, k=CFG.friction.k, settings=st)
+        v = res.identifiable['viscous_friction']
+        singles.append((v.ok, res.rounds[0][0].model.params['viscous'], bool(res.added)))
+    t1 = time.perf_counter()
+    jr = run_joint_discrepancy(recs, CFG.rig, drives, k=CFG.friction.k, settings=st,
+                               shared_friction=True)  # fmt: skip
+    t2 = time.perf_counter()
+    v = jr.identifiable['viscous_friction']
+    fit = float(jr.scores['viscous_friction']['params']['viscous'])
+    return {'singles': singles, 'named': jr.named, 'ident': v.ok, 'reason': v.reason,
+            'perr': abs(fit / JOINT_VISCOUS - 1.0), 'fit': fit, 'wall_single': t1 - t0,
+            'wall_joint': t2 - t1}  # fmt: skip
 
 
 def main() -> int:
@@ -194,8 +236,9 @@ def main() -> int:
         print(
             f'{h:<20s} x{scale:<4g} {cond:<8s} -> {r["outcome"]:<20s} ident={r["ident"]!s:<5s} '
             f'rms {r["rms0"]:.3f} -> {r["rms1"]:.3f} N m ({r["rms1"] / r["floor"]:.2f} floor) '
-            f'perr {r["perr"]:.2f} {r["wall"]:.1f} s'
-            + (f' (not identifiable: {r["blocked"]})' if r['blocked'] else ''),
+            f'perr {r["perr"]:.2f} worst block {r["block_loss"]:+.2f} {r["wall"]:.1f} s'
+            + (f' (not identifiable: {r["blocked"]})' if r['blocked'] else '')
+            + (f' (inconsistent: {r["inconsistent"]})' if r['inconsistent'] else ''),
             flush=True,
         )
     total = time.perf_counter() - t_all
@@ -251,6 +294,19 @@ def main() -> int:
     reasons = Counter((r['hidden'], r['suggest']) for r in ni)
     print('not identifiable by verdict (hidden effect, suggestion): ' + ', '.join(
         f'{h} [{s}] x{n}' for (h, s), n in sorted(reasons.items())))  # fmt: skip
+    j = run_joint_case(seed=7)
+    sing = ', '.join(
+        f'{s:g} rpm: {"identifiable" if ok else "not identifiable"} ({fit:.4g})'
+        for s, (ok, fit, _named) in zip(JOINT_SPEEDS, j['singles'], strict=True)
+    )
+    print(
+        f'\njoint row: viscous_friction {JOINT_VISCOUS:g} N m s/rad hidden at '
+        f'{" + ".join(f"{s:g}" for s in JOINT_SPEEDS)} rpm ({JOINT_DURATION:g} s each, noise '
+        f'x{JOINT_NOISE:g}); alone: {sing}; joint (one friction law): '
+        f'{j["named"] or "nothing named"}, identifiable={j["ident"]}, fitted {j["fit"]:.4g} '
+        f'(error {100 * j["perr"]:.0f} %, target 20 %); {j["reason"]}; wall '
+        f'{j["wall_single"]:.1f} s alone, {j["wall_joint"]:.1f} s joint'
+    )
     walls = sorted(r['wall'] for r in rows)
     print(
         f'\nwall time per record: median {walls[len(walls) // 2]:.1f} s, worst {walls[-1]:.1f} s; '

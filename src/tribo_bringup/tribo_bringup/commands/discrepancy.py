@@ -1,7 +1,8 @@
 """``tribo discrepancy``: find the physics the rig model is missing.
 
     tribo discrepancy INPUT --rig RIG.yaml --out DIR [--start S] [--duration S]
-    tribo discrepancy A B C --rig RIG.yaml --out DIR   (several records, fitted jointly)
+    tribo discrepancy A B C --rig RIG.yaml --out DIR [--shared-friction]
+        (several records, fitted jointly)
 
 INPUT is a rig CSV (``time,torsion_moment,angular_acceleration,speed``) or a
 bag (rosbag2 directory or ``.mcap``) with the ``/rig/torsion_moment``,
@@ -97,6 +98,13 @@ def register(sub: Any) -> None:
         '--no-torsion-lag',
         action='store_true',
         help='no torsion-amplifier lag in the instrument model (left to torque_sensor_lag)',
+    )
+    p.add_argument(
+        '--shared-friction',
+        action='store_true',
+        help='several records: one friction law (mu0, mu_inf) for all, the records being '
+        'runs of one contact at several drive speeds (the speed contrast then decides '
+        'speed-dependent effects); default: mu0/mu_inf per record',
     )
     p.add_argument('--no-plots', action='store_true', help='write only discrepancy.json')
     p.set_defaults(func=run)
@@ -279,6 +287,7 @@ def _run_joint(args: argparse.Namespace) -> int:
         k=cfg.friction.k,
         settings=settings,
         progress=_say,
+        shared_friction=args.shared_friction,
     )
     out = Path(args.out)
     with atomic_output_dir(out) as stage:

@@ -1,4 +1,4 @@
-"""Identifiability of candidate effects: can this record (or these records) decide?
+"""Identifiability of candidate effects: can this record (or these records) decide.
 
 One place for the verdict used by the offline workflow (:func:`.select.run_discrepancy`,
 :func:`.joint.run_joint_discrepancy`) and the live monitor (:mod:`.monitor`):
@@ -30,7 +30,7 @@ import numpy.typing as npt
 from tribo_estimation.errors import InvalidParameterError
 
 from .candidates import ParamSpec
-from .fitting import Problem
+from .fitting import CHANNELS, Problem
 from .stats import FloatArray
 
 #: Baseline parameters an effect must be separable from (Equ. 8).
@@ -51,7 +51,19 @@ SUGGEST_MORE = 'a longer record (more stick-slip cycles)'
 
 
 def suggestion(candidate: str) -> str:
-    """The experiment that would decide ``candidate`` when a record cannot."""
+    """Return the experiment that would decide ``candidate`` when a record cannot.
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+
+    Returns
+    -------
+    str
+        A second drive speed (speed-dependent effects), a longer record (drifts) or
+        more stick-slip cycles.
+    """
     if candidate in SPEED_DEPENDENT:
         return SUGGEST_SPEED
     if candidate in DRIFTS:
@@ -61,14 +73,24 @@ def suggestion(candidate: str) -> str:
 
 @dataclass(frozen=True)
 class Identifiability:
-    """Verdict of :func:`identifiability`: ``ok``, a one-line ``reason`` and, when
-    not ok, the experiment that would decide it (``suggest``; also named in the reason)."""
+    """Verdict of :func:`identifiability`.
+
+    ``ok``, a one-line ``reason`` and, when not ok, the experiment that would decide it
+    (``suggest``; also named in the reason).
+    """
 
     ok: bool
     reason: str
     suggest: str = ''
 
     def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form.
+
+        Returns
+        -------
+        dict[str, object]
+            ``ok``, ``reason`` and ``suggest``.
+        """
         return {'ok': self.ok, 'reason': self.reason, 'suggest': self.suggest}
 
 
@@ -89,27 +111,120 @@ class ResidualModel(Protocol):
     """What :func:`gauss_newton` needs: the weighted residual vector of a value mapping."""
 
     @property
-    def fs(self) -> float: ...
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        ...
 
     def residuals(
         self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
-    ) -> FloatArray: ...
+    ) -> FloatArray:
+        """Return the weighted residual vector (-) of ``values`` on the selected segments."""
+        ...
+
+    def residual_blocks(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> npt.NDArray[np.int64]:
+        """Return the time block of every element of :meth:`residuals` (-1: none)."""
+        ...
+
+
+def sample_blocks(problem: Problem) -> npt.NDArray[np.int64]:
+    """Return the time block of every sample of a record (-1: in no segment).
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (its segments carry the blocks).
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        One block index per sample.
+    """
+    seg = problem.segments
+    out = np.full(problem.record.time.size, -1, dtype=np.int64)
+    for a, b, blk in zip(seg.start, seg.stop, seg.block, strict=True):
+        out[int(a) : int(b)] = int(blk)
+    return out
+
+
+def problem_residual_blocks(
+    problem: Problem, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+) -> npt.NDArray[np.int64]:
+    """Return the time block of every element of the weighted residual vector.
+
+    The layout of :meth:`.fitting.Problem.residual_vector`: the weighted channels one
+    after the other, each over the samples the simulation covers.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (weights set).
+    values : Mapping[str, float]
+        Model values (SI) of the simulation.
+    seg_mask : numpy.ndarray of bool or None
+        Segments simulated (None: all).
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        One block index per residual element.
+    """
+    cov = problem.simulate(values, seg_mask).covered
+    blocks = sample_blocks(problem)[cov]
+    n_ch = sum(1 for c in CHANNELS if problem.weights.get(c, 0.0) > 0)
+    return np.tile(blocks, n_ch)
 
 
 class ProblemResiduals:
     """:class:`ResidualModel` of one record's :class:`.fitting.Problem`."""
 
     def __init__(self, problem: Problem) -> None:
+        """Wrap ``problem``."""
         self.problem = problem
 
     @property
     def fs(self) -> float:
+        """Sample rate of the record [Hz]."""
         return self.problem.record.fs
 
     def residuals(
         self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
     ) -> FloatArray:
+        """Return the weighted residual vector (-) (:meth:`.fitting.Problem.residual_vector`).
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Model values (SI).
+        seg_mask : numpy.ndarray of bool or None
+            Segments simulated (None: all).
+
+        Returns
+        -------
+        FloatArray
+            The weighted residuals.
+        """
         return self.problem.residual_vector(self.problem.simulate(values, seg_mask))
+
+    def residual_blocks(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> npt.NDArray[np.int64]:
+        """Return the time block of every residual element (:func:`problem_residual_blocks`).
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Model values (SI).
+        seg_mask : numpy.ndarray of bool or None
+            Segments simulated (None: all).
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            One block index per residual element.
+        """
+        return problem_residual_blocks(self.problem, values, seg_mask)
 
 
 @dataclass(frozen=True)
@@ -119,7 +234,9 @@ class GaussNewton:
     ``names`` the fitted parameters; ``values`` and their standard errors
     ``se`` in the parameters' SI units; ``corr`` their correlation matrix (-),
     rows/columns in the order of ``names``; ``dead`` the parameters the
-    simulated channels do not depend on at all (zero Jacobian column).
+    simulated channels do not depend on at all (zero Jacobian column);
+    ``model_error`` the parameters whose standard error is set by the scatter
+    between time blocks (model error) rather than by the noise.
     """
 
     names: tuple[str, ...]
@@ -127,6 +244,7 @@ class GaussNewton:
     se: tuple[float, ...]
     corr: FloatArray
     dead: tuple[str, ...]
+    model_error: tuple[str, ...] = ()
 
 
 def gauss_newton(
@@ -136,6 +254,7 @@ def gauss_newton(
     seg_mask: npt.NDArray[np.bool_] | None = None,
     *,
     corr_time: float = 1e-3,
+    robust: bool = True,
 ) -> GaussNewton:
     """Gauss-Newton covariance of an output-error fit (:meth:`.fitting.Problem.fit`).
 
@@ -146,6 +265,36 @@ def gauss_newton(
     mismatch are correlated over about ``corr_time`` [s], so only one sample in
     c counts (as the selection's BIC does). A singular J^T J gives
     correlations of +-1 (NaN entries become 1). ``seg_mask`` selects segments.
+
+    ``robust``: the model-error term. A model mismatch leaves residuals correlated
+    over far longer than ``corr_time`` (a whole stick-slip cycle, a drift), which the
+    noise count above does not see: the block-robust (sandwich) covariance
+    ``A^-1 (sum_b g_b g_b^T) A^-1 * G/(G-1)``, ``A = J^T J``, ``g_b = J_b^T r_b`` the
+    score of time block b of G (``problem.residual_blocks``), estimates the scatter
+    of the parameters from how the residual's projection varies between the blocks,
+    whatever its correlation within a block. Each standard error is the larger of
+    the two (``model_error`` names the parameters where the block term is larger);
+    the correlations are those of the noise term (the structure of J).
+
+    Parameters
+    ----------
+    problem : ResidualModel or Problem
+        The residual model (a :class:`.fitting.Problem` is wrapped).
+    specs : Sequence[ParamSpec]
+        The fitted parameters.
+    values : Mapping[str, float]
+        The fit's solution (SI), with every value the simulation needs.
+    seg_mask : numpy.ndarray of bool or None
+        Segments used (None: all).
+    corr_time : float
+        Residual correlation time of the noise term [s].
+    robust : bool
+        Include the block-robust model-error term.
+
+    Returns
+    -------
+    GaussNewton
+        Values, standard errors (SI), correlations, dead and model-error parameters.
     """
     if isinstance(problem, Problem):
         problem = ProblemResiduals(problem)
@@ -171,8 +320,12 @@ def gauss_newton(
     m, k = r0.size, len(specs)
     s2 = float(r0 @ r0) / max(m - k, 1)
     inflation = max(1.0, corr_time * problem.fs)
-    cov = np.linalg.pinv(J @ J.T) * s2 * inflation
+    a_inv = np.asarray(np.linalg.pinv(J @ J.T), dtype=np.float64)
+    cov = a_inv * s2 * inflation
     d = np.sqrt(np.abs(np.diag(cov)))
+    d_model = np.zeros_like(d)
+    if robust:
+        d_model = _block_robust_sd(J, r0, a_inv, problem.residual_blocks(base, seg_mask))
     with np.errstate(invalid='ignore', divide='ignore'):
         corr = cov / np.outer(d, d)
     corr = np.where(np.isfinite(corr), corr, 1.0)
@@ -180,7 +333,7 @@ def gauss_newton(
     corr[dead_mask, :] = 1.0
     corr[:, dead_mask] = 1.0
     se = []
-    for p, dx in zip(specs, d, strict=True):
+    for p, dx in zip(specs, np.maximum(d, d_model), strict=True):
         v = float(base[p.name])
         se.append(abs(v) * float(dx) if p.log else float(dx) * p.scale)
     return GaussNewton(
@@ -189,7 +342,51 @@ def gauss_newton(
         se=tuple(se),
         corr=np.asarray(corr, dtype=np.float64),
         dead=tuple(p.name for p, dd in zip(specs, dead_mask, strict=True) if dd),
+        model_error=tuple(
+            p.name for p, a, b in zip(specs, d, d_model, strict=True) if b > a and not b <= 0
+        ),
     )
+
+
+def _block_robust_sd(
+    jac: FloatArray,
+    r0: FloatArray,
+    a_inv: FloatArray,
+    blocks: npt.NDArray[np.int64],
+) -> FloatArray:
+    """Return the block-robust (sandwich) standard deviations in the fit coordinates.
+
+    Parameters
+    ----------
+    jac : FloatArray
+        Jacobian, one row per parameter, one column per residual element.
+    r0 : FloatArray
+        Weighted residual vector at the solution (-).
+    a_inv : FloatArray
+        Pseudo-inverse of ``jac @ jac.T``.
+    blocks : numpy.ndarray of int64
+        Time block of every residual element (-1: none).
+
+    Returns
+    -------
+    FloatArray
+        One standard deviation per parameter (zeros with fewer than 3 blocks).
+    """
+    k = jac.shape[0]
+    out = np.zeros(k)
+    if blocks.size != r0.size:
+        return out
+    ids = np.unique(blocks[blocks >= 0])
+    g_n = ids.size
+    if g_n < 3:
+        return out
+    meat = np.zeros((k, k))
+    for b in ids:
+        m = blocks == b
+        g = jac[:, m] @ r0[m]
+        meat += np.outer(g, g)
+    cov = a_inv @ meat @ a_inv * (g_n / (g_n - 1.0))
+    return np.asarray(np.sqrt(np.abs(np.diag(cov))), dtype=np.float64)
 
 
 def _base(name: str) -> str:
@@ -212,9 +409,9 @@ def identifiability(
     gain: float | None = None,
     decisive_gain: float = 0.9,
 ) -> Identifiability:
-    """Can this record separate ``candidate`` from the baseline (mu0, mu_inf of Equ. 8)
-    and the instrument model?
+    """Judge whether this record separates ``candidate`` from baseline and instrument.
 
+    The baseline is mu0, mu_inf of Equ. 8, the instrument model the speed-sensor terms.
     Honest checks on what the fit gives (``gn``: :func:`gauss_newton` of the fit of
     mu0, mu_inf (per record: ``mu0@i``), optionally the speed-sensor terms, and the
     candidate's ``param_names``):
@@ -235,10 +432,43 @@ def identifiability(
       terms above ``max_correlation`` (-): the record cannot tell the effect from a
       change of the friction law or of the sensor;
     * the relative standard error of every candidate parameter (the correlations
-      inflate it) must not exceed ``max_rel_se`` (-).
+      inflate it; with the model-error term of :func:`gauss_newton`: a fit that
+      leaves a systematic residual is as uncertain as its scatter between time
+      blocks, marked "model error" in the reason) must not exceed ``max_rel_se`` (-).
 
     ``drive_speeds`` [rad/s] (per block or record) only shapes the reason of a
     speed-dependent effect that fails (one speed: "all at 3.14 rad/s").
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+    param_names : Sequence[str]
+        Its parameters in ``gn``.
+    gn : GaussNewton
+        Linearisation of the candidate's fit.
+    stick_durations_s : FloatArray
+        Complete stick phases [s].
+    drive_speeds : FloatArray or None
+        Mean drive speed per block or record [rad/s].
+    duration : float or None
+        Record length [s].
+    max_rel_se, max_correlation, min_spread, min_drift_duration : float
+        Limits (see above).
+    gain : float or None
+        The candidate's cross-validated relative cost reduction [-].
+    decisive_gain : float
+        Gain that overrules the stick-duration proxy [-].
+
+    Returns
+    -------
+    Identifiability
+        The verdict with its reason and, when not ok, the deciding experiment.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``gn`` lacks mu0/mu_inf or a candidate parameter.
     """
     idx = {n: i for i, n in enumerate(gn.names)}
     have_base = {_base(n) for n in gn.names}
@@ -307,7 +537,8 @@ def identifiability(
     for pn in param_names:
         v, se = gn.values[idx[pn]], gn.se[idx[pn]]
         rel = se / abs(v) if v != 0 else math.inf
-        parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %)')
+        src = ', model error' if pn in gn.model_error else ''
+        parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %{src})')
         if not rel <= max_rel_se:
             return Identifiability(
                 False,

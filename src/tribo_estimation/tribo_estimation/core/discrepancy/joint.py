@@ -35,15 +35,21 @@ from tribo_estimation.errors import InvalidParameterError
 from . import candidates as cand_lib
 from .candidates import ParamSpec
 from .fitting import MU0, MU_INF, Problem, Record, make_segments
-from .identify import Identifiability, gauss_newton, identifiability, per_record
+from .identify import (
+    Identifiability,
+    gauss_newton,
+    identifiability,
+    per_record,
+    problem_residual_blocks,
+)
 from .localise import torque_residual
 from .select import (
     Progress,
     SelectionSettings,
-    _start_context,
     fit_baseline,
     instrument_record,
     record_facts,
+    start_context,
 )
 from .stats import FloatArray, noise_floor
 
@@ -69,6 +75,7 @@ class JointProblem:
 
     @property
     def n(self) -> int:
+        """Number of records."""
         return len(self.problems)
 
     @property
@@ -77,8 +84,21 @@ class JointProblem:
         return min(p.record.fs for p in self.problems)
 
     def split(self, values: Mapping[str, float]) -> list[dict[str, float]]:
-        """Per-record value mappings: shared names as they are, ``name@i`` -> ``name``
-        for record i (names of other records dropped)."""
+        """Return the per-record value mappings.
+
+        Shared names as they are, ``name@i`` -> ``name`` for record i (names of other
+        records dropped), on top of each record's fixed values.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Joint values.
+
+        Returns
+        -------
+        list[dict[str, float]]
+            One mapping per record.
+        """
         out = []
         for i, fx in enumerate(self.fixed):
             d = dict(fx)
@@ -100,6 +120,41 @@ class JointProblem:
         pairs = zip(self.problems, self.split(values), strict=True)
         return np.concatenate([p.residual_vector(p.simulate(v)) for p, v in pairs])
 
+    def residual_blocks(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> npt.NDArray[np.int64]:
+        """Return the time block of every element of :meth:`residuals`.
+
+        Blocks are numbered across the records (record i's after record i-1's), so the
+        block-robust standard error of :func:`.identify.gauss_newton` sees them all.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Joint values (shared and ``name@i``).
+        seg_mask : numpy.ndarray of bool or None
+            Must be None (a joint fit uses every segment).
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            One block index per residual element (-1: in no segment).
+
+        Raises
+        ------
+        InvalidParameterError
+            If ``seg_mask`` is given.
+        """
+        if seg_mask is not None:
+            raise InvalidParameterError('a joint fit uses every segment (seg_mask must be None)')
+        parts = []
+        offset = 0
+        for p, v in zip(self.problems, self.split(values), strict=True):
+            b = problem_residual_blocks(p, v)
+            parts.append(np.where(b >= 0, b + offset, -1))
+            offset += p.segments.n_blocks
+        return np.concatenate(parts).astype(np.int64)
+
     def specs(self, shared: Sequence[ParamSpec], each: Sequence[ParamSpec]) -> list[ParamSpec]:
         """Parameter specs: ``each`` renamed per record (``@i``), then ``shared``."""
         return [per_record(p, i) for i in range(self.n) for p in each] + list(shared)
@@ -107,8 +162,22 @@ class JointProblem:
     def fit(
         self, specs: Sequence[ParamSpec], start: Mapping[str, float], *, max_nfev: int = 60
     ) -> tuple[dict[str, float], float]:
-        """Least-squares fit of ``specs`` (from :meth:`specs`) from ``start``;
-        returns the values and the summed squared weighted residual (-)."""
+        """Fit ``specs`` (from :meth:`specs`) by least squares from ``start``.
+
+        Parameters
+        ----------
+        specs : Sequence[ParamSpec]
+            Fitted parameters (shared and ``name@i``).
+        start : Mapping[str, float]
+            Start values, with every value the simulations need.
+        max_nfev : int
+            Most residual evaluations.
+
+        Returns
+        -------
+        tuple[dict[str, float], float]
+            The values and the summed squared weighted residual (-).
+        """
 
         def to_x(p: ParamSpec, v: float) -> float:
             v = min(max(v, p.lower), p.upper)
@@ -141,7 +210,7 @@ class JointProblem:
         return [p.torque_rms(p.simulate(v)) for p, v in pairs]
 
     def n_samples(self, values: Mapping[str, float]) -> int:
-        """Compared samples over all records."""
+        """Return the number of compared samples over all records."""
         return sum(
             int(np.count_nonzero(p.simulate(v).covered))
             for p, v in zip(self.problems, self.split(values), strict=True)
@@ -169,8 +238,15 @@ class JointResult:
     not_identifiable: tuple[str, ...]
     settings: dict[str, Any] = field(default_factory=dict)
 
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form (the ``discrepancy.json`` of a joint run).
+
+        Returns
+        -------
+        dict[str, object]
+            ``joint``, ``added``, ``records``, ``rounds``, ``identifiable``,
+            ``not_identifiable`` and ``settings``.
+        """
         return {
             'joint': True,
             'added': (
@@ -194,11 +270,42 @@ def run_joint_discrepancy(
     k: float = 2.0,
     settings: SelectionSettings | None = None,
     progress: Progress | None = None,
+    shared_friction: bool = False,
 ) -> JointResult:
-    """The selection on several records at once (see the module docstring).
+    """Run the selection on several records at once (see the module docstring).
 
-    ``rig`` (Tab. 1, F_N, R) and ``k`` (Equ. 8, s/rad) are shared; ``drives`` (nominal
-    speed, ramp) one per record; mu0/mu_inf per record, the candidate's parameters shared.
+    The candidate's parameters are shared; mu0/mu_inf (Equ. 8) per record, or shared.
+
+    Parameters
+    ----------
+    records : Sequence[Record]
+        The measured records.
+    rig : RigParams
+        Rig parameters (Tab. 1, F_N, R), shared.
+    drives : Sequence[DriveProfile]
+        Nominal drive speed [rad/s] and ramp [s], one per record.
+    k : float
+        Exponential decay constant of Equ. 8 [s/rad], shared.
+    settings : SelectionSettings or None
+        Selection settings (None: defaults).
+    progress : Progress or None
+        Receiver of progress messages.
+    shared_friction : bool
+        One friction law (mu0, mu_inf) for all records: the records are runs of one
+        contact at several drive speeds (the paper's Fig. 4/5), so a level that
+        changes with the speed is an effect, not a new friction law. Off: each
+        record has its own mu0/mu_inf (the speed contrast between the records is
+        then not used; only their information on the effect is pooled).
+
+    Returns
+    -------
+    JointResult
+        The named effect (or none), the scores and verdicts of every candidate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the numbers of records and drive profiles differ.
     """
     st = settings or SelectionSettings()
     say: Progress = progress or (lambda _msg: None)
@@ -218,8 +325,16 @@ def run_joint_discrepancy(
         sims.append(sim)
         instruments.append(instr)
     jp = JointProblem(problems, fixed)
-    base_start = {f'{n}@{i}': b[n] for i, b in enumerate(bases) for n in ('mu0', 'mu_inf')}
-    each = [MU0, MU_INF]
+    each: list[ParamSpec]
+    if shared_friction:
+        # one friction law: the joint baseline refits it from the records' mean
+        each, law = [], [MU0, MU_INF]
+        start = {n: float(np.mean([b[n] for b in bases])) for n in ('mu0', 'mu_inf')}
+        base_start, _ = jp.fit(law, start, max_nfev=st.max_nfev)
+        base_start = {n: base_start[n] for n in ('mu0', 'mu_inf')}
+    else:
+        each, law = [MU0, MU_INF], []
+        base_start = {f'{n}@{i}': b[n] for i, b in enumerate(bases) for n in ('mu0', 'mu_inf')}
     r0 = jp.residuals(base_start)
     base_cost = float(r0 @ r0)
     n_all = r0.size
@@ -228,21 +343,21 @@ def run_joint_discrepancy(
     def bic(cost: float, p: int) -> float:
         return n_eff * math.log(max(cost / n_all, 1e-300)) + p * math.log(n_eff)
 
-    base_bic = bic(base_cost, 2 * jp.n)
+    base_bic = bic(base_cost, len(jp.specs(law, each)))
     base_rms = jp.torque_rms(base_start)
     say(f'joint baseline: torque rms {", ".join(f"{r:.4g}" for r in base_rms)} N m')
     facts = [record_facts(pb, sim) for pb, sim in zip(problems, sims, strict=True)]
     durations = np.concatenate([f[0] for f in facts])
     speeds = np.concatenate([f[1] for f in facts])
     length = sum(f[2] for f in facts)
-    ctx = _start_context(problems[0], sims[0])
+    ctx = start_context(problems[0], sims[0])
     names = st.candidates if st.candidates is not None else cand_lib.names()
     scores: dict[str, dict[str, Any]] = {}
     fits: dict[str, dict[str, float]] = {}
     verdicts: dict[str, Identifiability] = {}
     for name in names:
         c = cand_lib.get(name)
-        specs = jp.specs(c.params, each)
+        specs = jp.specs([*law, *c.params], each)
         trial: tuple[dict[str, float], float] | None = None
         for pt in c.start_points(ctx):
             vals, cost = jp.fit(specs, {**base_start, **pt}, max_nfev=st.screen_nfev)
@@ -309,6 +424,7 @@ def run_joint_discrepancy(
             'min_gain': st.min_gain,
             'bic_threshold': st.bic_threshold,
             'k': k,
+            'shared_friction': shared_friction,
             'candidates': list(names),
             'run_time_s': _time.perf_counter() - t_start,
         },

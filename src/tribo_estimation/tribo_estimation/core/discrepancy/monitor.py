@@ -43,7 +43,7 @@ from .candidates import Candidate, ParamSpec
 from .fitting import CHANNELS, MU0, MU_INF, Problem, Record
 from .identify import GaussNewton, Identifiability, gauss_newton, identifiability
 from .localise import torque_residual
-from .select import _baseline_starts
+from .select import baseline_starts
 from .stats import (
     SLIP_ACCEL,
     SLIP_DECEL,
@@ -464,7 +464,7 @@ class WindowMonitor:
         # the fits use every `thin`-th segment; the reported residuals all of them
         cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
         try:
-            start = self._last_values or _baseline_starts(pb)[1]
+            start = self._last_values or baseline_starts(pb)[1]
             base = pb.fit([MU0, MU_INF], start, seg_mask=cmask, max_nfev=cfg.baseline_nfev).values
             sim = pb.simulate(base)
             floors = {}

@@ -23,7 +23,10 @@ and ``drive`` (the drive speed measured from the record: ``level``, ``nominal``
 ``{"ok": bool, "reason": str, "suggest": str}``: can this record separate it from
 the baseline and the instrument model, and which experiment would decide it) and
 ``not_identifiable`` (candidates that lowered the residual clearly but that the
-record cannot separate: never named in ``added``).
+record cannot separate: never named in ``added``) and ``inconsistent`` (candidates
+that lowered the residual clearly as a whole but made a time block worse by more
+than ``settings.max_block_loss``: they absorb a mismatch that changes during the
+record; never named). Every round's candidate carries its ``block_loss`` (-).
 """
 
 from __future__ import annotations
@@ -93,6 +96,7 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
         'drive': dict(result.drive),
         'identifiable': {n: v.as_dict() for n, v in result.identifiable.items()},
         'not_identifiable': list(result.blocked),
+        'inconsistent': list(result.inconsistent),
     }
     return _clean(d)
 

@@ -1,0 +1,237 @@
+"""The entry of the selection: :func:`run_discrepancy` on one record."""
+
+from __future__ import annotations
+
+import time as _time
+
+from tribo_estimation.core.model import DriveProfile, RigParams
+
+from .. import candidates as cand_lib
+from ..candidates import Candidate
+from ..fitting import Problem, Record, make_segments
+from ..identify import Identifiability
+from ..localise import localise, torque_residual
+from ..sparse import SparseTerm
+from ..stats import noise_floor
+from .baseline import drive_report, fit_baseline, instrument_record, judge_candidates, start_context
+from .results import (
+    AddedEffect,
+    CandidateScore,
+    DiscrepancyResult,
+    Progress,
+    SelectionSettings,
+    Traces,
+)
+from .scoring import Selector, specs_of, worst_block_loss
+from .unexplained import describe_unexplained, propose_terms
+
+_OK = Identifiability(True, '')
+
+
+def run_discrepancy(
+    record: Record,
+    rig: RigParams,
+    drive: DriveProfile,
+    *,
+    k: float = 2.0,
+    settings: SelectionSettings | None = None,
+    progress: Progress | None = None,
+) -> DiscrepancyResult:
+    """Run the missing-physics workflow on one record (see :mod:`..select`).
+
+    ``mu0``/``mu_inf`` (Equ. 8) and the effects are fitted; the rest is known.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record (torsion moment [N m], angular acceleration [rad/s^2],
+        shaft speed [rad/s]).
+    rig : RigParams
+        Rig parameters (Tab. 1, F_N, R).
+    drive : DriveProfile
+        Nominal drive speed [rad/s] and ramp [s].
+    k : float
+        Exponential decay constant of Equ. 8 [s/rad].
+    settings : SelectionSettings or None
+        Selection settings (None: defaults).
+    progress : Progress or None
+        Receiver of progress messages.
+
+    Returns
+    -------
+    DiscrepancyResult
+        Baseline, added effects, final model, what remains unexplained, the
+        identifiability verdicts and the traces behind the plots.
+    """
+    st = settings or SelectionSettings()
+    say: Progress = progress or (lambda _msg: None)
+    t_start = _time.perf_counter()
+    record, tq_lag = instrument_record(record, rig, st, say)
+    pb = Problem(
+        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
+    )
+    sel = Selector(pb, st, say)
+    base_vals, base_sim, instrument = fit_baseline(pb, st, say)
+    instrument['torsion_lag_tau'] = tq_lag.report()
+    current = sel.score((), base_vals)
+    baseline = current
+    say(
+        f'baseline: mu0={base_vals["mu0"]:.4f} mu_inf={base_vals["mu_inf"]:.4f} '
+        f'torque rms {current.rms:.4g} N m (held-out {current.cv_rms:.4g})'
+    )
+    ctx = start_context(pb, base_sim)
+    names = st.candidates if st.candidates is not None else cand_lib.names()
+    pool: list[Candidate] = [cand_lib.get(n) for n in names]
+    added: list[AddedEffect] = []
+    rounds: list[tuple[CandidateScore, ...]] = []
+    verdicts: dict[str, Identifiability] = {}
+    blocked: list[str] = []
+    inconsistent: list[str] = []
+    for rnd in range(st.max_effects):
+        scores: list[CandidateScore] = []
+        for c in pool:
+            if c.name in current.effects:
+                continue
+            effects = (*current.effects, c.name)
+            starts = []
+            for pt in c.start_points(ctx):
+                s = dict(current.params)
+                s.update(pt)
+                starts.append(s)
+            vals = sel.fit_best(specs_of(effects), starts)
+            ms = sel.score(effects, vals)
+            gain = (current.cv_cost - ms.cv_cost) / current.cv_cost if current.cv_cost > 0 else 0.0
+            loss = worst_block_loss(current.block_cost, ms.block_cost)
+            scores.append(CandidateScore(c.name, ms, gain, ms.bic - current.bic, False, loss))
+            say(
+                f'round {rnd + 1}: {c.name:<22s} rms {ms.rms:.4g} N m, held-out gain '
+                f'{100 * gain:6.1f} %, dBIC {ms.bic - current.bic:10.1f}, worst block '
+                f'{100 * loss:+.0f} %'
+            )
+        if not scores:
+            break
+        if rnd == 0:
+            verdicts = judge_candidates(
+                pb,
+                base_sim,
+                {s.effect: s.model.params for s in scores},
+                gains={s.effect: s.gain for s in scores},
+            )
+            for n, v in verdicts.items():
+                say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
+        # eligible: clearly better on held-out blocks AND by BIC; among those the
+        # lowest BIC wins (Occam: with equal fits the candidate with fewer
+        # parameters, e.g. a torque-offset drift vs. equal drifts of mu0, mu_inf).
+        # A candidate this record cannot separate is never named (``blocked``).
+        eligible = [s for s in scores if s.gain >= st.min_gain and s.delta_bic <= -st.bic_threshold]
+        ok = bool(eligible)
+        best = (
+            min(eligible, key=lambda s: s.model.bic)
+            if eligible
+            else min(scores, key=lambda s: s.model.cv_cost)
+        )
+        # parsimony: a candidate with fewer parameters that fits practically as
+        # well (whole-record cost within `parsimony`) is preferred
+        simpler = [
+            s
+            for s in eligible
+            if s.model.n_params < best.model.n_params
+            and s.model.cost <= (1.0 + st.parsimony) * best.model.cost
+        ]
+        if simpler:
+            best = min(simpler, key=lambda s: (s.model.n_params, s.model.cost))
+        if ok and best.block_loss > st.max_block_loss:
+            # consistency: an effect of the library acts the same way all through the
+            # record, so its nested fit improves (or keeps) every time block; one that
+            # buys its gain in some blocks by making another clearly worse absorbs a
+            # mismatch that changes over the record (e.g. a stiffness drifting) and is
+            # not named: what remains is described as unexplained
+            inconsistent.append(best.effect)
+            say(
+                f'round {rnd + 1}: {best.effect} improves the record as a whole but makes a '
+                f'time block {100 * best.block_loss:.0f} % worse: not named'
+            )
+            ok = False
+        if ok and not verdicts.get(best.effect, _OK).ok:
+            # the best explanation is one this record cannot separate: name nothing
+            # (another candidate would only absorb its signal) and say so
+            blocked.append(best.effect)
+            say(f'round {rnd + 1}: {best.effect} improves but is not identifiable here')
+            ok = False
+        scores = [
+            CandidateScore(s.effect, s.model, s.gain, s.delta_bic, ok and s is best, s.block_loss)
+            for s in scores
+        ]
+        rounds.append(tuple(scores))
+        if not ok:
+            if best.effect not in (*blocked, *inconsistent):
+                say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
+            break
+        c = cand_lib.get(best.effect)
+        # polish the accepted model to convergence before it becomes the reference
+        pol = pb.fit(specs_of(best.model.effects), best.model.params, max_nfev=2 * st.max_nfev)
+        model = sel.score(best.model.effects, pol.values)
+        if model.cost > best.model.cost:
+            model = best.model
+        added.append(
+            AddedEffect(
+                effect=c.name,
+                params={n: model.params[n] for n in c.param_names},
+                units=c.units(),
+                rms_before=current.rms,
+                rms_after=model.rms,
+                cv_rms_before=current.cv_rms,
+                cv_rms_after=model.cv_rms,
+                delta_bic=model.bic - current.bic,
+                localiser=c.localiser,
+            )
+        )
+        say(f'added {c.name}: rms {current.rms:.4g} -> {model.rms:.4g} N m')
+        current = model
+    final_sim = pb.simulate(current.params)
+    sigma = noise_floor(torque_residual(pb, final_sim)[final_sim.covered])
+    unexplained = describe_unexplained(pb, final_sim, sigma=sigma)
+    terms: tuple[SparseTerm, ...] = ()
+    if unexplained and st.propose_terms:
+        terms = propose_terms(pb, final_sim, unexplained, sigma)
+    for u in unexplained:
+        say(
+            f'unexplained: {u.kind}: {u.where}, size {u.size:.3g} N m'
+            + (f' at {u.frequency:.2f} Hz' if u.frequency else '')
+        )
+    say(f'done in {_time.perf_counter() - t_start:.1f} s ({pb.n_evals} simulations)')
+    return DiscrepancyResult(
+        baseline=baseline,
+        added=tuple(added),
+        final=current,
+        unexplained=tuple(unexplained),
+        noise_floor=sigma,
+        rounds=tuple(rounds),
+        proposed_terms=terms,
+        localisation_before=localise(pb, base_sim),
+        localisation_after=localise(pb, final_sim),
+        settings={
+            'min_gain': st.min_gain,
+            'bic_threshold': st.bic_threshold,
+            'folds': st.folds,
+            'block_time': st.block_time,
+            'corr_time': st.corr_time,
+            'max_block_loss': st.max_block_loss,
+            'k': k,
+            'segments': pb.segments.n,
+            'blocks': pb.segments.n_blocks,
+            'weights': dict(pb.weights),
+            'candidates': list(names),
+            'run_time_s': _time.perf_counter() - t_start,
+            'simulations': pb.n_evals,
+        },
+        traces=Traces(pb, base_sim, final_sim),
+        instrument=instrument,
+        drive=drive_report(pb),
+        identifiable=verdicts,
+        blocked=tuple(blocked),
+        inconsistent=tuple(inconsistent),
+    )
+
+
+__all__ = ['run_discrepancy']

@@ -1,0 +1,250 @@
+"""Scores of a model in the selection: whole-record cost, held-out cost, BIC.
+
+The Bayesian information criterion ``BIC = n_eff*ln(cost) + p*ln(n_eff)`` counts
+``n_eff`` compared samples thinned to one per ``corr_time`` (residuals of a model
+mismatch are correlated over about a millisecond; counting every 0.1 ms sample would
+overstate the evidence). The held-out cost comes from cross validation over time
+blocks: each fold is predicted by a fit to the others.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from .. import candidates as cand_lib
+from ..candidates import ParamSpec
+from ..fitting import CHANNELS, MU0, MU_INF, Problem, SimulatedRecord
+from ..localise import torque_residual
+from ..stats import FloatArray, rms
+from .results import ModelScore, Progress, SelectionSettings
+
+
+def specs_of(effects: Sequence[str]) -> list[ParamSpec]:
+    """Return the fitted parameters of the baseline plus ``effects``.
+
+    Parameters
+    ----------
+    effects : Sequence[str]
+        Names of the added candidates.
+
+    Returns
+    -------
+    list[ParamSpec]
+        ``mu0``, ``mu_inf`` (Equ. 8), then every candidate's parameters.
+    """
+    specs = [MU0, MU_INF]
+    for e in effects:
+        specs.extend(cand_lib.get(e).params)
+    return specs
+
+
+def n_eff(problem: Problem, seg_mask: npt.NDArray[np.bool_] | None, corr_time: float) -> float:
+    """Return the effective number of compared samples (one per ``corr_time``).
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+    seg_mask : numpy.ndarray of bool or None
+        Segments compared (None: all).
+    corr_time : float
+        Residual correlation time [s].
+
+    Returns
+    -------
+    float
+        Samples divided by ``corr_time*fs`` (at least 1).
+    """
+    n = int(np.count_nonzero(problem.segments.sample_mask(problem.record.time.size, seg_mask)))
+    thin = max(1.0, corr_time * problem.record.fs)
+    return max(n / thin, 1.0)
+
+
+def bic(cost: float, n_eff: float, p: int) -> float:
+    """Return the Bayesian information criterion ``n_eff*ln(cost) + p*ln(n_eff)``.
+
+    Parameters
+    ----------
+    cost : float
+        Mean weighted squared residual (-).
+    n_eff : float
+        Effective sample count (-).
+    p : int
+        Number of fitted parameters.
+
+    Returns
+    -------
+    float
+        The BIC (-).
+    """
+    return n_eff * math.log(max(cost, 1e-300)) + p * math.log(n_eff)
+
+
+def block_costs(problem: Problem, sim: SimulatedRecord) -> FloatArray:
+    """Return the mean squared weighted residual (-) of every time block.
+
+    The cost of :meth:`..fitting.Problem.cost` restricted to the samples of each
+    cross-validation block; a block the simulation does not cover costs NaN.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (weights set).
+    sim : SimulatedRecord
+        The model's simulation.
+
+    Returns
+    -------
+    FloatArray
+        One cost per block, in block order.
+    """
+    seg = problem.segments
+    n = problem.record.time.size
+    sq = np.zeros(n)
+    for c in CHANNELS:
+        w = problem.weights.get(c, 0.0)
+        if w > 0:
+            r = w * (problem.measured(c) - sim.channel(c))
+            sq += np.where(np.isfinite(r), r * r, 1e6)
+    out = np.full(seg.n_blocks, np.nan)
+    for b in range(seg.n_blocks):
+        m = seg.sample_mask(n, seg.block == b) & sim.covered
+        if np.any(m):
+            out[b] = float(np.mean(sq[m]))
+    return out
+
+
+def worst_block_loss(before: Sequence[float], after: Sequence[float]) -> float:
+    """Return the largest relative cost increase of a time block (-; <= 0: none worse).
+
+    Parameters
+    ----------
+    before : Sequence[float]
+        Block costs of the current model (-).
+    after : Sequence[float]
+        Block costs of the candidate model (-), same blocks.
+
+    Returns
+    -------
+    float
+        ``max((after - before) / before)`` over the blocks both cover (-inf if none).
+    """
+    b = np.asarray(before, dtype=np.float64)
+    a = np.asarray(after, dtype=np.float64)
+    ok = np.isfinite(a) & np.isfinite(b) & (b > 0)
+    if a.shape != b.shape or not np.any(ok):
+        return -math.inf
+    return float(np.max((a[ok] - b[ok]) / b[ok]))
+
+
+class Selector:
+    """State of one selection run: the problem, its cross-validation folds, settings.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (weights set).
+    settings : SelectionSettings
+        Selection settings (folds, evaluation budgets, ``corr_time``).
+    progress : Progress
+        Receiver of progress messages.
+    """
+
+    def __init__(self, problem: Problem, settings: SelectionSettings, progress: Progress) -> None:
+        """Build the folds: time blocks dealt round-robin."""
+        self.pb = problem
+        self.st = settings
+        self.progress = progress
+        nb = problem.segments.n_blocks
+        self.fold_of_block = np.arange(nb) % settings.folds
+        self.fold_masks = [
+            np.isin(problem.segments.block, np.flatnonzero(self.fold_of_block == f))
+            for f in range(settings.folds)
+        ]
+
+    def fit_best(
+        self,
+        specs: Sequence[ParamSpec],
+        starts: Sequence[Mapping[str, float]],
+        seg_mask: npt.NDArray[np.bool_] | None = None,
+    ) -> dict[str, float]:
+        """Screen all starts with a short fit, refine the best one.
+
+        Parameters
+        ----------
+        specs : Sequence[ParamSpec]
+            Fitted parameters.
+        starts : Sequence[Mapping[str, float]]
+            Start values (SI), each with every parameter the simulation needs.
+        seg_mask : numpy.ndarray of bool or None
+            Segments fitted (None: all).
+
+        Returns
+        -------
+        dict[str, float]
+            The refined values.
+        """
+        best_vals: dict[str, float] = dict(starts[0])
+        best_cost = math.inf
+        if len(starts) > 1:
+            # screen on one fold (half the data) to save time, refine on all
+            screen = self.fold_masks[0] if seg_mask is None else seg_mask
+            for s in starts:
+                fo = self.pb.fit(specs, s, seg_mask=screen, max_nfev=self.st.screen_nfev)
+                if fo.cost < best_cost:
+                    best_cost, best_vals = fo.cost, fo.values
+        fo = self.pb.fit(specs, best_vals, seg_mask=seg_mask, max_nfev=self.st.max_nfev)
+        return fo.values
+
+    def score(self, effects: tuple[str, ...], values: Mapping[str, float]) -> ModelScore:
+        """Score a model: whole-record cost/rms/BIC and the held-out cost/rms.
+
+        Parameters
+        ----------
+        effects : tuple[str, ...]
+            The model's added candidates.
+        values : Mapping[str, float]
+            Its fitted values (SI).
+
+        Returns
+        -------
+        ModelScore
+            The scores.
+        """
+        specs = specs_of(effects)
+        sim = self.pb.simulate(values)
+        cost = self.pb.cost(sim)
+        ne = n_eff(self.pb, None, self.st.corr_time)
+        held_sq = 0.0
+        held_n = 0
+        held_t: list[FloatArray] = []
+        for test_mask in self.fold_masks:
+            train_mask = ~test_mask
+            if not np.any(test_mask) or not np.any(train_mask):
+                continue
+            fo = self.pb.fit(specs, values, seg_mask=train_mask, max_nfev=self.st.cv_nfev)
+            tsim = self.pb.simulate(fo.values, test_mask)
+            v = self.pb.residual_vector(tsim)
+            held_sq += float(np.sum(v * v))
+            held_n += int(np.count_nonzero(tsim.covered))
+            held_t.append(torque_residual(self.pb, tsim)[tsim.covered])
+        cv_cost = held_sq / max(held_n, 1)
+        cv_rms = rms(np.concatenate(held_t)) if held_t else float('nan')
+        return ModelScore(
+            effects=effects,
+            params=dict(values),
+            cost=cost,
+            rms=self.pb.torque_rms(sim),
+            cv_cost=cv_cost,
+            cv_rms=cv_rms,
+            bic=bic(cost, ne, len(specs)),
+            n_params=len(specs),
+            block_cost=tuple(float(x) for x in block_costs(self.pb, sim)),
+        )
+
+
+__all__ = ['Selector', 'bic', 'block_costs', 'n_eff', 'specs_of', 'worst_block_loss']
