@@ -66,8 +66,11 @@ OUTSIDE = (BACKLASH, C1_DRIFT)
 
 
 def hidden(name: str, scale: float) -> dict[str, float]:
-    """The candidate's non-default Extensions fields of config/rig_hidden_<name>.yaml
-    (else its registered demo values), magnitudes times ``scale``."""
+    """Return the hidden effect's Extensions fields, magnitudes times ``scale``.
+
+    The non-default fields of config/rig_hidden_<name>.yaml, else the candidate's
+    registered demo values.
+    """
     path = CONFIG / f'rig_hidden_{name}.yaml'
     demo = cand_lib.get(name).demo_effects
     if not path.is_file() and demo is not None:
@@ -101,9 +104,12 @@ def condition(name: str, duration: float) -> tuple[SpeedProfile, float, float, f
 
 
 def cases(quick: bool) -> list[tuple[str, float, str]]:
-    """(hidden, magnitude scale, condition) to run; ``quick``: both magnitudes at
+    """Return the (hidden, magnitude scale, condition) cases to run.
+
+    ``quick``: both magnitudes at
     25 rpm, the realistic one with the speed step and noise x3; controls at 25 rpm,
-    the step, 60 rpm (and the control at 10 rpm and with the 5 ms lag)."""
+    the step, 60 rpm (and the control at 10 rpm and with the 5 ms lag).
+    """
     conds = ['25rpm', 'step', '10rpm', '60rpm', 'startup', 'lag5ms', 'noise3']
     out = []
     for c in cand_lib.names():
@@ -121,6 +127,7 @@ def cases(quick: bool) -> list[tuple[str, float, str]]:
 
 
 def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dict[str, Any]:
+    """Generate one record with effect ``h`` hidden and run the workflow on it; one table row."""
     prof, start, w_nom, lag, noise = condition(cond, duration)
     tc, ac, sc = rig_channels(noise, speed_lag=lag)
     ext = Extensions(**hidden(h, scale)) if h not in (CONTROL, *OUTSIDE) else Extensions()
@@ -215,6 +222,7 @@ def run_joint_case(seed: int) -> dict[str, Any]:
 
 
 def main() -> int:
+    """Run the matrix and print it; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument(
         '--quick', action='store_true', help='fewer conditions (43 records, ~7 min; the default)'

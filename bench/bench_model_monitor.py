@@ -59,6 +59,7 @@ def run(name: str, duration: float, seed: int, cfg: MonitorConfig) -> list[Windo
 
 
 def main() -> int:
+    """Time the monitor's windows and print them; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--duration', type=float, default=20.0, help='record length [s] (20)')
     ap.add_argument('--effects', default='viscous_friction', help='comma-separated hidden effects')

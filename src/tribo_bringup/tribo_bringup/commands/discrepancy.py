@@ -19,12 +19,19 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from tribo_bringup.argtypes import bounded_float, bounded_int
 
+if TYPE_CHECKING:
+    from tribo_bringup.argtypes import Subparsers
+    from tribo_bringup.errors import BagTruncatedError
+    from tribo_estimation.core.config import RigConfig
+    from tribo_estimation.core.discrepancy.fitting import Record
+    from tribo_estimation.core.signal import FloatArray
 
-def register(sub: Any) -> None:
+
+def register(sub: Subparsers) -> None:
     """Add the ``discrepancy`` subcommand."""
     from tribo_estimation.core.discrepancy import candidates as cand_lib
 
@@ -114,9 +121,13 @@ def _say(msg: str) -> None:
     print(f'[discrepancy] {msg}', file=sys.stderr, flush=True)
 
 
-def _load_csv(path: Path) -> tuple[Any, Any, Any, Any]:
-    """Channels of a rig CSV on a regular time base from its first sample [s]
-    (epoch stamps made relative, jitter resampled: core.rigio.regularise)."""
+def _load_csv(path: Path) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Read the channels of a rig CSV on a regular time base.
+
+    Time [s] from the first sample (epoch stamps made relative, jitter resampled:
+    :func:`tribo_estimation.core.rigio.regularise`), torsion moment [N m], angular
+    acceleration [rad/s^2] and speed [rad/s].
+    """
     from tribo_estimation.core.rigio import read_rig_csv, regularise
 
     rec, grid = regularise(read_rig_csv(path), str(path))
@@ -127,18 +138,21 @@ def _load_csv(path: Path) -> tuple[Any, Any, Any, Any]:
 
 def _load_bag(
     path: Path, start: float, duration: float
-) -> tuple[tuple[Any, Any, Any, Any], Exception | None]:
-    """Aligned rig channels of a bag within the window ``start`` [s] after the stream's
-    first sample, ``duration`` [s] long (0: to the end); the longest gap-free stretch in
+) -> tuple[tuple[FloatArray, FloatArray, FloatArray, FloatArray], BagTruncatedError | None]:
+    """Read the aligned rig channels of a bag within a window.
+
+    The window starts ``start`` [s] after the stream's first sample and is
+    ``duration`` [s] long (0: to the end); the longest gap-free stretch in
     the window is used. Reading stops at the window's end, so memory stays bounded by
-    the window. A bag that ends early gives the good part and its truncation error."""
+    the window. A bag that ends early gives the good part and its truncation error.
+    """
     from tribo_bringup.sessions import read_rig_stretch
 
     return read_rig_stretch(path, start, duration, _say)
 
 
 def _candidate_names(args: argparse.Namespace) -> tuple[str, ...] | None:
-    """The ``--candidates`` list, checked against the library (None: all)."""
+    """Return the ``--candidates`` list, checked against the library (None: all)."""
     from tribo_bringup.errors import ConfigError
     from tribo_estimation.core.discrepancy import candidates as cand_lib
 
@@ -151,11 +165,16 @@ def _candidate_names(args: argparse.Namespace) -> tuple[str, ...] | None:
     return names
 
 
-def _load_record(src: Path, args: argparse.Namespace, cfg: Any) -> tuple[Any, Exception | None]:
-    """One input (rig CSV or bag) as a :class:`Record` of the ``--start``/``--duration``
-    window, its time base and channels checked and its spikes repaired
+def _load_record(
+    src: Path, args: argparse.Namespace, cfg: RigConfig
+) -> tuple[Record, Exception | None]:
+    """Read one input (rig CSV or bag) as a :class:`Record`.
+
+    The record holds the ``--start``/``--duration`` window, its time base and
+    channels checked and its spikes repaired
     (:mod:`tribo_estimation.core.plausibility`); also the truncation error of a bag
-    that ends early (its good part is returned)."""
+    that ends early (its good part is returned).
+    """
     import numpy as np
 
     from tribo_bringup.errors import ConfigError
@@ -261,8 +280,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_joint(args: argparse.Namespace) -> int:
-    """Several records fitted jointly (:func:`run_joint_discrepancy`); ``--start`` and
-    ``--duration`` apply to each. Writes ``DIR/discrepancy.json`` (joint layout)."""
+    """Fit several records jointly (:func:`run_joint_discrepancy`).
+
+    ``--start`` and ``--duration`` apply to each. Writes ``DIR/discrepancy.json`` (joint layout).
+    """
     from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.discrepancy import SelectionSettings

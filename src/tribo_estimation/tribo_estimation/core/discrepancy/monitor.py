@@ -108,6 +108,7 @@ class MonitorConfig:
     partial_ratio: float = 1.5
 
     def __post_init__(self) -> None:
+        """Refuse non-positive or non-finite times and a hop longer than the window."""
         for name in ('window', 'hop', 'time_budget'):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
@@ -241,9 +242,11 @@ PROBE_FRACTION = 0.1
 
 
 def _probe(c: Candidate) -> dict[str, float]:
-    """A model point of candidate ``c`` a small step from the nested model: its
-    default start, with parameters that default to 0 set to ``PROBE_FRACTION``
-    of their scale (small, so that the step stays in the linear range)."""
+    """Return a model point of candidate ``c`` a small step from the nested model.
+
+    The point is its default start, with parameters that default to 0 set to ``PROBE_FRACTION``
+    of their scale (small, so that the step stays in the linear range).
+    """
     out = c.default_start()
     for p in c.params:
         if not p.log and out[p.name] == 0.0:

@@ -34,13 +34,16 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TypeAlias
 
 from .joint import JointResult
 from .select import DiscrepancyResult
 
+#: A strict-JSON value.
+Json: TypeAlias = bool | int | float | str | list['Json'] | dict[str, 'Json'] | None
 
-def _clean(obj: Any) -> Any:
+
+def _clean(obj: object) -> Json:
     """Make ``obj`` strict-JSON: NaN/inf become None, tuples lists."""
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
@@ -48,14 +51,17 @@ def _clean(obj: Any) -> Any:
         return {str(k): _clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_clean(v) for v in obj]
-    if hasattr(obj, 'item') and callable(obj.item):  # numpy scalar
-        return _clean(obj.item())
-    return obj
+    item = getattr(obj, 'item', None)
+    if callable(item):  # numpy scalar
+        return _clean(item())
+    if obj is None or isinstance(obj, (bool, int, str)):
+        return obj
+    return str(obj)
 
 
-def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
-    """The report as a JSON-ready mapping (see module docstring)."""
-    d: dict[str, Any] = {
+def to_dict(result: DiscrepancyResult) -> dict[str, Json]:
+    """Return the report as a strict-JSON mapping (layout: see the module docstring)."""
+    d: dict[str, object] = {
         'baseline': {
             'rms': result.baseline.rms,
             'params': dict(result.baseline.params),
@@ -98,12 +104,15 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Any]:
         'not_identifiable': list(result.blocked),
         'inconsistent': list(result.inconsistent),
     }
-    return _clean(d)
+    return {k: _clean(v) for k, v in d.items()}
 
 
 def write_json(result: DiscrepancyResult | JointResult, path: str | Path) -> Path:
-    """Write ``discrepancy.json`` (strict JSON, indented; a joint run of several records
-    in the layout of :meth:`.joint.JointResult.as_dict`); returns the path."""
+    """Write ``discrepancy.json`` (strict JSON, indented) and return its path.
+
+    A joint run of several records is written in the layout of
+    :meth:`.joint.JointResult.as_dict`.
+    """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_suffix(p.suffix + '.tmp')
