@@ -33,7 +33,7 @@ import sys
 import time
 from collections import Counter, defaultdict
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src' / 'tribo_estimation'))
@@ -126,7 +126,46 @@ def cases(quick: bool) -> list[tuple[str, float, str]]:
     return out
 
 
-def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dict[str, Any]:
+class CaseRow(TypedDict):
+    """One row of the matrix: hidden effect, magnitude, condition and the workflow's answer.
+
+    ``rms0``/``rms1``/``floor``: baseline, final rms and noise floor [N m]; ``perr``:
+    worst relative parameter error [-]; ``wall``: workflow time [s]; ``block_loss``: the
+    named effect's worst relative cost increase in a time block [-].
+    """
+
+    hidden: str
+    scale: float
+    cond: str
+    outcome: str
+    ident: bool | None
+    reason: str
+    suggest: str
+    rms0: float
+    rms1: float
+    floor: float
+    perr: float
+    wall: float
+    unexplained: str
+    blocked: str
+    inconsistent: str
+    block_loss: float
+
+
+class JointRow(TypedDict):
+    """The joint row: per record (identifiable, fitted viscous [N m s/rad], named), then joint."""
+
+    singles: list[tuple[bool, float, bool]]
+    named: str
+    ident: bool
+    reason: str
+    perr: float
+    fit: float
+    wall_single: float
+    wall_joint: float
+
+
+def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> CaseRow:
     """Generate one record with effect ``h`` hidden and run the workflow on it; one table row."""
     prof, start, w_nom, lag, noise = condition(cond, duration)
     tc, ac, sc = rig_channels(noise, speed_lag=lag)
@@ -190,7 +229,7 @@ def run_case(h: str, scale: float, cond: str, duration: float, seed: int) -> dic
 JOINT_VISCOUS, JOINT_SPEEDS, JOINT_NOISE, JOINT_DURATION = 0.009, (10.0, 60.0), 3.0, 1.0
 
 
-def run_joint_case(seed: int) -> dict[str, Any]:
+def run_joint_case(seed: int) -> JointRow:
     """Each record alone, then the joint fit (one friction law, viscous shared)."""
     tc, ac, sc = rig_channels(JOINT_NOISE)
     recs, drives = [], []
@@ -236,7 +275,7 @@ def main() -> int:
     if args.only:
         keep = set(args.only.split(','))
         todo = [c for c in todo if c[0] in keep]
-    rows: list[dict[str, Any]] = []
+    rows: list[CaseRow] = []
     t_all = time.perf_counter()
     for i, (h, scale, cond) in enumerate(todo):
         r = run_case(h, scale, cond, args.duration, seed=1000 + i)
