@@ -212,6 +212,12 @@ _CORNER_SWEEPS = 3
 #: Shortest linear piece of a refined profile [s].
 _MIN_PIECE = 2e-3
 
+#: Outlying drive angles of :func:`refine_with_angles`: robust standard deviations
+#: [-], smallest flagged residual [rad] and most re-fits [-].
+_OUTLIER_SIGMA = 8.0
+_OUTLIER_FLOOR = 1e-4
+_OUTLIER_ROUNDS = 3
+
 
 def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
     """Integral from ``tk[0]`` to ``tt`` [s] of each hat function of the knots ``tk``
@@ -259,6 +265,42 @@ def _solve_speeds(
     if start is not None:
         sol[1] = start
     return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
+
+
+def _outliers(
+    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None
+) -> npt.NDArray[np.bool_]:
+    """Flag angle samples far off the least-squares profile with knots ``tk``.
+
+    A phase the stick detector takes for a stick while the discs still slip
+    (e.g. the slow end of a slip just before a real stick) gives drive angles
+    that are off by the slip; a few of them pull a corner of a speed step by
+    many ms. Flagged: residuals beyond :data:`_OUTLIER_SIGMA` robust standard
+    deviations (1.4826 x the median absolute residual) and beyond
+    :data:`_OUTLIER_FLOOR`.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tt : FloatArray
+        Sample times [s].
+    ph : FloatArray
+        Drive angles [rad].
+    start : float or None
+        Known first knot speed [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True for an outlier.
+    """
+    vk, _ = _solve_speeds(tk, tt, ph, start)
+    model = _angle_basis(tk, tt) @ vk
+    r = ph - model
+    r = r - np.median(r)
+    sigma = 1.4826 * float(np.median(np.abs(r)))
+    return np.asarray(np.abs(r) > max(_OUTLIER_SIGMA * sigma, _OUTLIER_FLOOR), dtype=np.bool_)
 
 
 def _corners(inner: FloatArray) -> FloatArray:
@@ -332,6 +374,7 @@ def refine_with_angles(
     *,
     place: bool = True,
     start_speed: float | None = None,
+    keep_corners: bool = False,
 ) -> DriveEstimate:
     """The drive profile ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
     at times ``t`` [s] (least squares of ``c + integral of w0``). The drive angle at
@@ -350,12 +393,18 @@ def refine_with_angles(
     ramp end); a detected knot within :data:`SMOOTH_TIME` of one moves onto it and
     stays there. ``start_speed`` [rad/s]: the drive speed at the record's start when
     known (0 for a record that begins at the drive's start from rest): the angles
-    alone leave it ~4e-4 rad/s off, which a torque-offset drift then absorbs."""
+    alone leave it ~4e-4 rad/s off, which a torque-offset drift then absorbs.
+    ``keep_corners``: the interior knots of ``drive`` are corners placed before
+    (not blurred knots of :func:`estimate_drive`): searched again from where they
+    are, for angles recomputed with that profile. Outlying angles (a phase taken
+    for a stick while the discs still slip) are dropped (:func:`_outliers`)."""
     t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
     tt = np.asarray(t, dtype=np.float64)
     ph = np.asarray(phi0, dtype=np.float64)
     ok = np.isfinite(tt) & np.isfinite(ph)
     tt, ph = tt[ok], ph[ok]
+    free = np.zeros(drive.knot_time.size, dtype=bool)
+    tk0 = drive.knot_time
     if place:
         inner = drive.knot_time[1:-1]
         hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
@@ -367,7 +416,7 @@ def refine_with_angles(
             inner = inner[~hinted]
         else:
             moved = np.zeros(0)
-        corners = _corners(inner)
+        corners = inner.copy() if keep_corners else _corners(inner)
         corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
         tk = np.concatenate(([t_lo, t_hi], moved, corners))
         n_fixed = 2 + moved.size
@@ -378,12 +427,25 @@ def refine_with_angles(
         tk, free = tk[keep], free[keep]
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
+        tk0 = tk
         if free.any():
-            tk = _place(tk, free, tt, ph, start_speed)
+            tk = _place(tk0, free, tt, ph, start_speed)
     else:
         tk = drive.knot_time.copy()
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
+    # outlying angles (a false stick phase) are dropped and the fit repeated; the
+    # flags are re-evaluated against each new fit, so samples only pulled off by
+    # a wrongly placed corner come back
+    kept = np.ones(tt.size, dtype=bool)
+    for _ in range(_OUTLIER_ROUNDS):
+        out = _outliers(tk, tt, ph, start_speed)
+        if not out.any() or np.array_equal(~out, kept) or int((~out).sum()) < tk.size + 2:
+            break
+        kept = ~out
+        if place and free.any():
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed)
+    tt, ph = tt[kept], ph[kept]
     vk, _ = _solve_speeds(tk, tt, ph, start_speed)
     if not np.all(np.isfinite(vk)):
         return drive

@@ -24,9 +24,12 @@ fit). Every name is re-exported here.
 """
 
 from .instrument import (
+    FALSE_STICK_MIN,
+    FALSE_STICK_SIGMA,
     MIN_TORSION_LAG,
     SpeedSensor,
     TorsionLag,
+    false_stick_phases,
     identify_speed_sensor,
     identify_torsion_lag,
     speed_sensor_output,
@@ -63,6 +66,8 @@ __all__ = [
     'CHANNELS',
     'CHANNEL_UNITS',
     'EXT_FIELDS',
+    'FALSE_STICK_MIN',
+    'FALSE_STICK_SIGMA',
     'INSTRUMENT',
     'INSTRUMENT_FIELDS',
     'MEASUREMENT_FIELDS',
@@ -79,6 +84,7 @@ __all__ = [
     'SimulatedRecord',
     'SpeedSensor',
     'TorsionLag',
+    'false_stick_phases',
     'identify_speed_sensor',
     'identify_torsion_lag',
     'make_segments',

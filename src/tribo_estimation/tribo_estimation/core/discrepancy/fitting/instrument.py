@@ -420,3 +420,54 @@ def speed_sensor_output(
             (1.0 - a) * tau / dt,
         )
     return out + off
+
+
+#: A stick phase whose speed channel departs from the chamber speed by more than
+#: this many robust standard deviations (over the phases) [-] and at least
+#: :data:`FALSE_STICK_MIN` [rad/s] is no stick (:func:`false_stick_phases`).
+FALSE_STICK_SIGMA = 10.0
+FALSE_STICK_MIN = 0.1
+
+
+def false_stick_phases(
+    record: Record, rig: RigParams, a0: IntArray, b0: IntArray
+) -> npt.NDArray[np.float64]:
+    """Return how far each detected stick phase is from a stick: the slip speed seen.
+
+    While the discs stick, the shaft speed equals the chamber speed
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4), and the speed channel shows it through the
+    sensor model of :func:`identify_speed_sensor` (``y = w - tau*y' + offset``).
+    The median of ``y + tau*y' - offset - w1`` over the phase's interior is
+    ~0.01 rad/s in a stick and the slip speed (rad/s) in a phase the stick
+    detector took for a stick while the discs still slip (seen at the slow end of a
+    slip just before a real stick: 3 ms at 2-6 rad/s slip).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    a0, b0 : IntArray
+        First and stop sample of each detected stick phase.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        Median speed disagreement per phase [rad/s] (0 for a phase too short to tell).
+    """
+    from tribo_estimation.core.signal import chamber_speed
+
+    out = np.zeros(a0.size)
+    if a0.size == 0:
+        return out
+    sensor = identify_speed_sensor(record, rig, (a0, b0))
+    tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
+    off = sensor.offset if math.isfinite(sensor.offset) else 0.0
+    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    resid = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
+    guard = CHAMBER_HALF + 3
+    for k, (a, b) in enumerate(zip(a0.tolist(), b0.tolist(), strict=True)):
+        if b - a > 2 * guard + 2:
+            out[k] = float(np.median(resid[a + guard : b - guard]))
+    return out

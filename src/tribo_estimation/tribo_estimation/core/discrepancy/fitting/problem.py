@@ -437,13 +437,15 @@ class Problem:
             ripple_angle = amp / om * (math.cos(phase) - np.cos(om * t + phase))
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
         # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
-        # more with the profile from the angles
+        # more with the profile from the angles; the smoothed speed blurs a speed
+        # step over 150 ms, so its angles bias the corners: they are placed again
+        # with the angles of the first placement
         drive = self._drive_speed0 if place else self.drive_estimate
         for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
-                drive, t, phi2 - defl - ripple_angle, hints, place=place and it == 0,
-                start_speed=self._start_speed,
+                drive, t, phi2 - defl - ripple_angle, hints, place=place,
+                start_speed=self._start_speed, keep_corners=it > 0,
             )  # fmt: skip
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)

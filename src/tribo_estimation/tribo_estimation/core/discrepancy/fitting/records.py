@@ -151,6 +151,9 @@ class Segments:
         First and stop sample of the stick phase holding each start.
     sliding : bool
         True: the record has no stick-slip; every segment starts while sliding.
+    rejected : tuple of (float, str)
+        Detected stick phases not used as segment starts: start time [s] and
+        reason (their samples stay in the fit, inside the segment before).
     """
 
     start: IntArray
@@ -160,6 +163,7 @@ class Segments:
     run_start: IntArray | None = None
     run_stop: IntArray | None = None
     sliding: bool = False
+    rejected: tuple[tuple[float, str], ...] = ()
 
     @property
     def n(self) -> int:

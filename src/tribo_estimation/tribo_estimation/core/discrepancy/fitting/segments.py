@@ -117,12 +117,26 @@ def make_segments(
     Segments
         The segments with their blocks and stick phases.
     """
+    from .instrument import FALSE_STICK_MIN, FALSE_STICK_SIGMA, false_stick_phases
+
     s_start, s_stop, onset = runs if runs is not None else stick_runs(record, rig)
     fs = record.fs
     delay = round(start_delay * fs)
+    # a segment starts from the stuck state: never in a phase where the shaft
+    # and chamber speeds disagree (the discs slip: a false stick phase); its
+    # samples stay in the fit, in the segment before
+    slip = np.abs(false_stick_phases(record, rig, s_start, s_stop))
+    spread = 1.4826 * float(np.median(slip)) if slip.size else 0.0
+    limit = max(FALSE_STICK_SIGMA * spread, FALSE_STICK_MIN)
+    rejected = tuple(
+        (float(record.time[int(a)]), f'no stick: shaft and chamber speeds differ by {v:.3g} rad/s')
+        for a, v in zip(s_start, slip, strict=True)
+        if v > limit
+    )
     cand = [
         (int(a) + min(delay, (int(b) - int(a)) // 2), k)
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
+        if slip[k] <= limit
     ]
     if len(cand) < 3:
         return sliding_segments(record, block_time)
@@ -151,6 +165,7 @@ def make_segments(
         block.astype(np.int64),
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
+        rejected=rejected,
     )
 
 
