@@ -331,12 +331,14 @@ def _place(
     tt: FloatArray,
     ph: FloatArray,
     start: float | None = None,
+    coarse_grid: bool = True,
 ) -> FloatArray:
     """Free knot times moved to the least-squares angle fit. The angles fix the
     *mean* time of a transition's two corners far better than their spread (a
     narrow valley of the cost), so the moves are: one corner, both corners
-    shifted, both spread apart; each a coarse grid within +-:data:`SMOOTH_TIME`,
-    then a fine grid around the best, repeated :data:`_CORNER_SWEEPS` times."""
+    shifted, both spread apart; each a coarse grid within +-:data:`SMOOTH_TIME`
+    (``coarse_grid``; left out for corners placed before), then a fine grid
+    around the best, repeated :data:`_CORNER_SWEEPS` times."""
     tk = tk.copy()
     _, best = _solve_speeds(tk, tt, ph, start)
     idx = np.flatnonzero(free).tolist()
@@ -353,7 +355,7 @@ def _place(
     finest = np.linspace(-1.0, 1.0, 21) * float(fine[1] - fine[0])
     for _ in range(_CORNER_SWEEPS):
         for ks, dirs in moves:
-            for grid in (coarse, fine, finest):
+            for grid in (coarse, fine, finest) if coarse_grid else (fine, finest):
                 base = tk.copy()
                 for d in grid.tolist():
                     trial = base.copy()
@@ -429,7 +431,7 @@ def refine_with_angles(
             return drive
         tk0 = tk
         if free.any():
-            tk = _place(tk0, free, tt, ph, start_speed)
+            tk = _place(tk0, free, tt, ph, start_speed, not keep_corners)
     else:
         tk = drive.knot_time.copy()
         if tt.size < tk.size + 2 or tk.size < 2:
@@ -444,7 +446,7 @@ def refine_with_angles(
             break
         kept = ~out
         if place and free.any():
-            tk = _place(tk0, free, tt[kept], ph[kept], start_speed)
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, not keep_corners)
     tt, ph = tt[kept], ph[kept]
     vk, _ = _solve_speeds(tk, tt, ph, start_speed)
     if not np.all(np.isfinite(vk)):

@@ -63,6 +63,11 @@ from .records import (
 )
 from .segments import make_segments, sliding_start_states
 
+#: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
+#: profile's corners (:meth:`Problem._set_instrument`).
+_REPLACE_LAG = 1e-4
+_REPLACE_OFFSET = 1e-2
+
 
 class Problem:
     """A record, its segments, the known rig and drive: simulate and fit models.
@@ -176,6 +181,9 @@ class Problem:
         }
         self._w_start = self._speed_stuck.copy()
         self._instrument: tuple[float, ...] = (math.nan,) * 7
+        #: the drive profile's corners have been placed once, for this sensor model
+        self._placed = False
+        self._placed_sensor = (0.0, 0.0)
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -380,7 +388,18 @@ class Problem:
             w1[a] = self._w_start[k]
             w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
-        self._fit_drive(tau, offset, ripple, torque)
+        # a sensor change moves the drive's corners by about the change of the lag
+        # (its time shift): below the placement's grid (0.1 ms) and a speed offset
+        # change below 0.01 rad/s (the optimiser's difference steps) only the knot
+        # speeds are re-fitted
+        moved = (
+            not self._placed
+            or abs(tau - self._placed_sensor[0]) > _REPLACE_LAG
+            or abs(offset - self._placed_sensor[1]) > _REPLACE_OFFSET
+        )
+        if moved:
+            self._placed_sensor = (tau, offset)
+        self._fit_drive(tau, offset, ripple, torque, place=moved)
 
     def _fit_drive(
         self,
@@ -440,13 +459,15 @@ class Problem:
         # more with the profile from the angles; the smoothed speed blurs a speed
         # step over 150 ms, so its angles bias the corners: they are placed again
         # with the angles of the first placement
-        drive = self._drive_speed0 if place else self.drive_estimate
+        # (a later sensor model only moves placed corners locally: no coarse search)
+        drive = self._drive_speed0 if place and not self._placed else self.drive_estimate
         for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle, hints, place=place,
-                start_speed=self._start_speed, keep_corners=it > 0,
+                start_speed=self._start_speed, keep_corners=it > 0 or self._placed,
             )  # fmt: skip
+        self._placed = self._placed or place
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
