@@ -55,9 +55,25 @@ TARGET_SLIP = 1.5  # the same on a slip-slip record
 
 @dataclass(frozen=True)
 class Condition:
-    """One record: speed [rpm] (first speed of a step), ``step_to`` [rpm] (0 = none),
-    ``startup`` in the record, speed and torsion lag [s], noise scale [-],
-    ``sliding``: mu0 = mu_inf (no stick-slip)."""
+    """One record of the matrix.
+
+    Parameters
+    ----------
+    name : str
+        Row label.
+    speed : float
+        Drive speed [rpm] (the first speed of a step).
+    startup : bool
+        The drive's start-up is in the record.
+    step_to : float
+        Speed after the step [rpm] (0 = no step).
+    speed_lag, torsion_lag : float
+        First-order lags of the speed and torsion channels [s].
+    noise : float
+        Noise scale relative to config/rig.yaml [-].
+    sliding : bool
+        mu0 = mu_inf (no stick-slip).
+    """
 
     name: str
     speed: float
@@ -70,7 +86,18 @@ class Condition:
 
 
 def conditions(quick: bool) -> list[Condition]:
-    """The matrix (a subset of the real-records issue's, no hidden effect)."""
+    """Return the matrix (a subset of the real-records issue's, no hidden effect).
+
+    Parameters
+    ----------
+    quick : bool
+        The speed step, 5 ms speed lag and start-up conditions only.
+
+    Returns
+    -------
+    list of Condition
+        The conditions.
+    """
     if quick:
         return [
             Condition('step 12-30', 12, startup=True, step_to=30),
@@ -163,6 +190,18 @@ def run_condition(c: Condition, baseline_only: bool) -> tuple[float, float, floa
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the matrix and print the table (module doc).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments.
+
+    Returns
+    -------
+    int
+        Exit status (0).
+    """
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--quick', action='store_true', help='three conditions only')
     ap.add_argument('--baseline-only', action='store_true', help='no effect rounds')
