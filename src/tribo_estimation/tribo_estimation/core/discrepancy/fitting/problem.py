@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import (
+    SMOOTH_TIME,
     DriveEstimate,
     estimate_drive,
     refine_with_angles,
@@ -431,7 +432,7 @@ class Problem:
         """
         rec = self.record
         if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
-            self.drive_estimate = self._drive_speed0
+            self.drive_estimate = self._sliding_drive()
             self._knots = DriveKnots.from_estimate(self.drive_estimate)
             return
         # drive angle while stuck = shaft angle (integral of the speed channel, less
@@ -470,6 +471,33 @@ class Problem:
         self._placed = self._placed or place
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def _sliding_drive(self) -> DriveEstimate:
+        """Return the drive profile of a record without stick-slip.
+
+        The smoothed shaft speed (:func:`~tribo_estimation.core.drive.estimate_drive`)
+        blurs the start-up ramp over :data:`~tribo_estimation.core.drive.SMOOTH_TIME`;
+        a record that begins at the drive's start from rest gets RIG.yaml's ramp
+        (0 at the start, the measured speed at the ramp's end) instead.
+
+        Returns
+        -------
+        DriveEstimate
+            The profile.
+        """
+        d = self._drive_speed0
+        ramp = self.drive.ramp_time
+        if self._start_speed is None or ramp <= 0.0:
+            return d
+        t0 = float(self.record.time[0])
+        t_ramp = t0 + ramp
+        t_after = t_ramp + SMOOTH_TIME
+        if t_after >= float(d.knot_time[-1]):
+            return d
+        keep = d.knot_time > t_after
+        tk = np.concatenate(([t0, t_ramp], d.knot_time[keep]))
+        vk = np.concatenate(([0.0, float(d.speed(t_after))], d.knot_speed[keep]))
+        return replace(d, knot_time=tk, knot_speed=vk)
 
     def measured(self, name: str) -> FloatArray:
         """Return a compared measured channel.

@@ -139,7 +139,10 @@ def make_segments(
         if slip[k] <= limit
     ]
     if len(cand) < 3:
-        return sliding_segments(record, block_time)
+        # a stick phase (the start-up from rest) has no sliding state: sliding
+        # segments start after it
+        after = max((int(b) for b in s_stop), default=0)
+        return sliding_segments(record, block_time, first=after)
     min_len = round(min_length * fs)
     chosen = [cand[0]]
     for c in cand[1:]:
@@ -169,7 +172,7 @@ def make_segments(
     )
 
 
-def sliding_segments(record: Record, block_time: float) -> Segments:
+def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Segments:
     """Cut a record without stick-slip (slip-slip, steady sliding) into segments.
 
     One segment per ``block_time``, each starting from the measured sliding
@@ -181,6 +184,9 @@ def sliding_segments(record: Record, block_time: float) -> Segments:
         The measured record.
     block_time : float
         Segment (and block) length [s], at least 100 samples.
+    first : int
+        First sample a segment may start at (after a stick phase: the samples
+        before are not fitted and are listed in ``Segments.rejected``).
 
     Returns
     -------
@@ -196,7 +202,16 @@ def sliding_segments(record: Record, block_time: float) -> Segments:
     n = record.time.size
     length = max(round(block_time * fs), 100)
     edge = SLIDE_WIN  # the local fits at a start need samples on both sides
-    starts = np.arange(edge, n - length // 2, length, dtype=np.int64)
+    starts = np.arange(max(edge, first + edge), n - length // 2, length, dtype=np.int64)
+    rejected: tuple[tuple[float, str], ...] = ()
+    if first > 0:
+        rejected = (
+            (
+                float(record.time[0]),
+                f'not fitted: {float(record.time[min(first, n - 1)] - record.time[0]):.3g} s '
+                'of stick phase (no sliding state) before the first sliding segment',
+            ),
+        )
     if starts.size < 2:
         raise TooShortError(
             f'record of {n / fs:.3g} s without stick phases: the discrepancy workflow needs '
@@ -211,6 +226,7 @@ def sliding_segments(record: Record, block_time: float) -> Segments:
         None,
         None,
         True,
+        rejected,
     )
 
 
