@@ -15,7 +15,7 @@ wall time grows with the load), the time until the baseline is fitted and scored
 named (must be none). Conditions: 10/25/60 rpm
 constant, the start-up in the record, a 12 -> 30 rpm step in 50 ms, speed-sensor lag
 0/2/5/10 ms, torsion lag 0/1 ms, noise x1/x3 of config/rig.yaml, a slip-slip record
-(no falling friction, mu0 = mu_inf: no sticks; target 1.5x).
+(no falling friction, mu0 = mu_inf: no sticks; target 1.5x), also with the start-up.
 
 Usage: ``.venv/bin/python bench/bench_baseline_realrecords.py [--quick] [--baseline-only]``
 (``--quick``: the speed step, 5 ms speed lag and start-up conditions only;
@@ -121,6 +121,7 @@ def conditions(quick: bool) -> list[Condition]:
         Condition('noise3 25', 25, noise=3.0),
         Condition('all 25', 25, startup=True, speed_lag=0.005, torsion_lag=0.001, noise=3.0),
         Condition('slip-slip 25', 25, sliding=True),
+        Condition('slip-slip startup 25', 25, startup=True, sliding=True),
     ]
 
 
@@ -219,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append((c, *run_condition(c, args.baseline_only)))
         print(f'  done {c.name} ({rows[-1][5]:.1f} s)', flush=True)
     rows.sort(key=lambda r: -r[1])
-    print(f'{"condition":<18s} {"rms/floor":>9s} {"own floor":>9s} {"mu0 %":>6s} {"muinf %":>7s} '
+    print(f'{"condition":<20s} {"rms/floor":>9s} {"own floor":>9s} {"mu0 %":>6s} {"muinf %":>7s} '
           f'{"wall s":>6s} {"cpu s":>6s} {"base s":>6s}  named / verdict')  # fmt: skip
     fails = 0
     for c, ratio, own, e0, e1, wall, cpu, base, named in rows:
@@ -227,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
         bad = ratio > target or bool(named) or wall > 30.0
         fails += bad
         print(
-            f'{c.name:<18s} {ratio:9.3f} {own:9.4f} {100 * e0:6.2f} {100 * e1:7.2f} {wall:6.1f} '
+            f'{c.name:<20s} {ratio:9.3f} {own:9.4f} {100 * e0:6.2f} {100 * e1:7.2f} {wall:6.1f} '
             f'{cpu:6.1f} {base:6.1f}  {",".join(named) or "-"} {"FAIL" if bad else "PASS"}'
         )
     print(f'worst: {rows[0][0].name} ({rows[0][1]:.3f} x the noise floor); {fails} failing')
