@@ -50,13 +50,20 @@ _MAX_KNOTS = 64
 class DriveEstimate:
     """Piecewise-linear drive speed measured from a record.
 
-    Attributes:
-        knot_time: knot instants [s] (first = record start, last = record end).
-        knot_speed: drive speed at the knots [rad/s].
-        nominal: RIG.yaml nominal speed [rad/s] (NaN: none given).
-        level: time-weighted median drive speed of the record [rad/s].
-        mismatch: relative deviation ``(level - nominal)/nominal`` [-] (NaN: no nominal).
-        from_record: False when the speed channel was unusable and the nominal is used.
+    Parameters
+    ----------
+    knot_time : FloatArray
+        Knot instants [s] (first = record start, last = record end).
+    knot_speed : FloatArray
+        Drive speed at the knots [rad/s].
+    nominal : float
+        RIG.yaml nominal speed [rad/s] (NaN: none given).
+    level : float
+        Time-weighted median drive speed of the record [rad/s].
+    mismatch : float
+        Relative deviation ``(level - nominal)/nominal`` [-] (NaN: no nominal).
+    from_record : bool
+        False when the speed channel was unusable and the nominal is used.
     """
 
     knot_time: FloatArray
@@ -109,9 +116,20 @@ class DriveEstimate:
 
 
 def tolerance(level: float, noise: float) -> float:
-    """Departure of the smoothed speed from a linear piece that starts a new knot
-    [rad/s]: 3 % of the drive level, at least 0.03 rad/s and 5 x the residual
-    scatter ``noise`` of the smoothed speed."""
+    """Return the departure of the smoothed speed from a linear piece that starts a knot.
+
+    Parameters
+    ----------
+    level : float
+        Drive level [rad/s].
+    noise : float
+        Residual scatter of the smoothed speed [rad/s].
+
+    Returns
+    -------
+    float
+        3 % of the level, at least 0.03 rad/s and 5 x ``noise`` [rad/s].
+    """
     return max(0.03 * abs(level), 0.03, 5.0 * noise)
 
 
@@ -134,8 +152,20 @@ def _split(t: FloatArray, y: FloatArray, tol: float) -> list[int]:
 
 
 def _fit_knots(tk: FloatArray, tb: FloatArray, yb: FloatArray) -> FloatArray:
-    """Least-squares knot speeds of the continuous piecewise-linear function through
-    the bin means ``(tb, yb)`` (hat-function basis)."""
+    """Return the least-squares knot speeds through the bin means (hat-function basis).
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tb, yb : FloatArray
+        Bin times [s] and mean speeds [rad/s].
+
+    Returns
+    -------
+    FloatArray
+        Knot speeds of the continuous piecewise-linear function [rad/s].
+    """
     k = tk.size
     basis = np.zeros((tb.size, k))
     i = np.clip(np.searchsorted(tk, tb, side='right') - 1, 0, k - 2)
@@ -212,10 +242,30 @@ _CORNER_SWEEPS = 3
 #: Shortest linear piece of a refined profile [s].
 _MIN_PIECE = 2e-3
 
+#: Outlying drive angles of :func:`refine_with_angles`: robust standard deviations
+#: [-], smallest flagged residual [rad] and most re-fits [-].
+_OUTLIER_SIGMA = 8.0
+_OUTLIER_FLOOR = 1e-4
+_OUTLIER_ROUNDS = 3
+
 
 def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
-    """Integral from ``tk[0]`` to ``tt`` [s] of each hat function of the knots ``tk``
-    (exact for a continuous piecewise-linear w0): shape ``(tt.size, tk.size)`` [s]."""
+    """Return the integral from ``tk[0]`` to ``tt`` of each hat function of the knots.
+
+    Exact for a continuous piecewise-linear w0.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tt : FloatArray
+        Times [s].
+
+    Returns
+    -------
+    FloatArray
+        Shape ``(tt.size, tk.size)`` [s].
+    """
     k = tk.size
     out = np.zeros((tt.size, k))
     h = np.diff(tk)
@@ -235,10 +285,26 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
 def _solve_speeds(
     tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None = None
 ) -> tuple[FloatArray, float]:
-    """Knot speeds [rad/s] of the least-squares fit ``c + integral of w0`` to the
-    angles ``ph`` [rad] at ``tt`` [s] (weak second-difference penalty on the knot
-    speeds), and the data's sum of squared residuals [rad^2]. ``start``: the first
-    knot's speed [rad/s] when known (a drive starting from rest)."""
+    """Solve the knot speeds of the least-squares fit ``c + integral of w0`` to angles.
+
+    A weak second-difference penalty acts on the knot speeds.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tt : FloatArray
+        Times of the angles [s].
+    ph : FloatArray
+        Drive angles [rad].
+    start : float, optional
+        The first knot's speed [rad/s] when known (a drive starting from rest).
+
+    Returns
+    -------
+    tuple of (FloatArray, float)
+        Knot speeds [rad/s] and the data's sum of squared residuals [rad^2].
+    """
     k = tk.size
     basis = np.column_stack((np.ones_like(tt), _angle_basis(tk, tt)))
     rhs = ph
@@ -261,11 +327,60 @@ def _solve_speeds(
     return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
 
 
+def _outliers(
+    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None
+) -> npt.NDArray[np.bool_]:
+    """Flag angle samples far off the least-squares profile with knots ``tk``.
+
+    A phase the stick detector takes for a stick while the discs still slip
+    (e.g. the slow end of a slip just before a real stick) gives drive angles
+    that are off by the slip; a few of them pull a corner of a speed step by
+    many ms. Flagged: residuals beyond :data:`_OUTLIER_SIGMA` robust standard
+    deviations (1.4826 x the median absolute residual) and beyond
+    :data:`_OUTLIER_FLOOR`.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tt : FloatArray
+        Sample times [s].
+    ph : FloatArray
+        Drive angles [rad].
+    start : float or None
+        Known first knot speed [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True for an outlier.
+    """
+    vk, _ = _solve_speeds(tk, tt, ph, start)
+    model = _angle_basis(tk, tt) @ vk
+    r = ph - model
+    r = r - np.median(r)
+    sigma = 1.4826 * float(np.median(np.abs(r)))
+    return np.asarray(np.abs(r) > max(_OUTLIER_SIGMA * sigma, _OUTLIER_FLOOR), dtype=np.bool_)
+
+
 def _corners(inner: FloatArray) -> FloatArray:
-    """Initial corners of the transitions: interior knots closer than 2 x
-    :data:`SMOOTH_TIME` form one transition (a step or a ramp blurred by the
-    smoothing), represented by its first and last knot moved outwards by half the
-    smoothing width; a lone knot is one corner."""
+    """Return the initial corners of the transitions.
+
+    Interior knots closer than 2 x :data:`SMOOTH_TIME` form one transition (a
+    step or a ramp blurred by the smoothing), represented by its first and last
+    knot moved inwards by a quarter of the smoothing width; a lone knot is one
+    corner.
+
+    Parameters
+    ----------
+    inner : FloatArray
+        Interior knot times of :func:`estimate_drive` [s].
+
+    Returns
+    -------
+    FloatArray
+        Corner times [s], sorted.
+    """
     if inner.size == 0:
         return inner
     groups: list[list[float]] = [[float(inner[0])]]
@@ -289,12 +404,36 @@ def _place(
     tt: FloatArray,
     ph: FloatArray,
     start: float | None = None,
+    coarse_grid: bool = True,
 ) -> FloatArray:
-    """Free knot times moved to the least-squares angle fit. The angles fix the
-    *mean* time of a transition's two corners far better than their spread (a
-    narrow valley of the cost), so the moves are: one corner, both corners
-    shifted, both spread apart; each a coarse grid within +-:data:`SMOOTH_TIME`,
-    then a fine grid around the best, repeated :data:`_CORNER_SWEEPS` times."""
+    """Move the free knot times to the least-squares angle fit.
+
+    The angles fix the *mean* time of a transition's two corners far better than
+    their spread (a narrow valley of the cost), so the moves are: one corner,
+    both corners shifted, both spread apart; each a coarse grid within
+    +-:data:`SMOOTH_TIME`, then grids of 1 ms and 0.1 ms around the best,
+    repeated :data:`_CORNER_SWEEPS` times.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    free : numpy.ndarray of bool
+        The knots that move.
+    tt : FloatArray
+        Times of the angles [s].
+    ph : FloatArray
+        Drive angles [rad].
+    start : float, optional
+        Known first knot speed [rad/s].
+    coarse_grid : bool
+        Search the coarse grid (False for corners placed before).
+
+    Returns
+    -------
+    FloatArray
+        The knot times [s].
+    """
     tk = tk.copy()
     _, best = _solve_speeds(tk, tt, ph, start)
     idx = np.flatnonzero(free).tolist()
@@ -305,9 +444,13 @@ def _place(
             moves.append(([j, j + 1], np.array([-1.0, 1.0])))
     coarse = np.linspace(-SMOOTH_TIME, SMOOTH_TIME, _CORNER_GRID)
     fine = np.linspace(-1.0, 1.0, 11) * float(coarse[1] - coarse[0])
+    # the fine grid's spacing (1 ms) leaves a corner up to 0.5 ms off; at a speed
+    # step of 38 rad/s^2 that is a drive speed error of 0.02 rad/s, which shows in
+    # the stick-slip cycles of the transition: a last grid of 0.1 ms
+    finest = np.linspace(-1.0, 1.0, 21) * float(fine[1] - fine[0])
     for _ in range(_CORNER_SWEEPS):
         for ks, dirs in moves:
-            for grid in (coarse, fine):
+            for grid in (coarse, fine, finest) if coarse_grid else (fine, finest):
                 base = tk.copy()
                 for d in grid.tolist():
                     trial = base.copy()
@@ -328,30 +471,57 @@ def refine_with_angles(
     *,
     place: bool = True,
     start_speed: float | None = None,
+    keep_corners: bool = False,
 ) -> DriveEstimate:
-    """The drive profile ``drive`` re-fitted to measured drive *angles* ``phi0`` [rad]
-    at times ``t`` [s] (least squares of ``c + integral of w0``). The drive angle at
-    a stick follows from the shaft angle (integral of w2) and the belt deflection of
-    Equ. 2, which is known while the discs stick; the angle pins the mean drive
-    speed between sticks to the noise of that deflection (~1e-3 rad/s), far better
-    than the smoothed shaft speed.
+    """Re-fit the drive profile to measured drive *angles* (least squares).
 
-    ``place``: the smoothing of :func:`estimate_drive` blurs each corner (a 50 ms
-    speed step spreads over 150 ms), so its interior knots only say *where* the
-    speed changes; each transition becomes two corners (one for a lone knot) whose
-    times are searched within +-:data:`SMOOTH_TIME` for the best angle fit, the
-    knot speeds solved by linear least squares at every trial. ``place=False``
-    keeps the knot times of ``drive`` (a profile placed before) and re-fits the
-    speeds only. ``hint_knots`` [s]: corners known in advance (RIG.yaml's start-up
-    ramp end); a detected knot within :data:`SMOOTH_TIME` of one moves onto it and
-    stays there. ``start_speed`` [rad/s]: the drive speed at the record's start when
-    known (0 for a record that begins at the drive's start from rest): the angles
-    alone leave it ~4e-4 rad/s off, which a torque-offset drift then absorbs."""
+    The drive angle at a stick follows from the shaft angle (integral of w2) and
+    the belt deflection of Equ. 2, which is known while the discs stick; the angle
+    pins the mean drive speed between sticks to the noise of that deflection
+    (~1e-3 rad/s), far better than the smoothed shaft speed. Outlying angles (a
+    phase taken for a stick while the discs still slip) are dropped
+    (:func:`_outliers`) and the fit repeated.
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        The profile to refine.
+    t : FloatArray
+        Times of the angles [s].
+    phi0 : FloatArray
+        Drive angles [rad].
+    hint_knots : FloatArray, optional
+        Corners known in advance [s] (RIG.yaml's start-up ramp end); a detected
+        knot within :data:`SMOOTH_TIME` of one moves onto it and stays there.
+    place : bool
+        Search the corner times: the smoothing of :func:`estimate_drive` blurs
+        each corner (a 50 ms speed step spreads over 150 ms), so its interior
+        knots only say *where* the speed changes; each transition becomes two
+        corners (one for a lone knot) whose times are searched within
+        +-:data:`SMOOTH_TIME` for the best angle fit, the knot speeds solved by
+        linear least squares at every trial. False: keep the knot times of
+        ``drive`` and re-fit the speeds only.
+    start_speed : float, optional
+        Drive speed at the record's start when known [rad/s] (0 for a record that
+        begins at the drive's start from rest): the angles alone leave it
+        ~4e-4 rad/s off, which a torque-offset drift then absorbs.
+    keep_corners : bool
+        The interior knots of ``drive`` are corners placed before (not blurred
+        knots of :func:`estimate_drive`): searched again locally from where they
+        are (fine grids only), for angles recomputed with that profile.
+
+    Returns
+    -------
+    DriveEstimate
+        The refined profile (``drive`` itself when the angles are too few).
+    """
     t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
     tt = np.asarray(t, dtype=np.float64)
     ph = np.asarray(phi0, dtype=np.float64)
     ok = np.isfinite(tt) & np.isfinite(ph)
     tt, ph = tt[ok], ph[ok]
+    free = np.zeros(drive.knot_time.size, dtype=bool)
+    tk0 = drive.knot_time
     if place:
         inner = drive.knot_time[1:-1]
         hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
@@ -363,7 +533,7 @@ def refine_with_angles(
             inner = inner[~hinted]
         else:
             moved = np.zeros(0)
-        corners = _corners(inner)
+        corners = inner.copy() if keep_corners else _corners(inner)
         corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
         tk = np.concatenate(([t_lo, t_hi], moved, corners))
         n_fixed = 2 + moved.size
@@ -374,12 +544,25 @@ def refine_with_angles(
         tk, free = tk[keep], free[keep]
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
+        tk0 = tk
         if free.any():
-            tk = _place(tk, free, tt, ph, start_speed)
+            tk = _place(tk0, free, tt, ph, start_speed, not keep_corners)
     else:
         tk = drive.knot_time.copy()
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
+    # outlying angles (a false stick phase) are dropped and the fit repeated; the
+    # flags are re-evaluated against each new fit, so samples only pulled off by
+    # a wrongly placed corner come back
+    kept = np.ones(tt.size, dtype=bool)
+    for _ in range(_OUTLIER_ROUNDS):
+        out = _outliers(tk, tt, ph, start_speed)
+        if not out.any() or np.array_equal(~out, kept) or int((~out).sum()) < tk.size + 2:
+            break
+        kept = ~out
+        if place and free.any():
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, not keep_corners)
+    tt, ph = tt[kept], ph[kept]
     vk, _ = _solve_speeds(tk, tt, ph, start_speed)
     if not np.all(np.isfinite(vk)):
         return drive

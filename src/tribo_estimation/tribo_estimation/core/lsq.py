@@ -55,10 +55,23 @@ class LsqResult:
 
 @njit(cache=True)
 def normal_equations(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``J^T J`` and ``J^T r`` of a tall Jacobian (m x p) with compiled loops.
+    """Return ``J^T J`` and ``J^T r`` of a tall Jacobian (m x p) with compiled loops.
 
     On a busy shared machine multi-threaded BLAS on tall, thin products spins
-    far longer than it computes."""
+    far longer than it computes.
+
+    Parameters
+    ----------
+    J : numpy.ndarray
+        Jacobian, m x p.
+    r : numpy.ndarray
+        Residuals, m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``J^T J`` (p x p) and ``J^T r`` (p).
+    """
     m, p = J.shape
     A = np.zeros((p, p))
     g = np.zeros(p)
@@ -91,8 +104,29 @@ def forward_jacobian(
     hi: FloatArray,
     steps: FloatArray,
 ) -> FloatArray:
-    """Forward-difference Jacobian of ``fun`` at ``x`` (``r0 = fun(x)``); a step
-    that would leave the upper bound is taken backwards. Non-finite columns are 0."""
+    """Return the forward-difference Jacobian of ``fun`` at ``x``.
+
+    A step that would leave the upper bound is taken backwards; non-finite
+    columns are 0.
+
+    Parameters
+    ----------
+    fun : callable
+        Residual vector of the parameters.
+    x : FloatArray
+        The parameters.
+    r0 : FloatArray
+        ``fun(x)``.
+    hi : FloatArray
+        Upper bounds.
+    steps : FloatArray
+        Step per parameter.
+
+    Returns
+    -------
+    FloatArray
+        d fun / d x, ``r0.size`` x ``x.size``.
+    """
     J = np.empty((r0.shape[0], x.shape[0]))
     for j in range(x.shape[0]):
         h = float(steps[j])
@@ -121,24 +155,42 @@ def levenberg_marquardt(
     jac: Callable[[FloatArray, FloatArray], FloatArray] | None = None,
     lam0: float = 1e-3,
 ) -> LsqResult:
-    """Bounded Levenberg-Marquardt on ``sum(fun(x)**2)`` (see the module doc).
+    """Minimise ``sum(fun(x)**2)`` within bounds by Levenberg-Marquardt (module doc).
 
-    Args:
-        fun: residual vector of the parameters.
-        x0, lo, hi: start and bounds (``x0`` is clipped into them).
-        max_iter: iterations at most (each: one Jacobian or chord step).
-        max_nfev: function evaluations at most (Jacobian columns included).
-        rel_step, abs_step: forward-difference step ``max(rel_step*|x|, abs_step)``
-            (``abs_step`` default ``rel_step``).
-        ftol: stop when the relative decrease of the cost falls below it.
-        xtol: ``xtol(x, J, r)`` -> per-parameter step size below which the
-            iteration has converged (default ``1e-10*(1 + |x|)``).
-        reuse_jacobian: keep the Jacobian after a well predicted step.
-        jac: ``jac(x, r)`` analytic Jacobian instead of forward differences.
-        lam0: start damping [-].
+    Parameters
+    ----------
+    fun : callable
+        Residual vector of the parameters.
+    x0, lo, hi : array_like
+        Start and bounds (``x0`` is clipped into them).
+    max_iter : int
+        Iterations at most (each: one Jacobian or chord step).
+    max_nfev : int
+        Function evaluations at most (Jacobian columns included).
+    rel_step, abs_step : float, array_like
+        Forward-difference step ``max(rel_step*|x|, abs_step)`` (``abs_step``
+        default ``rel_step``).
+    ftol : float
+        Stop when the relative decrease of the cost falls below it.
+    xtol : callable, optional
+        ``xtol(x, J, r)`` -> per-parameter step size below which the iteration
+        has converged (default ``1e-10*(1 + |x|)``).
+    reuse_jacobian : bool
+        Keep the Jacobian after a well predicted step.
+    jac : callable, optional
+        ``jac(x, r)`` analytic Jacobian instead of forward differences.
+    lam0 : float
+        Start damping [-].
 
-    Raises:
-        FitError: the residuals at the start are not finite.
+    Returns
+    -------
+    LsqResult
+        The estimate, residuals, cost, Jacobian and counts.
+
+    Raises
+    ------
+    FitError
+        The start values or the residuals at the start are not finite.
     """
     lo_a = np.asarray(lo, dtype=np.float64)
     hi_a = np.asarray(hi, dtype=np.float64)

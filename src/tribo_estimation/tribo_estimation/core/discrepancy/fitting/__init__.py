@@ -1,0 +1,98 @@
+"""Output-error fit of the rig model (+ a candidate effect) to a measured record.
+
+The record is cut into *segments*, each starting inside a measured stick phase
+where the state is known from the measurements (the discs move together:
+``w1 = w2`` = measured shaft speed, ``phi1`` = torsion moment / C1, the belt
+deflection from the stuck system's moment balance, Equ. 6). Each segment is
+simulated with the compiled kernel (:func:`tribo_estimation.core.kernel.integrate`,
+Equ. 1-3, 6, 8 plus the :class:`~tribo_estimation.core.model.Extensions`) from
+that re-initialised state, so long records do not drift. A record without
+stick-slip starts its segments from the measured sliding state instead. Segments
+are grouped into time blocks, which the cross validation holds out.
+
+The fitted values are a mapping ``name -> value`` of ``mu0``, ``mu_inf`` (Equ. 8,
+-) and ``Extensions`` fields (their SI units, see
+:class:`~tribo_estimation.core.model.Extensions`). The cost is the mean of the
+squared, channel-weighted residuals (measured - simulated) of the torsion
+moment (N m), the chamber speed (rad/s) and the shaft speed (rad/s).
+
+Modules by job: :mod:`.records` (record, segment and output types, compared
+channels, parameter specifications), :mod:`.segments` (stick phases and
+segment cutting), :mod:`.instrument` (torsion and speed sensor terms identified
+from the record), :mod:`.problem` (simulation, residuals and the least-squares
+fit). Every name is re-exported here.
+"""
+
+from .instrument import (
+    FALSE_STICK_MIN,
+    FALSE_STICK_SIGMA,
+    MIN_TORSION_LAG,
+    SpeedSensor,
+    TorsionLag,
+    false_stick_phases,
+    identify_speed_sensor,
+    identify_torsion_lag,
+    speed_sensor_output,
+    speed_slope,
+    stuck_speed_through_lag,
+    torsion_compensated_record,
+)
+from .problem import Problem
+from .records import (
+    CHANNEL_UNITS,
+    CHANNELS,
+    EXT_FIELDS,
+    INSTRUMENT,
+    INSTRUMENT_FIELDS,
+    MEASUREMENT_FIELDS,
+    MU0,
+    MU_INF,
+    SPEED_LAG,
+    SPEED_OFFSET,
+    FitOutcome,
+    Record,
+    Segments,
+    SimulatedRecord,
+)
+from .segments import (
+    SLIDE_WIN,
+    make_segments,
+    sliding_segments,
+    sliding_start_states,
+    stick_runs,
+)
+
+__all__ = [
+    'CHANNELS',
+    'CHANNEL_UNITS',
+    'EXT_FIELDS',
+    'FALSE_STICK_MIN',
+    'FALSE_STICK_SIGMA',
+    'INSTRUMENT',
+    'INSTRUMENT_FIELDS',
+    'MEASUREMENT_FIELDS',
+    'MIN_TORSION_LAG',
+    'MU0',
+    'MU_INF',
+    'SLIDE_WIN',
+    'SPEED_LAG',
+    'SPEED_OFFSET',
+    'FitOutcome',
+    'Problem',
+    'Record',
+    'Segments',
+    'SimulatedRecord',
+    'SpeedSensor',
+    'TorsionLag',
+    'false_stick_phases',
+    'identify_speed_sensor',
+    'identify_torsion_lag',
+    'make_segments',
+    'sliding_segments',
+    'sliding_start_states',
+    'speed_sensor_output',
+    'speed_slope',
+    'stick_runs',
+    'stuck_speed_through_lag',
+    'torsion_compensated_record',
+]

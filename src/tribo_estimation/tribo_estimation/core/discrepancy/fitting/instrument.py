@@ -1,0 +1,473 @@
+"""Instrument terms of the discrepancy fit, identified friction-free from the record.
+
+The torsion amplifier's first-order lag (from the chamber kinematics, Equ. 1/4)
+and the speed sensor's first-order lag and offset (from the stick phases, where
+the shaft speed equals the chamber speed ``(dM_t/dt)/C1``, Equ. 4). Units: SI.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from tribo_estimation.core.model import RigParams
+from tribo_estimation.core.shooting import lag_segments
+from tribo_estimation.core.signal import CHAMBER_HALF
+from tribo_estimation.core.sticks import (
+    MAX_TORSION_LAG,
+    chamber_speed_integral,
+    drive_speed_level,
+    estimate_torsion_lag,
+    torsion_lag_compensated,
+)
+
+from ..stats import FloatArray, IntArray
+from .records import SPEED_LAG, Record, Segments
+from .segments import stick_runs
+
+
+def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
+    """Return the slope y' of the speed channel (local cubic over 4*7+1 samples).
+
+    With a first-order sensor lag tau the shaft speed is ``w = y + tau*y'``.
+
+    Parameters
+    ----------
+    speed : FloatArray
+        Measured speed channel y [rad/s].
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    FloatArray
+        y' [rad/s^2] (zeros for a channel shorter than the window).
+    """
+    from scipy.signal import savgol_filter
+
+    win = 4 * CHAMBER_HALF + 1
+    if speed.size < win:
+        return np.zeros(speed.size)
+    return np.asarray(savgol_filter(speed, win, 3, deriv=1, delta=dt), dtype=np.float64)
+
+
+#: Length of the record pieces the torsion lag is estimated on [s] (the spread of
+#: the pieces' estimates gives its standard error) and the window of the local
+#: mean that fixes the compensation's constant and drift [s].
+_TQ_LAG_PIECE = 1.0
+_TQ_LAG_MEAN_WIN = 0.005
+#: Smallest torsion lag taken as real [s] (the block fit's threshold).
+MIN_TORSION_LAG = 1e-4
+
+
+@dataclass(frozen=True)
+class TorsionLag:
+    """Identified first-order lag of the torsion amplifier.
+
+    Parameters
+    ----------
+    tau : float
+        The lag [s] (NaN: not estimated).
+    se : float
+        Its standard error [s] (spread of the estimates on the record pieces).
+    n : int
+        Number of record pieces estimated on.
+    used : float
+        The lag compensated [s] (0 = none).
+    """
+
+    tau: float
+    se: float
+    n: int
+    used: float
+
+    def report(self) -> dict[str, float | int | str]:
+        """Return the ``instrument`` entry of discrepancy.json.
+
+        Returns
+        -------
+        dict
+            ``value`` [s], ``se`` [s], ``unit``, ``used`` [s] and ``pieces``.
+        """
+        return {'value': self.tau, 'se': self.se, 'unit': 's', 'used': self.used, 'pieces': self.n}
+
+
+def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True) -> TorsionLag:
+    """Identify the torsion amplifier's first-order lag from the record, friction-free.
+
+    :func:`sticks.estimate_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
+    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s; the median is the lag, the
+    pieces' spread its standard error. Used (compensated) when at least
+    :data:`MIN_TORSION_LAG`, beyond 3 standard errors and inside the estimator's
+    range (an estimate at the range's end, 3 ms, is left to the workflow's
+    ``torque_sensor_lag`` candidate).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    enabled : bool
+        False: estimate nothing (NaN lag, none used).
+
+    Returns
+    -------
+    TorsionLag
+        The estimate, its standard error and the lag to compensate.
+    """
+    if not enabled:
+        return TorsionLag(math.nan, math.nan, 0, 0.0)
+    fs = record.fs
+    n = record.time.size
+    # ~1 s pieces; at least 4 (of >= 0.2 s) on a shorter record for the spread
+    m = max(1, int(n // round(_TQ_LAG_PIECE * fs)), min(4, int(n // round(0.2 * fs))))
+    edges = np.linspace(0, n, m + 1).astype(int)
+    est: list[float] = []
+    for a, b in itertools.pairwise(edges.tolist()):
+        try:
+            tau = float(
+                estimate_torsion_lag(
+                    record.torsion_moment[a:b], record.angular_acceleration[a:b], fs, rig.C1
+                )
+            )
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if math.isfinite(tau):
+            est.append(tau)
+    if not est:
+        return TorsionLag(math.nan, math.nan, 0, 0.0)
+    arr = np.asarray(est)
+    tau = float(np.median(arr))
+    se = float(1.2533 * np.std(arr, ddof=1) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    ok = (
+        tau >= MIN_TORSION_LAG
+        and tau < 0.98 * MAX_TORSION_LAG
+        and (not math.isfinite(se) or tau > 3.0 * se)
+    )
+    return TorsionLag(tau, se, arr.size, tau if ok else 0.0)
+
+
+def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Record:
+    """Return the record with the torsion amplifier's first-order lag taken out.
+
+    :func:`sticks.torsion_lag_compensated` is exact: ``M_t = y + tau*C1*lag(w1)``
+    (Equ. 4). The integrated acceleration gives ``w1`` up to a constant and a
+    drift (the trapezoid's error at the acceleration's jumps); the correction's
+    local mean (5 ms: shorter than the stick and slip phases between the jumps)
+    is therefore replaced by its true value, the local mean of ``tau*y'`` (a
+    difference quotient of the measured ``y``: noise ~0.015 N m for a 1 ms lag
+    at config/rig.yaml).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    tau : float
+        Lag to take out [s] (<= 0: the record unchanged).
+
+    Returns
+    -------
+    Record
+        The record with the compensated torsion moment [N m].
+    """
+    if tau <= 0.0:
+        return record
+    fs = record.fs
+    dt = record.dt
+    y = record.torsion_moment
+    w = chamber_speed_integral(record.angular_acceleration, dt)
+    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1) - y
+    n = y.size
+    h = max(1, min(n // 2, round(0.5 * _TQ_LAG_MEAN_WIN * fs)))
+    i = np.arange(n)
+    lo = np.maximum(0, i - h)
+    hi = np.minimum(n - 1, i + h)
+    mean_slope = (y[hi] - y[lo]) / ((hi - lo) * dt)  # local mean of y' [N m/s]
+    corr = corr - drive_speed_level(corr, fs, _TQ_LAG_MEAN_WIN) + tau * mean_slope
+    return replace(record, torsion_moment=np.asarray(y + corr, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class SpeedSensor:
+    """Identified speed-sensor model.
+
+    Parameters
+    ----------
+    tau : float
+        First-order lag [s].
+    tau_se : float
+        Its standard error [s].
+    offset : float
+        Zero offset [rad/s].
+    offset_se : float
+        Its standard error [rad/s].
+    n : int
+        Number of stick samples used.
+    """
+
+    tau: float
+    tau_se: float
+    offset: float
+    offset_se: float
+    n: int
+
+    def values(self) -> dict[str, float]:
+        """Return the sensor as model values (:data:`.records.INSTRUMENT_FIELDS`).
+
+        A value within 3 standard errors of zero is not used (0): the model is
+        very sensitive to a wrong speed offset (it shifts the drive speed), so
+        noise must not enter it.
+
+        Returns
+        -------
+        dict of str to float
+            ``speed_lag_tau`` [s] and ``speed_offset`` [rad/s].
+        """
+
+        def significant(v: float, se: float) -> float:
+            return v if math.isfinite(se) and abs(v) > 3.0 * se else 0.0
+
+        return {
+            'speed_lag_tau': significant(self.tau, self.tau_se),
+            'speed_offset': significant(self.offset, self.offset_se),
+        }
+
+
+def identify_speed_sensor(
+    record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
+) -> SpeedSensor:
+    """Identify the speed-sensor lag and offset from the stick phases, friction-free.
+
+    While the discs stick, the shaft speed equals the chamber speed
+    ``w = (dM_t/dt)/C1`` (Equ. 4; from the torsion moment, which carries neither
+    of the speed sensor's errors). A first-order sensor shows ``y`` with
+    ``w = y + tau*y'`` (``y'`` from a local cubic through the speed channel), so
+    ``y - w = offset - tau*y'``: a linear regression over the stick samples
+    (10 samples from each end of a phase left out) gives both; standard errors
+    are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    runs : tuple of (IntArray, IntArray), optional
+        First and stop sample of each stick phase (default: :func:`.segments.stick_runs`).
+
+    Returns
+    -------
+    SpeedSensor
+        Lag [s] and offset [rad/s] with standard errors.
+    """
+    from tribo_estimation.core.signal import chamber_speed
+
+    if runs is None:
+        a0, b0, _ = stick_runs(record, rig)
+    else:
+        a0, b0 = runs
+    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    # y' from the speed channel itself (during a stick it follows w' through the lag,
+    # and before it the shaft's own acceleration)
+    acc = speed_slope(record.speed, record.dt)
+    guard = CHAMBER_HALF + 3
+    idx_l: list[IntArray] = []
+    cl_l: list[IntArray] = []
+    for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
+        if b - a > 2 * guard + 2:
+            ii = np.arange(int(a) + guard, int(b) - guard, dtype=np.int64)
+            idx_l.append(ii)
+            cl_l.append(np.full(ii.size, k, dtype=np.int64))
+    if not idx_l:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, 0)
+    idx = np.concatenate(idx_l)
+    cl = np.concatenate(cl_l)
+    d = record.speed[idx] - w[idx]
+    X = np.column_stack((np.ones(idx.size), -acc[idx]))
+    try:
+        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
+        binv = np.linalg.inv(X.T @ X)
+    except np.linalg.LinAlgError:
+        return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
+    r = d - X @ coef
+    _, g = np.unique(cl, return_inverse=True)
+    G = int(g.max()) + 1
+    scores = np.zeros((G, 2))
+    np.add.at(scores, g, X * r[:, None])
+    cov = binv @ (scores.T @ scores) @ binv * (G / max(G - 1, 1))
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
+    return SpeedSensor(tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size))
+
+
+def stuck_speed_through_lag(
+    record: Record, segments: Segments, speed_start: FloatArray, slope: FloatArray, tau: float
+) -> FloatArray:
+    """Return the shaft speed at the segment starts behind a first-order speed sensor.
+
+    Inverting ``w = y + tau*y'`` pointwise multiplies the speed noise by ``tau``
+    over the derivative's window (x10 at 5 ms); instead the whole stick phase is
+    used: while stuck, ``w = w_s + A(t)`` with ``A`` the integrated measured
+    acceleration, so the sensor shows ``y = w_s + lag(A) + d*exp(-(t - t_s)/tau)``
+    (the filter's memory of the slip before), a linear regression in ``w_s`` and
+    ``d`` over the phase.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    segments : Segments
+        The segments (their stick phases bound the regression).
+    speed_start : FloatArray
+        Measured speed at the segment starts (local mean) [rad/s].
+    slope : FloatArray
+        Slope of the speed channel per sample (:func:`speed_slope`) [rad/s^2].
+    tau : float
+        Speed-sensor lag [s], > 0.
+
+    Returns
+    -------
+    FloatArray
+        Shaft speed at each segment start [rad/s] (sensor offset not removed);
+        ``y + tau*y'`` where a stick phase is too short for the regression.
+    """
+    seg = segments
+    dt = record.dt
+    acc = record.angular_acceleration
+    fallback = speed_start + tau * slope[seg.start]
+    if seg.run_start is None or seg.run_stop is None:
+        return fallback
+    out = fallback.copy()
+    alpha = math.exp(-dt / tau)
+    c_hold = (1.0 - alpha) * tau / dt
+    for k, (i, ra, rb) in enumerate(zip(seg.start, seg.run_start, seg.run_stop, strict=True)):
+        lo = int(ra) + CHAMBER_HALF
+        hi = int(rb) - CHAMBER_HALF
+        if hi - lo < 10 or not lo <= int(i) < hi:
+            continue
+        a = acc[lo:hi]
+        big_a = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+        lag_a = np.empty(big_a.size)
+        zero = np.zeros(1, np.int64)
+        lag_segments(big_a, zero, zero + big_a.size, np.zeros(1), alpha, lag_a, c_hold)
+        z = record.speed[lo:hi] - lag_a
+        x = np.column_stack((np.ones(z.size), alpha ** np.arange(z.size)))
+        try:
+            coef, *_ = np.linalg.lstsq(x, z, rcond=None)
+        except np.linalg.LinAlgError:
+            continue
+        out[k] = float(coef[0]) + float(big_a[int(i) - lo])
+    return out
+
+
+def speed_sensor_output(
+    w2: FloatArray,
+    segments: Segments,
+    sel: npt.NDArray[np.bool_],
+    speed_start: FloatArray,
+    dt: float,
+    values: Mapping[str, float],
+) -> FloatArray:
+    """Pass a simulated shaft speed through the speed sensor.
+
+    First-order lag ``speed_lag_tau`` [s] (its state at each segment start = the
+    measured speed there, less the offset) and zero offset ``speed_offset``
+    [rad/s]; the lag is the exact form for an input linear between samples
+    (:func:`tribo_estimation.core.shooting.lag_segments`).
+
+    Parameters
+    ----------
+    w2 : FloatArray
+        Simulated shaft speed [rad/s] on the record's time base.
+    segments : Segments
+        The segments.
+    sel : numpy.ndarray of bool
+        Selected segments.
+    speed_start : FloatArray
+        Measured speed at every segment start [rad/s].
+    dt : float
+        Sample interval [s].
+    values : mapping of str to float
+        Model values holding the instrument terms (missing: 0).
+
+    Returns
+    -------
+    FloatArray
+        The speed as the sensor shows it [rad/s].
+    """
+    tau = float(values.get('speed_lag_tau', 0.0))
+    off = float(values.get('speed_offset', 0.0))
+    if tau <= 0.0 and off == 0.0:
+        return w2
+    out = w2.copy()
+    if tau > 0.0:
+        a = math.exp(-dt / tau)
+        lag_segments(
+            w2,
+            segments.start[sel],
+            segments.stop[sel],
+            speed_start[sel] - off,
+            a,
+            out,
+            (1.0 - a) * tau / dt,
+        )
+    return out + off
+
+
+#: A stick phase whose speed channel departs from the chamber speed by more than
+#: this many robust standard deviations (over the phases) [-] and at least
+#: :data:`FALSE_STICK_MIN` [rad/s] is no stick (:func:`false_stick_phases`).
+FALSE_STICK_SIGMA = 10.0
+FALSE_STICK_MIN = 0.1
+
+
+def false_stick_phases(
+    record: Record, rig: RigParams, a0: IntArray, b0: IntArray
+) -> npt.NDArray[np.float64]:
+    """Return how far each detected stick phase is from a stick: the slip speed seen.
+
+    While the discs stick, the shaft speed equals the chamber speed
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4), and the speed channel shows it through the
+    sensor model of :func:`identify_speed_sensor` (``y = w - tau*y' + offset``).
+    The median of ``y + tau*y' - offset - w1`` over the phase's interior is
+    ~0.01 rad/s in a stick and the slip speed (rad/s) in a phase the stick
+    detector took for a stick while the discs still slip (seen at the slow end of a
+    slip just before a real stick: 3 ms at 2-6 rad/s slip).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    a0, b0 : IntArray
+        First and stop sample of each detected stick phase.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        Median speed disagreement per phase [rad/s] (0 for a phase too short to tell).
+    """
+    from tribo_estimation.core.signal import chamber_speed
+
+    out = np.zeros(a0.size)
+    if a0.size == 0:
+        return out
+    sensor = identify_speed_sensor(record, rig, (a0, b0))
+    tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
+    off = sensor.offset if math.isfinite(sensor.offset) else 0.0
+    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    resid = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
+    guard = CHAMBER_HALF + 3
+    for k, (a, b) in enumerate(zip(a0.tolist(), b0.tolist(), strict=True)):
+        if b - a > 2 * guard + 2:
+            out[k] = float(np.median(resid[a + guard : b - guard]))
+    return out

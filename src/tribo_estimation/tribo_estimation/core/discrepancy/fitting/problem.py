@@ -1,0 +1,639 @@
+"""The baseline fit: simulate a record's segments with the rig model and fit its values.
+
+:class:`Problem` holds a record, its segments (:mod:`.segments`), the known rig
+and the drive profile measured from the record (:mod:`tribo_estimation.core.drive`).
+Each segment is simulated with the compiled kernel (:func:`tribo_estimation.core.kernel.integrate`,
+Equ. 1-3, 6, 8 plus the :class:`~tribo_estimation.core.model.Extensions`) from the
+state re-initialised from the measurements at its start
+(:mod:`tribo_estimation.core.shooting`), so long records do not drift. The
+simulated channels pass through the instrument model (:mod:`.instrument`) before
+they are compared. The cost is the mean of the squared, channel-weighted
+residuals (measured - simulated) of :data:`.records.CHANNELS`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+import numpy.typing as npt
+
+from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.drive import (
+    SMOOTH_TIME,
+    DriveEstimate,
+    estimate_drive,
+    refine_with_angles,
+    tolerance,
+)
+from tribo_estimation.core.lsq import levenberg_marquardt
+from tribo_estimation.core.measurement import apply_measurement_transforms, true_torsion_at_starts
+from tribo_estimation.core.model import (
+    DriveProfile,
+    Extensions,
+    FrictionLaw,
+    RigParams,
+    pack_params,
+)
+from tribo_estimation.core.shooting import (
+    DriveKnots,
+    local_cubic,
+    shoot,
+    stuck_kinematics,
+    stuck_states,
+    window_mean,
+)
+from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
+from tribo_estimation.errors import InvalidParameterError
+
+from ..candidates import ParamSpec
+from ..stats import FloatArray
+from .instrument import speed_sensor_output, speed_slope, stuck_speed_through_lag
+from .records import (
+    CHANNELS,
+    EXT_FIELDS,
+    INSTRUMENT_FIELDS,
+    MU0,
+    MU_INF,
+    FitOutcome,
+    Record,
+    Segments,
+    SimulatedRecord,
+)
+from .segments import make_segments, sliding_start_states
+
+#: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
+#: profile's corners (:meth:`Problem._set_instrument`).
+_REPLACE_LAG = 1e-4
+_REPLACE_OFFSET = 1e-2
+
+
+class Problem:
+    """A record, its segments, the known rig and drive: simulate and fit models.
+
+    ``mu0``, ``mu_inf`` and extension fields are the model values passed to
+    :meth:`simulate` / :meth:`fit`; the drive speed is measured from the record.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (Tab. 1 values, F_N, R).
+    drive : DriveProfile
+        RIG.yaml drive (nominal speed [rad/s]: a default and a check; start-up
+        ramp time [s]).
+    k : float
+        Decay constant of Equ. 8 [s/rad].
+    segments : Segments, optional
+        Simulation segments (default: :func:`.segments.make_segments`).
+    weights : mapping of str to float, optional
+        Channel weights [1/unit] (default: :meth:`signal_weights`).
+    """
+
+    def __init__(
+        self,
+        record: Record,
+        rig: RigParams,
+        drive: DriveProfile,
+        *,
+        k: float = 2.0,
+        segments: Segments | None = None,
+        weights: Mapping[str, float] | None = None,
+    ) -> None:
+        self.record = record
+        self.rig = rig
+        self.drive = drive
+        self.k = float(k)
+        #: drive speed measured from the record (the nominal speed only a check)
+        self.drive_estimate: DriveEstimate = estimate_drive(
+            record.time, record.speed, drive.nominal_speed
+        )
+        self.segments = segments if segments is not None else make_segments(record, rig)
+        self.n_evals = 0
+        seg = self.segments
+        i = seg.start
+        fs = record.fs
+        self._t0 = record.time[i].astype(np.float64)
+        self._drive_speed0 = self.drive_estimate
+        # a record that begins at the drive's start (RIG.yaml ramp from t = 0, and the
+        # measured speed there at rest within the profile tolerance): w0 = 0 at t0
+        n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
+        at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(
+            self.drive_estimate.level, 0.0
+        )
+        self._start_speed: float | None = (
+            0.0 if drive.ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+            else None
+        )  # fmt: skip
+        sp = record.speed
+        self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+        # state at the segment starts: the torsion moment (local cubic) and the
+        # acceleration; the common speed of the stuck discs from the speed channel
+        # with its sensor model inverted (:meth:`_set_instrument`)
+        self._m_val, slope = local_cubic(record.torsion_moment, i, seg.run_start, seg.run_stop)
+        self._m_slope = np.where(np.isfinite(slope), slope * fs, 0.0)
+        self._a0 = window_mean(record.angular_acceleration, i, 2, seg.run_start, seg.run_stop)
+        #: measured speed channel at the starts (the speed sensor's state there)
+        self._speed_start = window_mean(record.speed, i, 5, seg.run_start, seg.run_stop)
+        #: common speed of the stuck discs at the starts from the speed channel
+        #: without a sensor lag [rad/s]
+        self._speed_stuck = self._speed_start.copy()
+        #: torsion moment at the starts from the stick-phase regression [N m]
+        self._m_stuck = self._m_val.copy()
+        if seg.run_start is not None and seg.run_stop is not None:
+            # in a stick phase the chamber kinematics (Equ. 4) tie torsion moment,
+            # speed and the measured acceleration over the whole phase: a regression
+            # over it gives the state far better than a local cubic
+            m_k, _, w_k = stuck_kinematics(
+                record.torsion_moment, record.angular_acceleration, record.speed, i,
+                seg.run_start, seg.run_stop, record.dt, rig.C1,
+            )  # fmt: skip
+            ok = np.isfinite(m_k)
+            # (kept apart: a model with a torsion-sensor lag sees a lagged torsion
+            # moment, which the regression does not describe; it keeps the cubic)
+            self._m_stuck = np.where(ok, m_k, self._m_val)
+            self._speed_stuck = np.where(ok, w_k, self._speed_stuck)
+        # stick samples (every 4th, away from the phase ends) and smoothed channels
+        # for the drive angle (:meth:`_set_instrument`)
+        width = 2 * CHAMBER_HALF + 1
+        self._smooth_speed = moving_average(record.speed, width)
+        self._speed_slope = speed_slope(record.speed, record.dt)
+        self._smooth_accel = moving_average(record.angular_acceleration, width)
+        self._smooth_torque = moving_average(record.torsion_moment, width)
+        guard = CHAMBER_HALF + 1
+        ra = seg.run_start if seg.run_start is not None else seg.start
+        rb = seg.run_stop if seg.run_stop is not None else seg.start + 1
+        idx = [
+            np.arange(int(a) + guard, int(b) - guard, 4, dtype=np.int64)
+            for a, b in zip(ra, rb, strict=True)
+            if b - a > 2 * guard
+        ]
+        self._stick_samples = (
+            np.unique(np.concatenate(idx)) if idx else np.asarray(seg.start, dtype=np.int64)
+        )
+        self._meas: dict[str, FloatArray] = {
+            'torsion_moment': record.torsion_moment,
+            'chamber_speed': np.full(record.time.size, np.nan),
+            'speed': record.speed,
+        }
+        self._w_start = self._speed_stuck.copy()
+        self._instrument: tuple[float, ...] = (math.nan,) * 7
+        #: the drive profile's corners have been placed once, for this sensor model
+        self._placed = False
+        self._placed_sensor = (0.0, 0.0)
+        self._set_instrument(0.0, 0.0)
+        self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
+
+    # ------------------------------------------------------------------ weights
+    def signal_weights(self) -> dict[str, float]:
+        """Return the channel weights 1/std(measured channel) (a start before any fit).
+
+        Returns
+        -------
+        dict of str to float
+            Weight per channel of :data:`.records.CHANNELS` [1/unit].
+        """
+        out = {}
+        for c in CHANNELS:
+            m = self._meas[c] if hasattr(self, '_meas') else self.record.channel(c)
+            s = float(np.nanstd(m))
+            out[c] = 1.0 / s if s > 0 else 0.0
+        return out
+
+    def set_residual_weights(self, sim: SimulatedRecord, floor: Mapping[str, float]) -> None:
+        """Set the weights to 1/rms(residual) per channel, never above 1/floor[c].
+
+        Each channel then contributes equally to the cost of that model.
+
+        Parameters
+        ----------
+        sim : SimulatedRecord
+            Simulation of the model the weights are made for.
+        floor : mapping of str to float
+            Noise floor per channel [unit].
+        """
+        cov = sim.covered
+        for c in CHANNELS:
+            r = self._meas[c][cov] - sim.channel(c)[cov]
+            s = max(float(np.sqrt(np.mean(r * r))), floor.get(c, 0.0))
+            self.weights[c] = 1.0 / s if s > 0 else 0.0
+
+    # --------------------------------------------------------------- simulation
+    def model_objects(self, values: Mapping[str, float]) -> tuple[FrictionLaw, Extensions]:
+        """Return the FrictionLaw and Extensions of a value mapping.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Model values (``mu0``, ``mu_inf``, Extensions fields, instrument terms).
+
+        Returns
+        -------
+        tuple of (FrictionLaw, Extensions)
+            The friction law (Equ. 8) and the model extensions.
+
+        Raises
+        ------
+        InvalidParameterError
+            A name that is neither a friction level, an instrument term nor an
+            Extensions field.
+        """
+        ext_vals = {
+            k: float(v)
+            for k, v in values.items()
+            if k not in ('mu0', 'mu_inf') and k not in INSTRUMENT_FIELDS
+        }
+        unknown = set(ext_vals) - EXT_FIELDS
+        if unknown:
+            raise InvalidParameterError(f'unknown model parameter(s) {sorted(unknown)}')
+        fr = FrictionLaw(
+            max(float(values.get('mu0', MU0.initial)), 0.0),
+            max(float(values.get('mu_inf', MU_INF.initial)), 0.0),
+            self.k,
+        )
+        return fr, replace(Extensions(), **ext_vals)
+
+    def simulate(
+        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> SimulatedRecord:
+        """Simulate the (selected) segments with the model ``values``.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Model values (see :meth:`model_objects`).
+        seg_mask : numpy.ndarray of bool, optional
+            Segments to simulate (default: all).
+
+        Returns
+        -------
+        SimulatedRecord
+            The model output, NaN outside the simulated segments.
+        """
+        fr, ext = self.model_objects(values)
+        p = pack_params(self.rig, fr, self.drive, ext)
+        rec = self.record
+        seg = self.segments
+        sel = np.ones(seg.n, dtype=bool) if seg_mask is None else seg_mask
+        # measured torsion at the segment starts -> true C1*phi1 (the effects'
+        # measurement transforms inverted: offset, then first-order lag)
+        t0 = self._t0[sel]
+        m_meas = (self._m_val if ext.torque_lag_tau > 0.0 else self._m_stuck)[sel]
+        m_true = true_torsion_at_starts(ext, t0, m_meas, self._m_slope[sel], rec.dt)
+        self._set_instrument(
+            float(values.get('speed_lag_tau', 0.0)),
+            float(values.get('speed_offset', 0.0)),
+            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase),
+            (ext.torque_offset, ext.torque_offset_drift),
+        )
+        dk = self._knots
+        if seg.sliding:
+            dk = self._knots
+            states = sliding_start_states(
+                p, rec, seg.start[sel], m_true, self._w_start[sel],
+                self._speed_slope[seg.start[sel]], dk,
+            )  # fmt: skip
+        else:
+            states = stuck_states(
+                p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time,
+                dk.speed,
+            )  # fmt: skip
+        n = rec.time.size
+        out = np.full((kn.N_CH, n), np.nan)
+        n_sub = kn.substeps_for(p, rec.dt)
+        shoot(p, states, seg.start[sel], seg.stop[sel], dk.time, dk.speed, rec.dt, n_sub, out)
+        self.n_evals += 1
+        speed = speed_sensor_output(out[kn.OUT_SPEED], seg, sel, self._speed_start, rec.dt, values)
+        torsion, _ = apply_measurement_transforms(
+            ext, rec.time, out[kn.OUT_TORSION].copy(), rec.dt,
+            segments=(seg.start[sel], seg.stop[sel]), measured_first=m_meas,
+        )  # fmt: skip
+        covered = np.isfinite(out[kn.OUT_TORSION])
+        return SimulatedRecord(
+            torsion_moment=torsion,
+            angular_acceleration=out[kn.OUT_ACCEL],
+            speed=speed,
+            friction_moment=out[kn.OUT_FRICTION],
+            slip_speed=out[kn.OUT_SLIP],
+            stick=out[kn.OUT_STICK],
+            chamber_speed=out[kn.OUT_W1],
+            covered=covered,
+        )
+
+    def _set_instrument(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        torque: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment starts.
+
+        While stuck the discs share one speed w with w' = the measured
+        acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
+        ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
+        chamber speed channel is ``w(start) + integral of a`` per segment. The
+        drive profile is then re-fitted (:meth:`_fit_drive`).
+
+        Parameters
+        ----------
+        tau : float
+            Speed-sensor lag [s].
+        offset : float
+            Speed-sensor offset [rad/s].
+        ripple : tuple of float
+            The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad]).
+        torque : tuple of float
+            The model's torque offset [N m] and drift [N m/s].
+        """
+        key = (tau, offset, *ripple, *torque)
+        if self._instrument == key:
+            return
+        same_sensor = self._instrument[:2] == (tau, offset)
+        self._instrument = key
+        if same_sensor:  # only the model's drive ripple or torque offset changed
+            self._fit_drive(tau, offset, ripple, torque, place=False)
+            return
+        rec = self.record
+        if tau > 0.0:
+            self._w_start = (
+                stuck_speed_through_lag(
+                    rec, self.segments, self._speed_start, self._speed_slope, tau
+                )
+                - offset
+            )
+        else:
+            self._w_start = self._speed_stuck - offset
+        w1 = np.full(rec.time.size, np.nan)
+        acc = rec.angular_acceleration
+        for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
+            inc = 0.5 * (acc[a + 1 : b] + acc[a : b - 1]) * rec.dt
+            w1[a] = self._w_start[k]
+            w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
+        self._meas['chamber_speed'] = w1
+        # a sensor change moves the drive's corners by about the change of the lag
+        # (its time shift): below the placement's grid (0.1 ms) and a speed offset
+        # change below 0.01 rad/s (the optimiser's difference steps) only the knot
+        # speeds are re-fitted
+        moved = (
+            not self._placed
+            or abs(tau - self._placed_sensor[0]) > _REPLACE_LAG
+            or abs(offset - self._placed_sensor[1]) > _REPLACE_OFFSET
+        )
+        if moved:
+            self._placed_sensor = (tau, offset)
+        self._fit_drive(tau, offset, ripple, torque, place=moved)
+
+    def _fit_drive(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, float, float],
+        torque: tuple[float, float],
+        *,
+        place: bool = True,
+    ) -> None:
+        """Fit the drive profile to the drive angles at the stick samples.
+
+        The speed sensor is inverted, the model's torque offset and drift taken
+        off the torsion moment and the model's drive-speed ripple (its angle)
+        taken out.
+
+        Parameters
+        ----------
+        tau : float
+            Speed-sensor lag [s].
+        offset : float
+            Speed-sensor offset [rad/s].
+        ripple : tuple of float
+            Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad]).
+        torque : tuple of float
+            Torque offset [N m] and drift [N m/s].
+        place : bool
+            Search the profile's corner times (else keep the last ones).
+        """
+        rec = self.record
+        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
+            self.drive_estimate = self._sliding_drive()
+            self._knots = DriveKnots.from_estimate(self.drive_estimate)
+            return
+        # drive angle while stuck = shaft angle (integral of the speed channel, less
+        # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
+        # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
+        rig = self.rig
+        j = self._stick_samples
+        y = self._smooth_speed[j]
+        w = y - offset + tau * self._speed_slope[j]
+        t = rec.time[j]
+        q1 = -rig.K1 * w - (self._smooth_torque[j] - torque[0] - torque[1] * t)
+        q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
+        phi2 = (
+            self._shaft_angle[j]
+            - offset * (t - rec.time[0])
+            + tau * (y - float(self._smooth_speed[0]))
+        )
+        amp, freq, phase = ripple
+        ripple_angle = np.zeros_like(t)
+        if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
+            om = 2.0 * math.pi * freq
+            ripple_angle = amp / om * (math.cos(phase) - np.cos(om * t + phase))
+        hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
+        # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
+        # more with the profile from the angles; the smoothed speed blurs a speed
+        # step over 150 ms, so its angles bias the corners: they are placed again
+        # with the angles of the first placement
+        # (a later sensor model only moves placed corners locally: no coarse search)
+        drive = self._drive_speed0 if place and not self._placed else self.drive_estimate
+        for it in range(2):
+            defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
+            drive = refine_with_angles(
+                drive, t, phi2 - defl - ripple_angle, hints, place=place,
+                start_speed=self._start_speed, keep_corners=it > 0 or self._placed,
+            )  # fmt: skip
+        self._placed = self._placed or place
+        self.drive_estimate = drive
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def _sliding_drive(self) -> DriveEstimate:
+        """Return the drive profile of a record without stick-slip.
+
+        The smoothed shaft speed (:func:`~tribo_estimation.core.drive.estimate_drive`)
+        blurs the start-up ramp over :data:`~tribo_estimation.core.drive.SMOOTH_TIME`;
+        a record that begins at the drive's start from rest gets RIG.yaml's ramp
+        (0 at the start, the measured speed at the ramp's end) instead.
+
+        Returns
+        -------
+        DriveEstimate
+            The profile.
+        """
+        d = self._drive_speed0
+        ramp = self.drive.ramp_time
+        if self._start_speed is None or ramp <= 0.0:
+            return d
+        t0 = float(self.record.time[0])
+        t_ramp = t0 + ramp
+        t_after = t_ramp + SMOOTH_TIME
+        if t_after >= float(d.knot_time[-1]):
+            return d
+        keep = d.knot_time > t_after
+        tk = np.concatenate(([t0, t_ramp], d.knot_time[keep]))
+        vk = np.concatenate(([0.0, float(d.speed(t_after))], d.knot_speed[keep]))
+        return replace(d, knot_time=tk, knot_speed=vk)
+
+    def measured(self, name: str) -> FloatArray:
+        """Return a compared measured channel.
+
+        Parameters
+        ----------
+        name : str
+            One of :data:`.records.CHANNELS`.
+
+        Returns
+        -------
+        FloatArray
+            The channel [unit] (the chamber speed is NaN off-segment).
+        """
+        return self._meas[name]
+
+    def residual_vector(self, sim: SimulatedRecord) -> FloatArray:
+        """Return the weighted residuals of all channels over the covered samples.
+
+        Parameters
+        ----------
+        sim : SimulatedRecord
+            The model output.
+
+        Returns
+        -------
+        FloatArray
+            Residuals times channel weights [-] (a diverged simulation gives 1e3).
+        """
+        cov = sim.covered
+        parts = []
+        for c in CHANNELS:
+            w = self.weights.get(c, 0.0)
+            if w > 0:
+                r = self._meas[c][cov] - sim.channel(c)[cov]
+                parts.append(w * r)
+        v = np.concatenate(parts)
+        # a diverged simulation (NaN) is a very bad fit, not a crash of the optimiser
+        return np.where(np.isfinite(v), v, 1e3)
+
+    def cost(self, sim: SimulatedRecord) -> float:
+        """Return the mean squared weighted residual per sample, summed over channels.
+
+        Parameters
+        ----------
+        sim : SimulatedRecord
+            The model output.
+
+        Returns
+        -------
+        float
+            The cost [-].
+        """
+        v = self.residual_vector(sim)
+        n = int(np.count_nonzero(sim.covered))
+        return float(np.sum(v * v)) / max(n, 1)
+
+    def torque_rms(self, sim: SimulatedRecord) -> float:
+        """Return the rms of the torsion-moment residual (measured - simulated).
+
+        Parameters
+        ----------
+        sim : SimulatedRecord
+            The model output.
+
+        Returns
+        -------
+        float
+            The rms over the covered samples [N m].
+        """
+        cov = sim.covered
+        r = self.record.torsion_moment[cov] - sim.torsion_moment[cov]
+        return float(np.sqrt(np.mean(r * r)))
+
+    # --------------------------------------------------------------------- fit
+    def fit(
+        self,
+        free: Sequence[ParamSpec],
+        start: Mapping[str, float],
+        *,
+        fixed: Mapping[str, float] | None = None,
+        seg_mask: npt.NDArray[np.bool_] | None = None,
+        max_nfev: int = 60,
+    ) -> FitOutcome:
+        """Fit the ``free`` parameters by least squares of the output error.
+
+        Uses :func:`~tribo_estimation.core.lsq.levenberg_marquardt` on
+        value/scale coordinates (log for time constants).
+
+        Parameters
+        ----------
+        free : sequence of ParamSpec
+            The fitted parameters.
+        start : mapping of str to float
+            Their start values (other names in it stay fixed).
+        fixed : mapping of str to float, optional
+            Further model values held constant.
+        seg_mask : numpy.ndarray of bool, optional
+            Segments fitted (default: all).
+        max_nfev : int
+            Most simulations.
+
+        Returns
+        -------
+        FitOutcome
+            Values, cost, evaluations, convergence and standard errors.
+        """
+        names = [p.name for p in free]
+        # values in ``start`` that are not free (e.g. the instrument model) stay fixed
+        fixed_vals = {k: float(v) for k, v in start.items() if k not in names}
+        fixed_vals.update(fixed or {})
+
+        def to_x(vals: Mapping[str, float]) -> FloatArray:
+            return np.asarray(
+                [
+                    math.log(min(max(float(vals[p.name]), p.lower), p.upper))
+                    if p.log
+                    else min(max(float(vals[p.name]), p.lower), p.upper) / p.scale
+                    for p in free
+                ]
+            )
+
+        def from_x(x: FloatArray) -> dict[str, float]:
+            out = dict(fixed_vals)
+            for p, xi in zip(free, x, strict=True):
+                out[p.name] = math.exp(float(xi)) if p.log else float(xi) * p.scale
+            return out
+
+        lo = np.asarray([math.log(p.lower) if p.log else p.lower / p.scale for p in free])
+        hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
+        x0 = np.clip(to_x(start), lo, hi)
+
+        def fun(x: FloatArray) -> FloatArray:
+            return self.residual_vector(self.simulate(from_x(x), seg_mask))
+
+        if not names:
+            sim = self.simulate(fixed_vals, seg_mask)
+            return FitOutcome(dict(fixed_vals), self.cost(sim), 1, True)
+        sol = levenberg_marquardt(
+            fun, x0, lo, hi, max_nfev=max_nfev, max_iter=max_nfev, ftol=1e-6, lam0=1e-3
+        )
+        n = int(np.count_nonzero(self.segments.sample_mask(self.record.time.size, seg_mask)))
+        # standard errors from the (last) Jacobian: s^2 (J^T J)^-1, in value units
+        se: dict[str, float] = {}
+        dof = max(1, sol.fun.size - len(names))
+        try:
+            cov = np.linalg.inv(sol.jac.T @ sol.jac) * (sol.cost / dof)
+            sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        except np.linalg.LinAlgError:
+            sd = np.full(len(names), math.nan)
+        for p, xi, si in zip(free, sol.x, sd, strict=True):
+            se[p.name] = float(math.exp(float(xi)) * si if p.log else si * p.scale)
+        return FitOutcome(from_x(sol.x), sol.cost / max(n, 1), sol.nfev, sol.converged, se)

@@ -1,0 +1,288 @@
+"""Value types of the discrepancy fit: the measured record, its segments, the model output.
+
+Also the compared channels and the parameter specifications fitted with every
+model (the friction levels of Equ. 8 and the speed sensor's instrument model).
+Units: SI (s, N m, rad/s, rad/s^2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+import numpy.typing as npt
+
+from tribo_estimation.core.model import Extensions
+from tribo_estimation.errors import InvalidDataError, TooShortError
+
+from ..candidates import ParamSpec
+from ..stats import FloatArray, IntArray
+
+#: Compared channels: the torsion moment (N m), the chamber speed w1 (rad/s;
+#: measured = the angular acceleration integrated from each segment start,
+#: simulated = the state; a smooth function of the parameters, unlike the
+#: sampled acceleration, which jumps at every breakaway) and the shaft speed (rad/s).
+CHANNELS: tuple[str, str, str] = ('torsion_moment', 'chamber_speed', 'speed')
+CHANNEL_UNITS: dict[str, str] = {
+    'torsion_moment': 'N m',
+    'chamber_speed': 'rad/s',
+    'speed': 'rad/s',
+}
+
+#: Extensions fields that act on the measurement, not on the dynamics.
+MEASUREMENT_FIELDS: frozenset[str] = frozenset(
+    {'torque_offset', 'torque_offset_drift', 'torque_lag_tau'}
+)
+#: Every field name of :class:`~tribo_estimation.core.model.Extensions`.
+EXT_FIELDS: frozenset[str] = frozenset(f.name for f in fields(Extensions))
+
+#: Friction parameters of the baseline (Equ. 8), fitted in every model.
+MU0 = ParamSpec('mu0', '-', 0.0, 2.0, 0.01, 0.1)
+MU_INF = ParamSpec('mu_inf', '-', 0.0, 2.0, 0.01, 0.1)
+
+#: Instrument model of the shaft-speed channel, fitted with the baseline:
+#: first-order sensor lag [s] and zero offset [rad/s]. The simulated shaft speed
+#: passes through them before it is compared; the state at segment starts does
+#: not use the speed channel (the common speed comes from dM_t/dt), so the
+#: other channels are insensitive to both.
+SPEED_LAG = ParamSpec('speed_lag_tau', 's', 0.0, 0.02, 1e-3, 0.0)
+SPEED_OFFSET = ParamSpec('speed_offset', 'rad/s', -1.0, 1.0, 0.01, 0.0)
+INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET)
+INSTRUMENT_FIELDS: frozenset[str] = frozenset(p.name for p in INSTRUMENT)
+
+
+@dataclass(frozen=True)
+class Record:
+    """A measured rig record on a uniform time base.
+
+    Parameters
+    ----------
+    time : FloatArray
+        Sample times [s], strictly increasing and uniform within 1 %.
+    torsion_moment : FloatArray
+        Torsion moment C1*phi1 [N m].
+    angular_acceleration : FloatArray
+        Angular acceleration of the chamber [rad/s^2].
+    speed : FloatArray
+        Shaft speed w2 [rad/s].
+
+    Raises
+    ------
+    InvalidDataError
+        A column of the wrong shape or with a non-finite value, or a time base
+        that is not strictly increasing and uniform.
+    TooShortError
+        Fewer than 100 samples.
+    """
+
+    time: FloatArray
+    torsion_moment: FloatArray
+    angular_acceleration: FloatArray
+    speed: FloatArray
+
+    def __post_init__(self) -> None:
+        """Check the columns' shapes, finiteness and the uniform time base."""
+        n = self.time.size
+        for name in ('time', 'torsion_moment', 'angular_acceleration', 'speed'):
+            a = getattr(self, name)
+            if a.ndim != 1 or a.size != n:
+                raise InvalidDataError(
+                    f'record column {name!r} has shape {a.shape}, expected ({n},)'
+                )
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                raise InvalidDataError(
+                    f'record column {name!r} has a non-finite value at sample {int(bad[0])}'
+                )
+        if n < 100:
+            raise TooShortError(f'record has {n} samples; the discrepancy fit needs >= 100')
+        dt = np.diff(self.time)
+        if np.any(dt <= 0):
+            i = int(np.flatnonzero(dt <= 0)[0]) + 1
+            raise InvalidDataError(f'record time is not strictly increasing at sample {i}')
+        med = float(np.median(dt))
+        if np.max(np.abs(dt - med)) > 0.01 * med:
+            i = int(np.argmax(np.abs(dt - med))) + 1
+            raise InvalidDataError(
+                f'record is not uniformly sampled (step {dt[i - 1]:.3g} s at sample {i}, '
+                f'median {med:.3g} s); resample it first'
+            )
+
+    @property
+    def dt(self) -> float:
+        """Sample interval [s]."""
+        return float((self.time[-1] - self.time[0]) / (self.time.size - 1))
+
+    @property
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        return 1.0 / self.dt
+
+    def channel(self, name: str) -> FloatArray:
+        """Return a measured column by name.
+
+        Parameters
+        ----------
+        name : str
+            Field name of the column (e.g. ``'torsion_moment'``).
+
+        Returns
+        -------
+        FloatArray
+            The column in its unit.
+        """
+        return np.asarray(getattr(self, name), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Segments:
+    """Simulation segments of a record (the multiple-shooting intervals).
+
+    Parameters
+    ----------
+    start, stop : IntArray
+        First and stop (exclusive) sample index of each segment.
+    stick_time : FloatArray
+        Time already spent sticking at each segment start [s].
+    block : IntArray
+        Time block of each segment (the unit of cross validation).
+    run_start, run_stop : IntArray or None
+        First and stop sample of the stick phase holding each start.
+    sliding : bool
+        True: the record has no stick-slip; every segment starts while sliding.
+    rejected : tuple of (float, str)
+        Detected stick phases not used as segment starts: start time [s] and
+        reason (their samples stay in the fit, inside the segment before).
+    """
+
+    start: IntArray
+    stop: IntArray
+    stick_time: FloatArray
+    block: IntArray
+    run_start: IntArray | None = None
+    run_stop: IntArray | None = None
+    sliding: bool = False
+    rejected: tuple[tuple[float, str], ...] = ()
+
+    @property
+    def n(self) -> int:
+        """Number of segments."""
+        return int(self.start.size)
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of time blocks."""
+        return int(self.block.max()) + 1 if self.block.size else 0
+
+    def mask_blocks(self, blocks: Sequence[int] | npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Return the boolean segment mask of the segments in the given blocks.
+
+        Parameters
+        ----------
+        blocks : sequence of int
+            Block ids.
+
+        Returns
+        -------
+        numpy.ndarray of bool
+            One entry per segment.
+        """
+        return np.isin(self.block, np.asarray(blocks, dtype=np.int64))
+
+    def sample_mask(
+        self, n: int, seg_mask: npt.NDArray[np.bool_] | None = None
+    ) -> npt.NDArray[np.bool_]:
+        """Return the boolean mask of the samples covered by the (selected) segments.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples of the record.
+        seg_mask : numpy.ndarray of bool, optional
+            Selected segments (default: all).
+
+        Returns
+        -------
+        numpy.ndarray of bool
+            One entry per sample.
+        """
+        m = np.zeros(n, dtype=bool)
+        sel = np.ones(self.n, dtype=bool) if seg_mask is None else seg_mask
+        for a, b in zip(self.start[sel], self.stop[sel], strict=True):
+            m[a:b] = True
+        return m
+
+
+@dataclass(frozen=True)
+class SimulatedRecord:
+    """Model output on the record's time base (NaN outside the segments).
+
+    Parameters
+    ----------
+    torsion_moment : FloatArray
+        Torsion moment after the measurement-side extensions [N m].
+    angular_acceleration : FloatArray
+        Chamber acceleration [rad/s^2].
+    speed : FloatArray
+        Shaft speed as the speed sensor shows it [rad/s].
+    friction_moment : FloatArray
+        Friction moment M [N m].
+    slip_speed : FloatArray
+        Slip speed w2 - w1 [rad/s].
+    stick : FloatArray
+        1.0 while the discs stick, else 0.0.
+    chamber_speed : FloatArray
+        Chamber speed w1 [rad/s].
+    covered : numpy.ndarray of bool
+        The samples inside the simulated segments.
+    """
+
+    torsion_moment: FloatArray
+    angular_acceleration: FloatArray
+    speed: FloatArray
+    friction_moment: FloatArray
+    slip_speed: FloatArray
+    stick: FloatArray
+    chamber_speed: FloatArray
+    covered: npt.NDArray[np.bool_]
+
+    def channel(self, name: str) -> FloatArray:
+        """Return a simulated channel by name.
+
+        Parameters
+        ----------
+        name : str
+            Field name of the channel.
+
+        Returns
+        -------
+        FloatArray
+            The channel in its unit.
+        """
+        return np.asarray(getattr(self, name), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """Result of :meth:`~.problem.Problem.fit`.
+
+    Parameters
+    ----------
+    values : dict of str to float
+        Fitted values of all free and fixed names (their SI units).
+    cost : float
+        Mean weighted squared residual over the fitted segments [-].
+    nfev : int
+        Number of function evaluations (simulations).
+    converged : bool
+        Whether the optimiser converged.
+    se : dict of str to float
+        Standard errors of the free values (their units).
+    """
+
+    values: dict[str, float]
+    cost: float
+    nfev: int
+    converged: bool
+    se: dict[str, float] = field(default_factory=dict)

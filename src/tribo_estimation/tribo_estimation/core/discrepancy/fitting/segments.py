@@ -1,0 +1,290 @@
+"""Cutting a record into simulation segments (multiple shooting).
+
+Each segment starts a few ms into a measured stick phase (the state is known
+there from the measurements, Equ. 4, 6), runs to the next segment start, and
+belongs to a time block (the unit of the cross validation). A record without
+stick-slip gets sliding segments of fixed length instead.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.model import RigParams
+from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
+from tribo_estimation.core.sticks import detect_sticks
+from tribo_estimation.errors import EstimationError, TooShortError
+
+from ..stats import FloatArray, IntArray
+from .records import Record, Segments
+
+#: Local-fit window at sliding segment starts [samples] (odd).
+SLIDE_WIN = 51
+
+
+def stick_runs(
+    record: Record, rig: RigParams, *, min_duration: float = 2e-3
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Find the stick phases of a record with the package's one stick detector.
+
+    The detector is :func:`tribo_estimation.core.sticks.detect_sticks`;
+    overlapping phases are merged.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (Tab. 1).
+    min_duration : float
+        Shortest stick phase kept [s].
+
+    Returns
+    -------
+    tuple of (IntArray, IntArray, FloatArray)
+        First and stop (exclusive) sample of each phase and its start time [s].
+    """
+    try:
+        phases = detect_sticks(
+            record.time,
+            record.torsion_moment,
+            record.angular_acceleration,
+            record.speed,
+            rig,
+            min_duration=min_duration,
+        )
+    except EstimationError:
+        phases = []
+    fs, t0, n = record.fs, float(record.time[0]), record.time.size
+    a = np.array([min(n, max(0, math.ceil((p.start - t0) * fs - 1e-9))) for p in phases], np.int64)
+    b = np.array([min(n, max(0, math.ceil((p.end - t0) * fs - 1e-9))) for p in phases], np.int64)
+    onset = np.array([p.start for p in phases], dtype=np.float64)
+    keep = b > a
+    a, b, onset = a[keep], b[keep], onset[keep]
+    # overlapping phases (if a detector reports any) are merged
+    order = np.argsort(a, kind='stable')
+    ma: list[int] = []
+    mb: list[int] = []
+    mo: list[float] = []
+    for i in order.tolist():
+        if ma and a[i] < mb[-1]:
+            mb[-1] = max(mb[-1], int(b[i]))
+            mo[-1] = min(mo[-1], float(onset[i]))
+        else:
+            ma.append(int(a[i]))
+            mb.append(int(b[i]))
+            mo.append(float(onset[i]))
+    return np.array(ma, np.int64), np.array(mb, np.int64), np.array(mo, np.float64)
+
+
+def make_segments(
+    record: Record,
+    rig: RigParams,
+    *,
+    min_length: float = 0.03,
+    block_time: float = 0.25,
+    start_delay: float = 3e-3,
+    runs: tuple[IntArray, IntArray, FloatArray] | None = None,
+) -> Segments:
+    """Cut the record into segments that start ``start_delay`` s into a stick phase.
+
+    Each segment runs to the next segment start (at least ``min_length`` s
+    later); segments are numbered into time blocks of about ``block_time`` s.
+    A record with fewer than 3 stick phases (slip-slip, steady sliding) gets
+    sliding segments instead (:func:`sliding_segments`).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (Tab. 1).
+    min_length : float
+        Shortest segment [s].
+    block_time : float
+        Length of a time block [s].
+    start_delay : float
+        Time from a stick phase's start to the segment start [s] (at most half the phase).
+    runs : tuple of (IntArray, IntArray, FloatArray), optional
+        First, stop sample and start time [s] of each stick phase (default:
+        :func:`stick_runs`).
+
+    Returns
+    -------
+    Segments
+        The segments with their blocks and stick phases.
+    """
+    from .instrument import FALSE_STICK_MIN, FALSE_STICK_SIGMA, false_stick_phases
+
+    s_start, s_stop, onset = runs if runs is not None else stick_runs(record, rig)
+    fs = record.fs
+    delay = round(start_delay * fs)
+    # a segment starts from the stuck state: never in a phase where the shaft
+    # and chamber speeds disagree (the discs slip: a false stick phase); its
+    # samples stay in the fit, in the segment before
+    slip = np.abs(false_stick_phases(record, rig, s_start, s_stop))
+    spread = 1.4826 * float(np.median(slip)) if slip.size else 0.0
+    limit = max(FALSE_STICK_SIGMA * spread, FALSE_STICK_MIN)
+    rejected = tuple(
+        (float(record.time[int(a)]), f'no stick: shaft and chamber speeds differ by {v:.3g} rad/s')
+        for a, v in zip(s_start, slip, strict=True)
+        if v > limit
+    )
+    cand = [
+        (int(a) + min(delay, (int(b) - int(a)) // 2), k)
+        for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
+        if slip[k] <= limit
+    ]
+    if len(cand) < 3:
+        # a stick phase (the start-up from rest) has no sliding state: sliding
+        # segments start after it
+        after = max((int(b) for b in s_stop), default=0)
+        return sliding_segments(record, block_time, first=after)
+    min_len = round(min_length * fs)
+    chosen = [cand[0]]
+    for c in cand[1:]:
+        if c[0] - chosen[-1][0] >= min_len:
+            chosen.append(c)
+    starts = [c[0] for c in chosen]
+    stops = [*starts[1:], record.time.size]
+    if stops[-1] - starts[-1] < min_len:
+        chosen, starts, stops = chosen[:-1], starts[:-1], stops[:-1]
+    start_arr = np.asarray(starts, dtype=np.int64)
+    stop_arr = np.asarray(stops, dtype=np.int64)
+    run_k = np.asarray([c[1] for c in chosen], dtype=np.int64)
+    stick_time = np.maximum(record.time[start_arr] - onset[run_k], 0.0)
+    t_rel = (start_arr - start_arr[0]) / fs
+    n_blocks = max(2, round((stop_arr[-1] - start_arr[0]) / fs / block_time))
+    block = np.minimum((t_rel / block_time).astype(np.int64), n_blocks - 1)
+    # renumber so that block ids are 0..B-1 without gaps
+    _, block = np.unique(block, return_inverse=True)
+    return Segments(
+        start_arr,
+        stop_arr,
+        stick_time.astype(np.float64),
+        block.astype(np.int64),
+        np.asarray(s_start, dtype=np.int64)[run_k],
+        np.asarray(s_stop, dtype=np.int64)[run_k],
+        rejected=rejected,
+    )
+
+
+def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Segments:
+    """Cut a record without stick-slip (slip-slip, steady sliding) into segments.
+
+    One segment per ``block_time``, each starting from the measured sliding
+    state (see :meth:`~.problem.Problem.simulate`).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    block_time : float
+        Segment (and block) length [s], at least 100 samples.
+    first : int
+        First sample a segment may start at (after a stick phase: the samples
+        before are not fitted and are listed in ``Segments.rejected``).
+
+    Returns
+    -------
+    Segments
+        Sliding segments, one block each.
+
+    Raises
+    ------
+    TooShortError
+        The record holds fewer than two segments.
+    """
+    fs = record.fs
+    n = record.time.size
+    length = max(round(block_time * fs), 100)
+    edge = SLIDE_WIN  # the local fits at a start need samples on both sides
+    starts = np.arange(max(edge, first + edge), n - length // 2, length, dtype=np.int64)
+    rejected: tuple[tuple[float, str], ...] = ()
+    if first > 0:
+        rejected = (
+            (
+                float(record.time[0]),
+                f'not fitted: {float(record.time[min(first, n - 1)] - record.time[0]):.3g} s '
+                'of stick phase (no sliding state) before the first sliding segment',
+            ),
+        )
+    if starts.size < 2:
+        raise TooShortError(
+            f'record of {n / fs:.3g} s without stick phases: the discrepancy workflow needs '
+            f'at least {2 * block_time:.3g} s of sliding'
+        )
+    stops = np.append(starts[1:], n).astype(np.int64)
+    return Segments(
+        starts,
+        stops,
+        np.zeros(starts.size),
+        np.arange(starts.size, dtype=np.int64),
+        None,
+        None,
+        True,
+        rejected,
+    )
+
+
+def sliding_start_states(
+    p: FloatArray,
+    record: Record,
+    starts: IntArray,
+    m_true: FloatArray,
+    w2: FloatArray,
+    w2_dot: FloatArray,
+    knots: DriveKnots,
+) -> FloatArray:
+    """Return the kernel states at sliding segment starts from the measured channels.
+
+    ``phi1 = M_t/C1``, the chamber speed ``w1 = (dM_t/dt)/C1`` (Equ. 4), the
+    shaft speed w2 (speed channel, sensor inverted) and its slope, and the
+    friction moment from the chamber's balance ``M = I1*w1' - Q1`` (Equ. 1, the
+    measured acceleration); the belt deflection then follows from the shaft's
+    (Equ. 2, :func:`tribo_estimation.core.shooting.sliding_states`).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Packed kernel parameters.
+    record : Record
+        The measured record.
+    starts : IntArray
+        Start samples of the segments.
+    m_true : FloatArray
+        True torsion moment C1*phi1 at the starts [N m].
+    w2 : FloatArray
+        Shaft speed at the starts (speed sensor inverted) [rad/s].
+    w2_dot : FloatArray
+        Shaft acceleration at the starts [rad/s^2].
+    knots : DriveKnots
+        The drive profile.
+
+    Returns
+    -------
+    FloatArray
+        Kernel states, one row per segment.
+    """
+    from scipy.signal import savgol_filter
+
+    rig_c1 = float(p[kn.P_C1])
+    rec = record
+    i0 = starts
+    # a sliding state's chamber speed sets the amplitude of the contact's lightly
+    # damped oscillation for the whole segment: a local cubic over 5 ms (not
+    # 1.5 ms) keeps its noise at ~4e-3 rad/s (config/rig.yaml noise)
+    win = min(SLIDE_WIN, rec.time.size - (1 - rec.time.size % 2))
+    w1 = savgol_filter(rec.torsion_moment, win, 3, deriv=1, delta=rec.dt)[i0] / rig_c1
+    a1 = window_mean(rec.angular_acceleration, i0, SLIDE_WIN // 2)
+    moment = np.empty(w1.size)
+    for k in range(w1.size):
+        q1 = kn.chamber_moment(p, float(m_true[k]) / rig_c1, float(w1[k]))
+        moment[k] = float(p[kn.P_I1]) * float(a1[k]) - q1
+    t0 = rec.time[i0].astype(np.float64)
+    return np.asarray(
+        sliding_states(p, t0, m_true, w1, w2, w2_dot, moment, knots.time, knots.speed)
+    )
