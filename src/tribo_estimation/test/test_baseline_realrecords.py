@@ -16,6 +16,7 @@ import pytest
 from tribo_estimation.core.config import load_rig_config
 from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
 from tribo_estimation.core.discrepancy.fitting import MU0, MU_INF, Problem, Record
+from tribo_estimation.core.discrepancy.report import to_dict
 from tribo_estimation.core.model import DriveProfile, FrictionLaw
 from tribo_estimation.core.reference import SpeedProfile
 from tribo_estimation.core.reference_records import (
@@ -201,3 +202,8 @@ def test_record_without_stick_slip_from_the_start_up() -> None:
     assert pb.drive_estimate.knot_time[1] == pytest.approx(0.2, abs=1e-9)
     assert res.baseline.rms <= 1.3 * FLOOR
     assert res.baseline.params['mu_inf'] == pytest.approx(0.10, rel=0.01)
+    # the part left out is stated in discrepancy.json, with its time and reason
+    rows = to_dict(res)['rejected_segments']
+    assert isinstance(rows, list) and len(rows) == 1
+    assert rows[0] == {'time': pytest.approx(float(r.time[0])), 'reason': seg.rejected[0][1]}
+    assert 'stick phase' in seg.rejected[0][1]

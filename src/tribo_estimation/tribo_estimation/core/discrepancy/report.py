@@ -27,6 +27,10 @@ record cannot separate: never named in ``added``) and ``inconsistent`` (candidat
 that lowered the residual clearly as a whole but made a time block worse by more
 than ``settings.max_block_loss``: they absorb a mismatch that changes during the
 record; never named). Every round's candidate carries its ``block_loss`` (-).
+``rejected_segments`` lists the parts of the record no segment starts in or that are
+not fitted, ``[{"time": s, "reason": str}]`` (a detected stick phase in which the
+shaft and chamber speeds disagree, the stick from rest before the first sliding
+segment of a slip-slip record).
 """
 
 from __future__ import annotations
@@ -103,6 +107,9 @@ def to_dict(result: DiscrepancyResult) -> dict[str, Json]:
         'identifiable': {n: v.as_dict() for n, v in result.identifiable.items()},
         'not_identifiable': list(result.blocked),
         'inconsistent': list(result.inconsistent),
+        'rejected_segments': [
+            {'time': t, 'reason': why} for t, why in result.traces.problem.segments.rejected
+        ],
     }
     return {k: _clean(v) for k, v in d.items()}
 
