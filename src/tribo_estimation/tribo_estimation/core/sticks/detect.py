@@ -178,6 +178,9 @@ def _detect_all(
     sig_v = sig / (rig.C2 * dt * math.sqrt(float(np.sum(k * k))))
     thr = speed_threshold if speed_threshold is not None else max(_V_MIN, 6.0 * sig_v)
     w0 = drive_speed_level(w2, fs)
+    # chamber speed w1 from torsion and acceleration only (complementary filter)
+    w1 = -slip_speed(rig, mt, ac, np.zeros_like(w2), fs)
+    w2_slope = local_slope(w2, dt)
     phases: list[StickPhase] = []
     for _pass in range(2):
         # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
@@ -194,9 +197,7 @@ def _detect_all(
         u = np.abs(slip_speed(rig, mt, ac, w0, fs))
         h = max(1, round(_U_WIN * fs))
         u_loc = maximum_filter1d(u, 2 * h + 1, mode='nearest')
-        phases = []
-        mids: list[float] = []
-        w_line: list[float] = []
+        kept: list[tuple[float, float, float, int, int]] = []
         for a, b, sl in zip(
             starts[:m].tolist(), ends[:m].tolist(), slopes[:m].tolist(), strict=True
         ):
@@ -206,6 +207,14 @@ def _detect_all(
             i1 = max(i0 + 1, int(np.searchsorted(t, b)))
             if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
                 continue
+            kept.append((a, b, sl, i0, i1))
+        mismatch = _speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
+        phases = []
+        mids: list[float] = []
+        w_line: list[float] = []
+        for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True):
+            if dw > _W_MISMATCH:
+                continue
             phases.append(StickPhase(float(a), float(b)))
             if i1 - i0 >= 6:
                 mids.append(0.5 * (a + b))
@@ -214,6 +223,71 @@ def _detect_all(
             break
         w0 = np.interp(t, np.asarray(mids), np.asarray(w_line))
     return phases, float(np.mean(w0))
+
+
+#: Largest speed-channel lag :func:`_speed_mismatch` considers [s].
+_MAX_SPEED_LAG = 0.02
+
+#: A phase whose median ``|w2 - w1|`` (speed channel, lag inverted, against the chamber
+#: speed) exceeds this [rad/s] is a slip, not a stick (:func:`_speed_mismatch`).
+_W_MISMATCH = 0.5
+
+
+def _speed_mismatch(
+    w2: FloatArray, w2_slope: FloatArray, w1: FloatArray, spans: list[tuple[int, int]]
+) -> list[float]:
+    """Return the median shaft-chamber speed difference of each phase [rad/s].
+
+    While the discs stick the shaft moves with the chamber, ``w2 = w1`` (Equ. 1, 2).
+    The speed channel shows ``w2`` through a first-order lag ``tau`` and an offset
+    ``c``: ``y + tau*y' = w2 + c``; ``w1`` [rad/s] comes from torsion and acceleration
+    alone (:func:`slip_speed`'s filter). ``tau`` (clipped to [0, 20 ms]) and ``c`` are
+    fitted by least squares to the interiors of the phases (twice: the second time
+    without the phases the first fit puts beyond :data:`_W_MISMATCH`), so a speed-sensor
+    lag does not matter. A phase in which the discs still slip (the slow end of a
+    slip) shows its slip speed, several rad/s.
+
+    Parameters
+    ----------
+    w2 : FloatArray
+        Speed channel [rad/s].
+    w2_slope : FloatArray
+        Its local slope [rad/s^2] (:func:`local_slope`).
+    w1 : FloatArray
+        Chamber speed [rad/s].
+    spans : list of tuple of int
+        First and stop sample of each phase.
+
+    Returns
+    -------
+    list of float
+        ``|median(y + tau*y' - c - w1)|`` per phase [rad/s] (0 for a phase of fewer than
+        2 samples or when fewer than two phases of 4 samples can be used to fit ``tau``).
+    """
+    inner = []
+    for i0, i1 in spans:
+        g = min(5, (i1 - i0) // 4)
+        inner.append((i0 + g, i1 - g))
+    use = [k for k, (a, b) in enumerate(inner) if b - a >= 4]
+    if len(use) < 2:
+        return [0.0] * len(spans)
+    tau, c = 0.0, 0.0
+    out = [0.0] * len(spans)
+    for _ in range(2):
+        idx = np.concatenate([np.arange(*inner[k]) for k in use])
+        d = w2[idx] - w1[idx]
+        sl = w2_slope[idx]
+        x = np.stack([np.ones(idx.size), -sl], axis=1)
+        coef = np.linalg.lstsq(x, d, rcond=None)[0]
+        c = float(coef[0])
+        tau = min(max(float(coef[1]), 0.0), _MAX_SPEED_LAG)
+        e = w2 + tau * w2_slope - c - w1
+        out = [abs(float(np.median(e[a:b]))) if b - a >= 2 else 0.0 for a, b in inner]
+        good = [k for k in use if out[k] <= _W_MISMATCH]
+        if len(good) < 2 or good == use:
+            break
+        use = good
+    return out
 
 
 def _checked(
