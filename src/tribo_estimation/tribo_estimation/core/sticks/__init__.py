@@ -2,8 +2,9 @@
 
 Signals: torsion moment ``M_t = C1*phi1`` [N m], chamber acceleration ``a`` [rad/s^2],
 shaft speed ``w2`` [rad/s], uniformly sampled. The detector is insensitive to the
-speed channel's dynamics (a tachometer lag of several ms): the speed channel only
-sets the drive-speed level for the first pass.
+speed channel's dynamics (a tachometer lag of several ms): the speed channel sets
+the drive-speed level for the first pass and, its lag fitted and inverted, tells a
+stick (shaft speed = chamber speed) from the slow end of a slip (step 3).
 
 Criterion. While the discs stick, chamber and shaft move as one body, so Equ. 1 +
 Equ. 2 with ``w1 = w2 = w`` and the constant angle difference ``phi2 - phi1`` give
@@ -30,14 +31,25 @@ slip speed ``v = w2 - w1``.
    (one sample outside is noise, two in a row end the stick). Sliding friction
    differs from the stick moment, so ``r`` leaves the line by a jump at the stick
    start and by a fast-growing ramp after breakaway; the breakaway instant is found
-   by fitting that ramp (hinge fit). Both ends come out to a fraction of a
-   millisecond on 10 kHz data with realistic noise (see the tests).
+   by fitting that ramp (hinge fit). When the drive accelerates during a stick (a
+   speed step or a ramp's corner inside it) ``r`` is a line up to the corner and a
+   parabola after it, ``C2*w0'/2*t^2`` (tens of N m over a 50 ms step), which no single
+   line or parabola follows to both ends: the ends of a stick of at least 4 ms are
+   therefore placed with a line through its first (last) 2 ms only. Both ends come
+   out to a fraction of a millisecond on 10 kHz data with realistic noise (see the
+   tests).
 3. Plausibility: around the peak of a fast slip, ``-(I2*v'' + K2*v')/C2`` can cancel
    ``v`` and keep ``r`` parallel to a stick line for a few ms; there the chamber has
    sprung far back from the drive (``|w0 - w1|`` large, with ``w1`` from the
    complementary filter of :mod:`.observer`, torsion and acceleration only), unlike in
    a stick. A phase whose median ``|w0 - w1|`` exceeds half the local maximum
-   (+-40 ms; at least 1 rad/s) is dropped.
+   (+-40 ms; at least 1 rad/s) is dropped. Then the speed consistency: in a stick the
+   shaft moves with the chamber, ``w2 = w1``. The speed channel ``y`` shows ``w2``
+   through a first-order lag ``tau`` and an offset ``c`` (``y + tau*y' = w2 + c``),
+   both fitted by least squares to the interiors of the phases; a phase whose median
+   ``|y + tau*y' - c - w1|`` exceeds 0.5 rad/s is a slip (the slow end of a slip after
+   a speed step passed as a 3 ms stick at 0.6-6.4 rad/s of slip; true sticks stay
+   within 0.1 rad/s at the noise of config/rig.yaml, with or without a 5 ms lag).
 
 A first-order lag of the torsion amplifier (relative to the accelerometer) would
 bend the stick lines; it is estimated from the record (:func:`estimate_torsion_lag`,

@@ -333,8 +333,9 @@ def find_sticks(
     The criterion is in the docstring of :mod:`tribo_estimation.core.sticks`.
 
     ``time`` [s], ``torsion`` M_t [N m], ``accel`` chamber acceleration [rad/s^2],
-    ``speed`` shaft speed [rad/s] (only its level over ~50 ms is used, so a sensor
-    lag of the speed channel does not matter). Phases of at least ``min_duration``
+    ``speed`` shaft speed [rad/s] (its level over ~50 ms, and its lag-inverted value
+    against the chamber speed inside each phase, the lag fitted: a sensor lag of the
+    speed channel does not matter). Phases of at least ``min_duration``
     [s] are sticks, shorter ones micro-sticks. ``speed_threshold`` [rad/s] of the
     candidate stage (default: 0.15 rad/s or 5 noise levels of the slip-speed
     estimate); ``n_sigma`` width of the residual band; ``torsion_lag`` [s] the
