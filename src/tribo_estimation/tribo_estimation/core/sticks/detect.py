@@ -194,7 +194,7 @@ def _detect_all(
         # plausibility: r can stay parallel to a stick line for a few ms around a high
         # slip-speed peak (v ~ -(I2*v'' + K2*v')/C2); there the chamber has sprung far
         # back from the drive speed, unlike in a stick where w1 = w2 stays near w0
-        u = np.abs(slip_speed(rig, mt, ac, w0, fs))
+        u = np.abs(w0 - w1)
         h = max(1, round(_U_WIN * fs))
         u_loc = maximum_filter1d(u, 2 * h + 1, mode='nearest')
         kept: list[tuple[float, float, float, int, int]] = []
