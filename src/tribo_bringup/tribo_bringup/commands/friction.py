@@ -11,7 +11,6 @@ the length of the session.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import sys
 import time
@@ -39,10 +38,12 @@ def register(sub: Any) -> None:
         '(paper Equ. 8) block by block from the torsion moment, the chamber acceleration '
         'and the shaft speed of a recorded session. Writes OUT/blocks.csv (one row per '
         'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
-        'fit_failed, short, spikes; the last column counts the spike samples replaced '
-        'before the fit) and the figures blocks.png, mu_slip.png and detail.png. The '
-        'channels are checked against the rig first: a torque in N mm, a speed in rpm or '
-        'a time in ms is named (exit 2); nothing is left in OUT on an error.',
+        'fit_failed, short, spikes, bursts, repaired; the last columns count the samples '
+        'replaced before the fit and the bursts among them: both are left out of the fit, '
+        'a block with over 20 %% replaced is not fitted) and the figures blocks.png, '
+        'mu_slip.png and detail.png. The channels are checked against the rig first: a '
+        'torque in N mm, a speed in rpm or a time in ms is named (exit 2); nothing is left '
+        'in OUT on an error.',
     )
     p.add_argument(
         'input', help='rig CSV (time,torsion_moment,angular_acceleration,speed in SI) or a bag'
@@ -193,12 +194,7 @@ class _Collector:
 def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
     from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
-    from tribo_estimation.core.blockfit import (
-        BlockConfig,
-        BlockCsvWriter,
-        BlockEstimator,
-        with_flags,
-    )
+    from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.drive import MISMATCH_LIMIT
     from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
@@ -215,11 +211,11 @@ def run(args: argparse.Namespace) -> int:
         ramp_time=cfg_rig.drive.ramp_time,
     )
     out = Path(args.out)
-    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
+    spikes = SpikeLog()
+    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg, repairs=spikes)
     jitter: list[float] = []
     raw_events = bag_events(src, args.namespace) if _is_bag(src) else csv_events(src, jitter)
     scales = Scales.of(cfg_rig.rig, cfg_rig.friction, nominal)
-    spikes = SpikeLog()
     warnings: list[str] = []
     events = checked_chunks(raw_events, scales, str(src), spikes, warnings)
     fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
@@ -233,13 +229,6 @@ def run(args: argparse.Namespace) -> int:
             nonlocal last_report
             while warnings:
                 print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)
-            r0 = det.result
-            n_spk = spikes.count(r0.first_index, r0.first_index + round(args.block * det.data.fs))
-            spikes.forget_before(r0.first_index)
-            if n_spk:
-                det = dataclasses.replace(
-                    det, result=with_flags(dataclasses.replace(r0, spikes=n_spk), 'spikes')
-                )
             writer.write(det.result)
             results.append(det.result)
             coll.add(det)
@@ -301,7 +290,11 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         if spikes.total:
-            print(f'friction: {spikes.total} spike samples replaced', file=sys.stderr)
+            print(
+                f'friction: {spikes.total} samples replaced (spikes, bursts; left out of the '
+                'fits, blocks.csv columns spikes and bursts)',
+                file=sys.stderr,
+            )
         print(
             f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '
             f'in {time.monotonic() - t_wall:.1f} s',

@@ -20,9 +20,12 @@ base that cannot be analysed :class:`~tribo_estimation.errors.TimeBaseError`;
 both name the channel, the measured value and what was expected (CLI exit 2).
 
 Isolated spikes (a sample or two far off a 5-sample running median, compared
-with the MAD noise level of that residual) and samples beyond any physical
-bound are replaced by linear interpolation of their good neighbours and counted,
-so they never reach the block fit and never disturb neighbouring blocks.
+with the MAD noise level of that residual), samples beyond any physical
+bound and bursts (runs of up to :data:`BURST_MAX` samples that enter and leave
+with a step no physical signal makes: a saturating channel, an ADC glitch;
+:func:`find_bursts`) are replaced by linear interpolation of their good
+neighbours and counted; the block fit leaves the replaced samples out of its
+residuals, so they never bias a fit and never disturb neighbouring blocks.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import numpy.typing as npt
 
 from tribo_estimation.core.align import AlignedChunk, AlignEvent
 from tribo_estimation.core.model import FrictionLaw, RigParams
+from tribo_estimation.core.signal import noise_level
 from tribo_estimation.errors import TimeBaseError, UnitError
 
 FloatArray = npt.NDArray[np.float64]
@@ -61,6 +65,16 @@ SPIKE_RANGE = 0.2
 MEDIAN_WIDTH = 5
 #: A sample beyond this many physical scales is never a measurement.
 GROSS_FACTOR = 1e3
+#: Longest burst (a run of corrupted samples: a saturating channel, an ADC glitch)
+#: that is repaired [samples]; a longer excursion is left to the block checks.
+BURST_MAX = 64
+#: A step of a channel between two samples larger than this many physical scales
+#: is not physical (torsion moment and speeds are continuous states; the
+#: acceleration jumps by at most about one scale at a re-stick, Equ. 1) [-].
+BURST_SCALES = 3.0
+#: Samples held back at a chunk edge (and kept as context) so that a burst that
+#: crosses the edge is judged whole [samples].
+EDGE_HOLD = BURST_MAX + MEDIAN_WIDTH + 2
 
 
 def mad_sigma(x: FloatArray) -> float:
@@ -109,6 +123,73 @@ def find_spikes(x: FloatArray, scale: float) -> npt.NDArray[np.bool_]:
         thr = max(SPIKE_SIGMA * sigma, SPIKE_RANGE * span, 1e-12 * max(scale, 0.0))
         gross = np.abs(xs) > GROSS_FACTOR * scale if scale > 0 else np.zeros(n, dtype=bool)
         out: npt.NDArray[np.bool_] = bad | gross | ~np.isfinite(res) | (res > thr)
+    return out
+
+
+def find_bursts(x: FloatArray, scale: float, max_len: int = BURST_MAX) -> npt.NDArray[np.bool_]:
+    """Mask of bursts: runs of up to ``max_len`` samples displaced from the signal.
+
+    A burst enters and leaves with a step between two samples that no physical
+    signal of the rig makes: larger than ``BURST_SCALES * scale`` (a slip phase's
+    torque drop is fast but smooth, bounded by F_N R mu and C1, Equ. 1-3) and
+    larger than ``SPIKE_SIGMA`` robust noise levels of the first difference. A
+    run from such a step to the first later step (at most ``max_len`` samples on)
+    after which the signal is back within that threshold of its level before
+    the run is a burst; a run that starts or ends at an end of ``x`` and is
+    displaced by more than the threshold from the rest is one too. A lasting
+    step (an offset change) is not a burst and is left alone.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Finite samples of one channel (spikes and non-finite values repaired
+        first, :func:`find_spikes`) [unit of the channel].
+    scale : float
+        Physical scale of the channel [unit of the channel]; ``<= 0``: no
+        physical bound known, no bursts are looked for.
+    max_len : int
+        Longest burst [samples].
+
+    Returns
+    -------
+    numpy.ndarray
+        True at the samples of a burst (bool, shape of ``x``).
+    """
+    n = x.shape[0]
+    out = np.zeros(n, dtype=bool)
+    if not (scale > 0.0 and math.isfinite(scale)) or n < 3:
+        return out
+    with np.errstate(over='ignore', invalid='ignore'):
+        step = np.abs(np.diff(x))
+    thr = BURST_SCALES * scale
+    if not np.any(step > thr):  # the usual case: nothing to do
+        return out
+    sig = noise_level(x, 2)
+    if math.isfinite(sig):
+        thr = max(thr, SPIKE_SIGMA * math.sqrt(2.0) * sig)
+    jumps = np.flatnonzero(step > thr)  # a step between sample j and j + 1
+    i = 0
+    while i < jumps.size:
+        s = int(jumps[i]) + 1  # first displaced sample
+        base = float(x[s - 1])
+        stop = -1
+        k = i
+        while k < jumps.size and int(jumps[k]) + 1 - s <= max_len:
+            if abs(float(x[int(jumps[k]) + 1]) - base) <= thr:
+                stop = k
+                break
+            k += 1
+        if stop >= 0:
+            out[s : int(jumps[stop]) + 1] = True
+            i = stop + 1
+        elif n - s <= max_len and np.all(np.abs(x[s:] - base) > thr):
+            out[s:] = True  # displaced up to the end of x
+            break
+        else:
+            i += 1
+    j0 = int(jumps[0]) + 1  # the first step follows sample j0 - 1
+    if j0 <= max_len and not out[j0] and np.all(np.abs(x[:j0] - float(x[j0])) > thr):
+        out[:j0] = True  # displaced from the start of x on
     return out
 
 
@@ -280,6 +361,25 @@ class SpikeLog:
         if mask.any():
             self.indices.append(first_index + np.flatnonzero(mask).astype(np.int64))
 
+    def mask(self, first: int, end: int) -> npt.NDArray[np.bool_]:
+        """Mark the replaced samples of ``first <= index < end``.
+
+        Parameters
+        ----------
+        first, end : int
+            Sample range since the stream start [samples].
+
+        Returns
+        -------
+        numpy.ndarray
+            True at the replaced samples (bool, length ``end - first``).
+        """
+        out = np.zeros(max(0, end - first), dtype=bool)
+        for a in self.indices:
+            k = a[(a >= first) & (a < end)]
+            out[k - first] = True
+        return out
+
     def count(self, first: int, end: int) -> int:
         """Spikes with ``first <= index < end``."""
         return int(sum(int(np.count_nonzero((a >= first) & (a < end))) for a in self.indices))
@@ -295,20 +395,62 @@ class SpikeLog:
         return self.done + int(sum(a.size for a in self.indices))
 
 
+def despike(x: FloatArray, scale: float) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+    """Repair the spikes and then the bursts of one channel.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Samples of the channel [unit of the channel].
+    scale : float
+        Physical scale of the channel [unit of the channel] (``<= 0``: none
+        known; spikes only).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The repaired samples (linear interpolation of the good neighbours,
+        :func:`repair`) and the mask of the replaced samples.
+    """
+    spikes = find_spikes(x, scale)
+    y = repair(x, spikes)
+    bursts = find_bursts(y, scale)
+    if not bursts.any():
+        return y, spikes
+    mask = spikes | bursts
+    return repair(x, mask), mask
+
+
 def despike_chunk(
     torsion: FloatArray, accel: FloatArray, speed: FloatArray, scales: Scales
 ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """Repair spikes of the three channels; returns them and the union mask."""
+    """Repair spikes and bursts of the three channels (:func:`despike`).
+
+    Parameters
+    ----------
+    torsion, accel, speed : numpy.ndarray
+        Torsion moment [N m], chamber acceleration [rad/s^2], shaft speed [rad/s].
+    scales : Scales
+        Physical scales of the channels.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The three repaired channels and the union of their masks of replaced
+        samples.
+    """
     st, sa = scales.torque, scales.accel  # 0 (no F_N): no gross bound, spikes only
     sv = max(scales.speed, 1.0)
-    mt, ma, mv = find_spikes(torsion, st), find_spikes(accel, sa), find_spikes(speed, sv)
-    return repair(torsion, mt), repair(accel, ma), repair(speed, mv), mt | ma | mv
+    t, mt = despike(torsion, st)
+    a, ma = despike(accel, sa)
+    v, mv = despike(speed, sv)
+    return t, a, v, mt | ma | mv
 
 
 class _Despiker:
-    """Spike repair across chunk boundaries: the last :data:`MEDIAN_WIDTH` samples of
-    a chunk wait for the next contiguous chunk, so a step of the signal at a chunk
-    edge is judged with samples on both sides (never taken for a spike)."""
+    """Spike and burst repair across chunk boundaries: the last :data:`EDGE_HOLD`
+    samples of a chunk wait for the next contiguous chunk, so a step of the signal
+    or a burst at a chunk edge is judged with samples on both sides."""
 
     def __init__(self, scales: Scales, log: SpikeLog) -> None:
         self.scales = scales
@@ -341,7 +483,7 @@ class _Despiker:
             return []
         self.log.add(ch.first_index, mask[c : c + m])
         out = replace(ch, torsion=t[c : c + m], accel=a[c : c + m], speed=v[c : c + m])
-        k = max(0, m - MEDIAN_WIDTH)
+        k = max(0, m - EDGE_HOLD)
         self.ctx = (ch.first_index + m, t[c + k : c + m], a[c + k : c + m], v[c + k : c + m])
         return [out]
 
@@ -359,7 +501,7 @@ class _Despiker:
             else:
                 out.extend(self.flush())
         self.hold = None
-        out.extend(self._run(ch, MEDIAN_WIDTH))
+        out.extend(self._run(ch, EDGE_HOLD))
         return out
 
     def flush(self) -> list[AlignEvent]:

@@ -25,7 +25,7 @@ from ...errors import EstimationError, FitError, UnitError
 from ..drive import estimate_drive
 from ..model import FrictionLaw, RigParams
 from ..observer import friction_moment
-from ..signal import chamber_speed, longest_run
+from ..signal import chamber_speed, longest_run, runs
 from ..sticks import (
     StickPhase,
     chamber_speed_integral,
@@ -36,7 +36,9 @@ from ..sticks import (
 )
 from .fit import fit_block
 from .results import (
+    BURST_MIN,
     FLAGS,
+    MAX_REPAIRED,
     BlockConfig,
     BlockData,
     BlockDetail,
@@ -70,6 +72,50 @@ def is_saturated(x: FloatArray, run: int) -> bool:
         if b - a >= run:
             return True
     return False
+
+
+def repair_counts(repaired: BoolArray) -> tuple[int, int]:
+    """Count the replaced samples and the bursts among them.
+
+    Parameters
+    ----------
+    repaired : numpy.ndarray
+        True at the samples replaced before the fit (bool).
+
+    Returns
+    -------
+    tuple of int
+        Replaced samples and bursts (runs of at least :data:`.results.BURST_MIN`
+        samples).
+    """
+    st, en = runs(repaired)
+    return int(np.count_nonzero(repaired)), int(np.count_nonzero(en - st >= BURST_MIN))
+
+
+def repair_flags(repaired: BoolArray) -> set[str]:
+    """Name the quality flags of a block's replaced samples.
+
+    Parameters
+    ----------
+    repaired : numpy.ndarray
+        True at the samples replaced before the fit (bool).
+
+    Returns
+    -------
+    set of str
+        ``spikes`` for runs shorter than :data:`.results.BURST_MIN`, ``bursts``
+        for longer ones, ``repaired`` when more than :data:`.results.MAX_REPAIRED`
+        of the samples were replaced (the block is not fitted).
+    """
+    st, en = runs(repaired)
+    flags: set[str] = set()
+    if np.any(en - st < BURST_MIN):
+        flags.add('spikes')
+    if np.any(en - st >= BURST_MIN):
+        flags.add('bursts')
+    if repaired.size and float(np.mean(repaired)) > MAX_REPAIRED:
+        flags.add('repaired')
+    return flags
 
 
 def _check_speed_units(cfg: BlockConfig, speed: FloatArray) -> None:
@@ -191,6 +237,7 @@ def _detail(
         data = BlockData(t0, blk.fs, tq_raw, ac_raw, sp_raw, empty, empty, np.zeros(0, bool))
     tq = data.torsion
     n = tq.shape[0]
+    n_rep, n_bursts = repair_counts(blk.repaired) if blk.repaired is not None else (0, 0)
     res = BlockResult(
         index=blk.index,
         first_index=blk.first_index,
@@ -214,6 +261,8 @@ def _detail(
         n_samples=n,
         n_iter=out.n_iter if out else 0,
         drive_mismatch=o.mismatch,
+        spikes=n_rep,
+        bursts=n_bursts,
     )
     sim = out.simulated if out else np.full(n, nan)
     return BlockDetail(res, data, sim)
@@ -259,6 +308,11 @@ def evaluate_block(
     if n < max(20, cfg.min_fraction * n_block):
         flags.add('short')
         return done(None, np.zeros(n, bool), 'steady', 0)
+    rep = blk.repaired[a:b] if blk.repaired is not None else np.zeros(n, dtype=bool)
+    if rep.any():
+        flags.update(repair_flags(rep))
+        if float(np.mean(rep)) > MAX_REPAIRED:  # mostly interpolated: nothing to fit
+            return done(None, np.zeros(n, bool), 'steady', 0)
     if not (np.all(np.isfinite(tq)) and np.all(np.isfinite(ac)) and np.all(np.isfinite(sp))):
         flags.add('fit_failed')
         return done(None, np.zeros(n, bool), 'steady', 0)
@@ -294,7 +348,9 @@ def evaluate_block(
     # in the block before)
     n_sticks = sum(1 for ph in phases if ph.start > 0.5 / blk.fs)
     motion = classify_motion(time, tq, ac, sp, rig, sticks=phases)
-    data = BlockData(blk.t_start + a / blk.fs, blk.fs, tq, ac, sp, moment, w1, stick)
+    data = BlockData(
+        blk.t_start + a / blk.fs, blk.fs, tq, ac, sp, moment, w1, stick, rep if rep.any() else None
+    )
     # sliding means a slip speed clearly above the noise of v = w2 - w1 somewhere
     v_thr = max(0.1, min(0.3, 0.5 * abs(w0)))
     sliding = float(np.mean(np.abs(sp - w1) > v_thr))

@@ -167,6 +167,31 @@ def _jump_guard(a: FloatArray, threshold: float) -> BoolArray:
     return jump | bad
 
 
+#: Samples on either side of a replaced one (spike, burst) that the fit leaves out
+#: too: the chamber speed and the observer moment spread a repair over a few
+#: samples [samples].
+_REPAIR_GUARD = 3
+
+
+def _dilate(mask: BoolArray, width: int) -> BoolArray:
+    """Widen the True runs of ``mask`` by ``width`` samples on either side.
+
+    Parameters
+    ----------
+    mask : numpy.ndarray
+        Samples to widen (bool).
+    width : int
+        Samples added on either side of each True sample.
+
+    Returns
+    -------
+    numpy.ndarray
+        The widened mask (bool, shape of ``mask``).
+    """
+    k = np.ones(2 * width + 1)
+    return np.asarray(np.convolve(mask.astype(np.float64), k, mode='same') > 0.0)
+
+
 def _robust_se(J: FloatArray, r: FloatArray, clusters: IntArray, n_par: int) -> FloatArray:
     """Cluster-robust (sandwich) standard errors of a least-squares estimate.
 
@@ -349,6 +374,7 @@ class _Problem:
     meas_accel: FloatArray
     sig_m: float
     clusters: IntArray
+    keep: FloatArray
     _recent: dict[bytes, FloatArray] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
@@ -362,6 +388,9 @@ class _Problem:
         # clusters for the standard errors: the shooting segments (nearly independent)
         seg_id = np.searchsorted(nodes.start, used, side='right') - 1
         clusters = np.concatenate((seg_id, seg_id)).astype(np.int64)
+        keep = np.ones(n)
+        if d.repaired is not None and d.repaired.any():
+            keep[_dilate(d.repaired, _REPAIR_GUARD)] = 0.0
         return cls(
             p0=p0,
             index=[ix for _, ix, _, _ in _FIT_PARAMS[:n_par]],
@@ -374,6 +403,7 @@ class _Problem:
             meas_accel=d.accel[used],
             sig_m=sig_m,
             clusters=clusters,
+            keep=keep[used],
         )
 
     def simulate(self, theta: FloatArray) -> FloatArray:
@@ -400,14 +430,14 @@ class _Problem:
         The torsion moment (continuous in theta) keeps every sample."""
         sim0 = self.simulate(theta0)
         guard = _jump_guard(sim0[kn.OUT_ACCEL], 10.0 * sig_a)[self.used]
-        return np.where(guard, 0.0, 1.0 / sig_a)
+        return np.where(guard, 0.0, self.keep / sig_a)
 
     def residual(self, theta: FloatArray, w_acc: FloatArray) -> FloatArray:
         """Weighted residuals (torsion moment, then acceleration) at ``theta`` [-]."""
         out = self.simulate(theta)
         return np.concatenate(
             (
-                (out[kn.OUT_TORSION, self.used] - self.meas_torsion) / self.sig_m,
+                (out[kn.OUT_TORSION, self.used] - self.meas_torsion) * (self.keep / self.sig_m),
                 (out[kn.OUT_ACCEL, self.used] - self.meas_accel) * w_acc,
             )
         )
@@ -487,7 +517,9 @@ def fit_block(
         mu0_se=float(se[0]),
         mu_inf_se=float(se[1]),
         k_se=float(se[2]) if n_par == 3 else 0.0,
-        rms_residual=float(np.sqrt(np.mean((sim_t[prob.used] - prob.meas_torsion) ** 2))),
+        rms_residual=float(
+            np.sqrt(np.mean(((sim_t[prob.used] - prob.meas_torsion)[prob.keep > 0.0]) ** 2))
+        ),
         simulated=sim_t,
         n_iter=sol.n_iter,
         n_eval=sol.nfev + 1,

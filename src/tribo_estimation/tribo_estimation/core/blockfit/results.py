@@ -106,7 +106,26 @@ class BlockConfig:
 MOTIONS = ('stick-slip', 'slip-slip', 'steady')
 
 #: Quality flags; a block with any of them is not a good estimate.
-FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short', 'spikes')
+FLAGS = (
+    'gap',
+    'saturated',
+    'no_sliding',
+    'startup',
+    'fit_failed',
+    'short',
+    'spikes',
+    'bursts',
+    'repaired',
+)
+
+#: Largest fraction of a block's samples that may be replaced (spikes, bursts:
+#: :mod:`..plausibility`) for the block to be fitted; above it the block is
+#: flagged ``repaired`` and not fitted [-].
+MAX_REPAIRED = 0.2
+
+#: A run of at least this many replaced samples is a burst, shorter ones are
+#: spikes [samples].
+BURST_MIN = 3
 
 
 @dataclass(frozen=True)
@@ -132,7 +151,9 @@ class BlockResult:
             speed [-] (NaN: none configured); beyond 5 % the command warns.
         n_samples: valid samples used [-].
         n_iter: Levenberg-Marquardt iterations [-].
-        spikes: samples replaced as spikes before the fit (core.plausibility) [-].
+        spikes: samples replaced before the fit (spikes and bursts, core.plausibility;
+            left out of the fit's residuals) [-].
+        bursts: runs of at least :data:`BURST_MIN` replaced samples in the block [-].
     """
 
     index: int
@@ -158,6 +179,7 @@ class BlockResult:
     n_iter: int = 0
     drive_mismatch: float = math.nan
     spikes: int = 0
+    bursts: int = 0
 
     @property
     def ok(self) -> bool:
@@ -183,6 +205,8 @@ class BlockData:
         moment: observer friction moment M [N m] (Equ. 1).
         chamber_speed: observer chamber speed w1 [rad/s].
         stick: True where the discs stick.
+        repaired: True at samples replaced before the fit (spikes, bursts), which
+            the fit leaves out of its residuals; None: none.
     """
 
     t0: float
@@ -193,6 +217,7 @@ class BlockData:
     moment: FloatArray
     chamber_speed: FloatArray
     stick: BoolArray
+    repaired: BoolArray | None = None
 
     def __len__(self) -> int:
         return int(self.torsion.shape[0])
@@ -229,6 +254,7 @@ class PendingBlock:
     Arrays have the block length; ``valid`` is False where samples are missing (gap).
     ``moment`` is the streaming observer's friction moment [N m] (None: computed
     per block). ``flags`` are those known while collecting (``gap``, ``startup``).
+    ``repaired`` is True at samples replaced before (spikes, bursts; None: none).
     """
 
     index: int
@@ -241,6 +267,7 @@ class PendingBlock:
     valid: BoolArray
     moment: FloatArray | None = None
     flags: set[str] = field(default_factory=set)
+    repaired: BoolArray | None = None
 
     @property
     def t_end(self) -> float:
