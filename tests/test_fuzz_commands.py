@@ -25,6 +25,7 @@ import math
 import os
 import signal
 import tempfile
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,17 +73,27 @@ class Run:
     stderr: str
 
 
+#: Optional log of every command run (``FUZZ_LOG=path``): one line ``command exit
+#: seconds`` each, appended as the run ends, so a long fuzz run that is stopped early
+#: still tells how many inputs each command got.
+FUZZ_LOG = os.environ.get('FUZZ_LOG', '')
+
+
 def tribo(*args: str) -> Run:
     """``tribo ARGS`` in-process within :data:`LIMIT_S`."""
     from tribo_bringup.cli import main
 
     out, err = io.StringIO(), io.StringIO()
+    t0 = time.monotonic()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             with _time_limit(LIMIT_S):
                 rc = main(list(args))
         except SystemExit as exc:  # argparse
             rc = int(exc.code or 0)
+    if FUZZ_LOG:
+        with open(FUZZ_LOG, 'a', encoding='utf-8') as fh:
+            fh.write(f'{args[0] if args else "-"} {rc} {time.monotonic() - t0:.3f}\n')
     msg = err.getvalue().strip().splitlines()[-1:] if rc else []
     kind = msg[0].split(': error: ')[-1].split(':')[-1][:40] if msg else ''
     with contextlib.suppress(Exception):  # outside @given: no statistics
