@@ -410,14 +410,16 @@ def despike(x: FloatArray, scale: float) -> tuple[FloatArray, npt.NDArray[np.boo
     -------
     tuple of numpy.ndarray
         The repaired samples (linear interpolation of the good neighbours,
-        :func:`repair`) and the mask of the replaced samples.
+        :func:`repair`) and the mask of the replaced samples (non-finite and
+        gross samples, bursts, then spikes).
     """
-    spikes = find_spikes(x, scale)
-    y = repair(x, spikes)
-    bursts = find_bursts(y, scale)
-    if not bursts.any():
-        return y, spikes
-    mask = spikes | bursts
+    with np.errstate(invalid='ignore'):
+        gross = ~np.isfinite(x) | (np.abs(x) > GROSS_FACTOR * scale if scale > 0 else False)
+    # bursts before spikes: a burst's samples would shift the running median of the
+    # good samples next to it and make them look like spikes
+    bursts = find_bursts(repair(x, gross), scale)
+    pre = gross | bursts
+    mask = pre | find_spikes(repair(x, pre), scale)
     return repair(x, mask), mask
 
 
