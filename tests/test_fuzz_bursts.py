@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import functools
+import json
 import math
 import time
 from pathlib import Path
@@ -254,3 +255,10 @@ def test_commands_on_records_with_bursts(bursts: list[tuple[int, float, int, flo
         check_failure(r, 'discrepancy', d / 'x')
         assert r.rc == 0, r.stderr
         assert time.monotonic() - t0 < LIMIT_S
+        # bursts wholly inside the window (0.6-1.8 s): counted in discrepancy.json
+        inside = [
+            (int(w * n), int(w * n) + m) for _, w, m, _ in bursts if 1200 < int(w * n) < 3600 - m
+        ]
+        rep = json.loads((d / 'x' / 'discrepancy.json').read_text())['input']
+        assert rep['bursts'] >= (1 if inside else 0)
+        assert rep['quality'] == ('ok' if rep['spikes'] == 0 else rep['quality'])
