@@ -140,7 +140,9 @@ def _reference_blocks(rpm: float, n_blocks: int, seed: int) -> list[PendingBlock
 
 
 def blk_time(blk: PendingBlock) -> np.ndarray:
-    return blk.t_start + np.arange(blk.torsion.shape[0]) / blk.fs
+    """Sample times of a block [s]."""
+    out: np.ndarray = blk.t_start + np.arange(blk.torsion.shape[0]) / blk.fs
+    return out
 
 
 def accuracy_and_speed(n_blocks: int, n_records: int) -> None:

@@ -140,7 +140,7 @@ def _true_counts(rec: RecordTruth, t0: float, t1: float) -> int:
 
 
 def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: float) -> Row:
-    rig = RigParams.from_mapping(base)  # type: ignore[arg-type]
+    rig = RigParams.from_mapping(base)
     law = (
         FrictionLaw(*c.law, k=float(base['k']))  # type: ignore[arg-type]
         if c.law

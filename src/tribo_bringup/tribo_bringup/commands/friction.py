@@ -16,12 +16,15 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from tribo_bringup.argtypes import bounded_float
 from tribo_bringup.errors import BagError, BagTruncatedError
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.blockfit import BlockDetail
 
 #: Observer samples kept per block for the mu-vs-slip-speed figure.
 _POINTS_PER_BLOCK = 60
@@ -29,7 +32,7 @@ _POINTS_PER_BLOCK = 60
 _DETAIL_S = 0.15
 
 
-def register(sub: Any) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``friction`` subcommand."""
     p = sub.add_parser(
         'friction',
@@ -136,9 +139,11 @@ def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
 
 
 def bag_events(path: Path, namespace: str | None = None) -> Iterator[Any]:
-    """Aligner events from the ``rig/*`` SampleBlock streams of a bag, of the rig in
-    ``namespace`` (default: the only rig of the bag)
-    (:func:`tribo_bringup.sessions.rig_bag_events`)."""
+    """Read aligner events from the ``rig/*`` SampleBlock streams of a bag.
+
+    Of the rig in ``namespace`` (default: the only rig of the bag)
+    (:func:`tribo_bringup.sessions.rig_bag_events`).
+    """
     from tribo_bringup.sessions import rig_bag_events
 
     return rig_bag_events(path, namespace)
@@ -155,7 +160,8 @@ class _Collector:
         #: time origin of the figures [s]: bags carry wall-clock stamps, shown from the start
         self.origin: float | None = None
 
-    def add(self, det: Any) -> None:
+    def add(self, det: BlockDetail) -> None:
+        """Keep the figure data of one evaluated block."""
         from tribo_estimation.plots import DetailTrace, time_origin
 
         d = det.data
@@ -225,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
     last_report = t_wall
     with atomic_output_dir(out) as stage, BlockCsvWriter(stage / 'blocks.csv') as writer:
 
-        def handle(det: Any) -> None:
+        def handle(det: BlockDetail) -> None:
             nonlocal last_report
             while warnings:
                 print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)

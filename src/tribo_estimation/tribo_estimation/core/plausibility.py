@@ -194,8 +194,11 @@ def find_bursts(x: FloatArray, scale: float, max_len: int = BURST_MAX) -> npt.ND
 
 
 def repair(x: FloatArray, mask: npt.NDArray[np.bool_]) -> FloatArray:
-    """``x`` with the masked samples replaced by linear interpolation of the
-    unmasked ones (constant beyond the ends). All masked: zeros."""
+    """Replace the masked samples of ``x``.
+
+    By linear interpolation of the unmasked ones (constant beyond the ends); all
+    masked: zeros.
+    """
     if not mask.any():
         return x
     good = np.flatnonzero(~mask)
@@ -211,11 +214,16 @@ def repair(x: FloatArray, mask: npt.NDArray[np.bool_]) -> FloatArray:
 class Scales:
     """Physical scales of the rig's channels (SI).
 
-    Attributes:
-        torque: friction moment ``F_N R mu`` with the larger mu of RIG.yaml [N m].
-        accel: ``torque / I1`` [rad/s^2].
-        speed: ``|nominal_speed|`` [rad/s] (0: drive at rest).
-        f_stick_slip: natural frequency of the chamber ``sqrt(C1/I1)/(2 pi)`` [Hz].
+    Attributes
+    ----------
+    torque
+        friction moment ``F_N R mu`` with the larger mu of RIG.yaml [N m].
+    accel
+        ``torque / I1`` [rad/s^2].
+    speed
+        ``|nominal_speed|`` [rad/s] (0: drive at rest).
+    f_stick_slip
+        natural frequency of the chamber ``sqrt(C1/I1)/(2 pi)`` [Hz].
     """
 
     torque: float
@@ -225,6 +233,22 @@ class Scales:
 
     @classmethod
     def of(cls, rig: RigParams, friction: FrictionLaw, nominal_speed: float) -> Scales:
+        """Take the scales from the rig config.
+
+        Parameters
+        ----------
+        rig : RigParams
+            Rig parameters (F_N [N], R [m], I1 [kg m^2], C1 [N m/rad]).
+        friction : FrictionLaw
+            Friction law of the config (the larger of mu0, mu_inf counts).
+        nominal_speed : float
+            Drive speed of the config [rad/s].
+
+        Returns
+        -------
+        Scales
+            The physical scales of the channels.
+        """
         mu = max(friction.mu0, friction.mu_inf, 0.01)
         torque = rig.F_N * rig.R * mu
         return cls(
@@ -236,9 +260,12 @@ class Scales:
 
     @classmethod
     def from_data(cls, torque: FloatArray, accel: FloatArray, speed: FloatArray) -> Scales:
-        """Scales from the record itself (median of each |channel|: robust to bursts
+        """Take the scales from the record itself.
+
+        Median of each |channel| (robust to bursts
         of up to half the record), for a record without a rig config (free decay);
-        ``f_stick_slip`` is NaN."""
+        ``f_stick_slip`` is NaN.
+        """
 
         def amp(x: FloatArray) -> float:
             a = np.abs(x[np.isfinite(x)])
@@ -253,8 +280,11 @@ def _amp(x: FloatArray) -> float:
 
 
 def check_time_base(fs: float, source: str, f_stick_slip: float | None = None) -> None:
-    """Refuse a sample rate [Hz] outside 0.1-100 kHz (naming the likely time unit)
-    or too slow for the stick-slip frequency ``f_stick_slip`` [Hz]."""
+    """Refuse a sample rate [Hz] that the rig cannot have.
+
+    Outside 0.1-100 kHz (naming the likely time unit) or too slow for the
+    stick-slip frequency ``f_stick_slip`` [Hz].
+    """
     if not math.isfinite(fs) or fs <= 0.0:
         raise TimeBaseError(f'{source}: time column gives no sample rate ({fs} Hz)')
     if fs < FS_MIN:
@@ -358,6 +388,7 @@ class SpikeLog:
     done: int = 0
 
     def add(self, first_index: int, mask: npt.NDArray[np.bool_]) -> None:
+        """Log the replaced samples of a chunk starting at sample ``first_index``."""
         if mask.any():
             self.indices.append(first_index + np.flatnonzero(mask).astype(np.int64))
 
@@ -477,9 +508,12 @@ def repair_summary(mask: npt.NDArray[np.bool_]) -> dict[str, int | str]:
 
 
 class _Despiker:
-    """Spike and burst repair across chunk boundaries: the last :data:`EDGE_HOLD`
+    """Repair spikes and bursts across chunk boundaries.
+
+    The last :data:`EDGE_HOLD`
     samples of a chunk wait for the next contiguous chunk, so a step of the signal
-    or a burst at a chunk edge is judged with samples on both sides."""
+    or a burst at a chunk edge is judged with samples on both sides.
+    """
 
     def __init__(self, scales: Scales, log: SpikeLog) -> None:
         self.scales = scales
@@ -550,11 +584,14 @@ def checked_chunks(
     warn: list[str],
     check_samples: int = 20_000,
 ) -> Iterator[AlignEvent]:
-    """Pass aligner events through: the first ``check_samples`` samples are checked
+    """Pass aligner events through the checks and the repair.
+
+    The first ``check_samples`` samples are checked
     (time base and channels; warnings appended to ``warn``) before anything is
     yielded, spikes of every :class:`~tribo_estimation.core.align.AlignedChunk`
     are repaired (:func:`find_spikes`, judged across chunk boundaries) and logged
-    in ``log``."""
+    in ``log``.
+    """
     held: list[AlignEvent] = []
     n_held = 0
     checked = False

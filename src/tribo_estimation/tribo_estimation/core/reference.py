@@ -173,7 +173,8 @@ class SpeedProfile:
         """w0(t) [rad/s], vectorised."""
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         bp = np.asarray(self.breakpoints, dtype=float)
-        return np.interp(tt, bp[:, 0], bp[:, 1])
+        out: np.ndarray = np.interp(tt, bp[:, 0], bp[:, 1])
+        return out
 
     def angle(self, t: np.ndarray | float) -> np.ndarray:
         """phi0(t) [rad], vectorised."""
@@ -377,9 +378,11 @@ def simulate_reference(
             events.append(ev_slip)
             if not peak:
 
-                def ev_peak(tt: float, yy: np.ndarray, mode: tuple = mode) -> float:
+                def ev_peak(
+                    tt: float, yy: np.ndarray, mode: tuple[bool, float, bool] = mode
+                ) -> float:
                     d = mdl.rhs(tt, yy, *mode)
-                    return mode[1] * (d[3] - d[1])
+                    return float(mode[1] * (d[3] - d[1]))
 
                 events.append(ev_peak)
         for ev in events:

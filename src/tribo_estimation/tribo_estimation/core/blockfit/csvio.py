@@ -104,18 +104,23 @@ class BlockCsvWriter:
         self._fh.close()
 
     def __enter__(self) -> BlockCsvWriter:
+        """Return the writer (context manager)."""
         return self
 
     def __exit__(self, *exc: object) -> None:
+        """Close the file."""
         self.close()
 
 
 def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """Read a ``blocks.csv`` into column arrays (float for numbers, object for text).
 
-    Raises:
-        MissingColumnError: a required column is missing (named in the message).
-        InvalidDataError: the file cannot be read or a number column holds text.
+    Raises
+    ------
+    MissingColumnError
+        a required column is missing (named in the message).
+    InvalidDataError
+        the file cannot be read or a number column holds text.
     """
     p = os.fspath(path)
     try:

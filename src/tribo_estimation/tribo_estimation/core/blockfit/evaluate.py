@@ -55,8 +55,11 @@ MIN_BREAKAWAYS = 3
 
 # ============================================================ signal checks
 def is_saturated(x: FloatArray, run: int) -> bool:
-    """True if ``x`` holds ``run`` or more equal consecutive samples at its max or min
-    (a clipped sensor). A constant signal is not called saturated."""
+    """Tell whether ``x`` looks clipped.
+
+    True if ``x`` holds ``run`` or more equal consecutive samples at its max or min
+    (a clipped sensor). A constant signal is not called saturated.
+    """
     n = x.shape[0]
     if n < run:
         return False
@@ -186,8 +189,10 @@ def _check_speed_units(cfg: BlockConfig, speed: FloatArray) -> None:
 def _torsion_lag(
     cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
 ) -> float:
-    """The torsion amplifier's lag [s]: configured, else estimated from the block
-    (below 0.1 ms taken as none)."""
+    """Return the torsion amplifier's lag [s].
+
+    Configured, else estimated from the block (below 0.1 ms taken as none).
+    """
     if cfg.torsion_lag is not None:
         return cfg.torsion_lag
     try:
@@ -200,8 +205,11 @@ def _torsion_lag(
 def _compensated_torsion(
     cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
 ) -> tuple[FloatArray, float]:
-    """The torsion moment [N m] with the amplifier's first-order lag taken out (the
-    mean kept), and the lag [s] (0: none, ``torsion`` returned as it is)."""
+    """Take the amplifier's first-order lag out of the torsion moment.
+
+    Returns the torsion moment [N m] with the lag taken out (the mean kept) and
+    the lag [s] (0: none, ``torsion`` returned as it is).
+    """
     tau_t = _torsion_lag(cfg, rig, torsion, accel, fs)
     if tau_t <= 0.0:
         return torsion, tau_t
@@ -211,7 +219,7 @@ def _compensated_torsion(
 
 
 def _stick_mask(phases: list[StickPhase], n: int, fs: float) -> BoolArray:
-    """True at the samples of the stick phases (block-local times [s])."""
+    """Mark the samples of the stick phases (block-local times [s])."""
     stick = np.zeros(n, dtype=bool)
     for ph in phases:
         i0 = max(0, math.ceil(ph.start * fs - 1e-9))
@@ -221,8 +229,11 @@ def _stick_mask(phases: list[StickPhase], n: int, fs: float) -> BoolArray:
 
 
 def _judged(out: FitOutcome, phases: list[StickPhase]) -> tuple[FitOutcome, bool]:
-    """The outcome with mu0 withheld where the data do not determine it, and whether
-    the fit failed (not converged, non-finite or mu_inf's relative se above 50 %).
+    """Judge a fit outcome.
+
+    Returns the outcome with mu0 withheld where the data do not determine it, and
+    whether the fit failed (not converged, non-finite or mu_inf's relative se
+    above 50 %).
 
     mu0 is seen only at breakaways: with fewer than :data:`MIN_BREAKAWAYS` stick
     phases, or a relative se above 50 %, it is not reported (slip-slip without any
@@ -269,7 +280,7 @@ class _Outcome:
 def _detail(
     blk: PendingBlock, friction: FrictionLaw, cfg: BlockConfig, a: int, b: int, o: _Outcome
 ) -> BlockDetail:
-    """The :class:`BlockDetail` of block ``blk`` whose valid samples are ``[a, b)``.
+    """Build the :class:`BlockDetail` of block ``blk`` (valid samples ``[a, b)``).
 
     The torsion-moment statistics are those of the signal the fit saw (lag
     compensated when it was).

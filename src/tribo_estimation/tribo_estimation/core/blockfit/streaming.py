@@ -200,7 +200,8 @@ def estimate_blocks(
 class MomentChunk:
     """Observer friction moment M [N m] for samples ``first_index ...`` (``/friction/moment``).
 
-    ``t0`` time of the first sample [s], ``sample_rate`` [Hz]."""
+    ``t0`` time of the first sample [s], ``sample_rate`` [Hz].
+    """
 
     first_index: int
     t0: float
@@ -260,8 +261,11 @@ class StreamingPipeline:
         return self.estimator.evaluate(blk).result
 
     def warm_up(self) -> None:
-        """Fit a short simulated stretch once, so the compiled code is loaded before
-        the first real block ends (keeps the first estimate's latency low)."""
+        """Fit a short simulated stretch once.
+
+        The compiled code is then loaded before the first real block ends (keeps
+        the first estimate's latency low).
+        """
         from ..simulate import simulate
 
         est = self.estimator
