@@ -122,6 +122,34 @@ def test_bursts_at_the_ends_and_a_lasting_step() -> None:
     assert not find_bursts(z, s).any()
 
 
+@pytest.mark.parametrize(('fs', 'duration'), [(2000.0, 3.0), (1000.0, 5.0)])
+def test_free_decay_far_above_its_median_has_no_bursts(fs: float, duration: float) -> None:
+    """Without a rig config the scales are the record's medians (tribo decay): a long
+    free decay starts 100x above them; its steps must not be taken for bursts, while
+    a burst 10x above the start amplitude still is."""
+    from tribo_estimation.core.config import load_rig_config
+    from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
+    from tribo_estimation.core.plausibility import Scales, despike_chunk
+    from tribo_estimation.core.simulate import free_decay_state, simulate
+
+    cfg = load_rig_config(ROOT / 'config' / 'rig_decay_example.yaml')
+    rig = RigParams(**{**cfg.rig.__dict__, 'F_N': 0.0})
+    r = simulate(rig, FrictionLaw(0.0, 0.0), DriveProfile(0.0), duration, fs,
+                 initial=free_decay_state(0.01), noise=cfg.noise,
+                 seed=np.random.default_rng(2))  # fmt: skip
+    tq, ac, sp = r.torsion_moment, r.angular_acceleration, r.speed
+    sc = Scales.from_data(tq, ac, sp)
+    assert np.max(np.abs(tq)) > 20 * sc.torque  # the decay spans far more than its median
+    t, a, _, _ = despike_chunk(tq, ac, sp, sc)
+    np.testing.assert_array_equal(t, tq)  # nothing replaced in torsion and acceleration
+    np.testing.assert_array_equal(a, ac)
+    bad = tq.copy()
+    i = tq.size // 2
+    bad[i : i + 20] = 10 * np.max(np.abs(tq))
+    t, *_ = despike_chunk(bad, ac, sp, Scales.from_data(bad, ac, sp))
+    assert np.max(np.abs(t[i : i + 20])) <= np.max(np.abs(tq[i - 50 : i + 70]))
+
+
 def test_burst_across_chunk_edges_same_as_whole() -> None:
     from tribo_estimation.core.align import AlignedChunk
     from tribo_estimation.core.plausibility import SpikeLog, checked_chunks, despike_chunk

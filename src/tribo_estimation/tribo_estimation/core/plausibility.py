@@ -224,12 +224,17 @@ class Scales:
         ``|nominal_speed|`` [rad/s] (0: drive at rest).
     f_stick_slip
         natural frequency of the chamber ``sqrt(C1/I1)/(2 pi)`` [Hz].
+    from_record
+        True when the scales are the record's own medians (no rig config,
+        :meth:`from_data`): not physical bounds, so a burst must also stand out
+        of the record's own amplitude (:func:`despike_chunk`).
     """
 
     torque: float
     accel: float
     speed: float
     f_stick_slip: float
+    from_record: bool = False
 
     @classmethod
     def of(cls, rig: RigParams, friction: FrictionLaw, nominal_speed: float) -> Scales:
@@ -271,7 +276,7 @@ class Scales:
             a = np.abs(x[np.isfinite(x)])
             return float(np.median(a)) if a.size else 0.0
 
-        return cls(amp(torque), amp(accel), amp(speed), math.nan)
+        return cls(amp(torque), amp(accel), amp(speed), math.nan, True)
 
 
 def _amp(x: FloatArray) -> float:
@@ -426,7 +431,9 @@ class SpikeLog:
         return self.done + int(sum(a.size for a in self.indices))
 
 
-def despike(x: FloatArray, scale: float) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+def despike(
+    x: FloatArray, scale: float, burst_scale: float | None = None
+) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
     """Repair the spikes and then the bursts of one channel.
 
     Parameters
@@ -436,6 +443,8 @@ def despike(x: FloatArray, scale: float) -> tuple[FloatArray, npt.NDArray[np.boo
     scale : float
         Physical scale of the channel [unit of the channel] (``<= 0``: none
         known; spikes only).
+    burst_scale : float or None
+        Scale of the burst steps (:func:`find_bursts`) when not ``scale``.
 
     Returns
     -------
@@ -448,10 +457,26 @@ def despike(x: FloatArray, scale: float) -> tuple[FloatArray, npt.NDArray[np.boo
         gross = ~np.isfinite(x) | (np.abs(x) > GROSS_FACTOR * scale if scale > 0 else False)
     # bursts before spikes: a burst's samples would shift the running median of the
     # good samples next to it and make them look like spikes
-    bursts = find_bursts(repair(x, gross), scale)
+    y = repair(x, gross)
+    bursts = find_bursts(y, scale if burst_scale is None else burst_scale)
     pre = gross | bursts
     mask = pre | find_spikes(repair(x, pre), scale)
     return repair(x, mask), mask
+
+
+def _own_amplitude(x: FloatArray, scale: float) -> float:
+    """Return the record's own amplitude [unit of x].
+
+    The larger of ``scale`` and the 99th percentile of ``|x - median(x)|`` over
+    the finite samples within ``GROSS_FACTOR * scale`` (0 when ``scale <= 0``).
+    """
+    if not scale > 0.0:
+        return 0.0
+    ok = np.isfinite(x) & (np.abs(x) <= GROSS_FACTOR * scale)
+    if not ok.any():
+        return scale
+    xs = x[ok]
+    return max(scale, float(np.percentile(np.abs(xs - np.median(xs)), 99.0)))
 
 
 def despike_chunk(
@@ -474,6 +499,13 @@ def despike_chunk(
     """
     st, sa = scales.torque, scales.accel  # 0 (no F_N): no gross bound, spikes only
     sv = max(scales.speed, 1.0)
+    if scales.from_record:
+        # the record's medians are no bound: a free decay starts far above its median,
+        # so a burst must also step by more than the record's own amplitude
+        t, mt = despike(torsion, st, _own_amplitude(torsion, st))
+        a, ma = despike(accel, sa, _own_amplitude(accel, sa))
+        v, mv = despike(speed, sv, _own_amplitude(speed, sv))
+        return t, a, v, mt | ma | mv
     t, mt = despike(torsion, st)
     a, ma = despike(accel, sa)
     v, mv = despike(speed, sv)
