@@ -94,6 +94,8 @@ def tribo(*args: str) -> Run:
     if FUZZ_LOG:
         with open(FUZZ_LOG, 'a', encoding='utf-8') as fh:
             fh.write(f'{args[0] if args else "-"} {rc} {time.monotonic() - t0:.3f}\n')
+    if rc == 130:  # Ctrl-C of the test run itself (the command answered it): stop the run
+        raise KeyboardInterrupt
     msg = err.getvalue().strip().splitlines()[-1:] if rc else []
     kind = msg[0].split(': error: ')[-1].split(':')[-1][:40] if msg else ''
     with contextlib.suppress(Exception):  # outside @given: no statistics
