@@ -70,13 +70,14 @@ FS = 10_000.0
 
 
 def rad_s(rpm: float) -> float:
+    """Convert rpm to rad/s."""
     return rpm * math.pi / 30.0
 
 
 def _blocks(
     rpm: float, n_blocks: int, seed: int
 ) -> tuple[list[PendingBlock], list[RigState | None]]:
-    """Simulated 1 s blocks (chunk-wise, state carried) and the true state at each start."""
+    """Simulate 1 s blocks (chunk-wise, state carried); also the true state at each start."""
     rng = np.random.default_rng(seed)
     out: list[PendingBlock] = []
     states: list[RigState | None] = []
@@ -103,9 +104,12 @@ def _blocks(
 
 
 def _reference_blocks(rpm: float, n_blocks: int, seed: int) -> list[PendingBlock]:
-    """1 s blocks of one record of the independent generator (its own equations of
+    """Cut one record of the independent generator into 1 s blocks.
+
+    Its own equations of
     motion and instrument model, :mod:`core.reference_records`): start-up ramp of
-    0.5 s to ``rpm``, the issue's white noise per channel, 10 kHz."""
+    0.5 s to ``rpm``, the issue's white noise per channel, 10 kHz.
+    """
     from tribo_estimation.core.reference import SpeedProfile
     from tribo_estimation.core.reference_records import RecordSpec, make_record, rig_channels
 
@@ -184,6 +188,7 @@ def accuracy_and_speed(n_blocks: int, n_records: int) -> None:
 
 
 def plain_scipy_fit(rpm: float = 30.0) -> None:
+    """Compare one block's fit with a plain scipy least_squares + solve_ivp fit."""
     from scipy.optimize import least_squares
 
     from tribo_estimation.core.reference import simulate_reference
@@ -227,6 +232,7 @@ def plain_scipy_fit(rpm: float = 30.0) -> None:
 
 
 def streaming_memory(hours: float) -> None:
+    """Stream ``hours`` of 10 kHz data through aligner and estimator; print the peak RSS."""
     rpm = 30.0
     n_blocks = max(1, round(hours * 3600.0))
     cfg = BlockConfig(nominal_speed=rad_s(rpm), ramp_time=0.5)
@@ -281,6 +287,7 @@ def streaming_memory(hours: float) -> None:
 
 
 def main() -> None:
+    """Run the benchmark (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--hours', type=float, default=1.0, help='length of the streaming run [h]')
     ap.add_argument('--quick', action='store_true', help='short run (6 min of data)')

@@ -62,9 +62,12 @@ TARGET_COUNT = 0.05
 
 @dataclass(frozen=True)
 class Condition:
-    """One row of the matrix: speed [rpm] (first speed of a step), ``step_to`` [rpm]
+    """Describe one row of the matrix.
+
+    Speed [rpm] (first speed of a step), ``step_to`` [rpm]
     (0 = none), ``startup`` in the record, speed lag [s], torsion lag [s], noise
-    scale [-], friction law (None = RIG.yaml's)."""
+    scale [-], friction law (None = RIG.yaml's).
+    """
 
     name: str
     speed: float
@@ -92,6 +95,7 @@ class Row:
 
 
 def conditions(quick: bool) -> list[Condition]:
+    """List the conditions of the matrix (``quick``: a short subset)."""
     if quick:
         return [
             Condition('base 25', 25),
@@ -140,6 +144,7 @@ def _true_counts(rec: RecordTruth, t0: float, t1: float) -> int:
 
 
 def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: float) -> Row:
+    """Generate the record of condition ``c`` and run ``tribo friction`` on it."""
     rig = RigParams.from_mapping(base)
     law = (
         FrictionLaw(*c.law, k=float(base['k']))  # type: ignore[arg-type]
@@ -212,6 +217,7 @@ def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: fl
 
 
 def main(argv: list[str] | None = None) -> list[Row]:
+    """Run the matrix and print its table; returns the rows."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='three conditions of 2 s')
     ap.add_argument('--duration', type=float, default=None, help='record length [s] (3)')
