@@ -1,4 +1,4 @@
-"""Bursts (runs of 3-64 corrupted samples: a saturating channel, an ADC glitch) are
+"""Bursts (runs of 3-512 corrupted samples: a saturating channel, an ADC glitch) are
 found, repaired, counted per block and left out of the fits (issue 15).
 
 Records come from the independent generator (core.reference_records: its own
@@ -118,7 +118,7 @@ def test_bursts_at_the_ends_and_a_lasting_step() -> None:
     y[5000:] += 10 * s  # a lasting offset step is no burst
     assert not find_bursts(y, s).any()
     z = tq.copy()
-    z[3000:3065] = 20 * s  # 65 samples: longer than BURST_MAX, left to the block checks
+    z[3000:3513] = 20 * s  # 513 samples: longer than BURST_MAX, left to the block checks
     assert not find_bursts(z, s).any()
 
 

@@ -77,6 +77,8 @@ class Run:
 #: seconds`` each, appended as the run ends, so a long fuzz run that is stopped early
 #: still tells how many inputs each command got.
 FUZZ_LOG = os.environ.get('FUZZ_LOG', '')
+#: The generated input of the running example (for :data:`FUZZ_LOG`).
+_CURRENT: dict[str, str] = {}
 
 
 def tribo(*args: str) -> Run:
@@ -94,8 +96,10 @@ def tribo(*args: str) -> Run:
     if FUZZ_LOG:
         with open(FUZZ_LOG, 'a', encoding='utf-8') as fh:
             fh.write(f'{args[0] if args else "-"} {rc} {time.monotonic() - t0:.3f}\n')
-    if rc == 130:  # Ctrl-C of the test run itself (the command answered it): stop the run
-        raise KeyboardInterrupt
+            if rc not in (0, 2):  # the input of a bug or a hang, for a replay
+                fh.write(f'# input: {_CURRENT.get("input", "?")}\n')
+    if rc == 130 and os.environ.get('HYPOTHESIS_PROFILE') == 'fuzz':
+        raise KeyboardInterrupt  # Ctrl-C of a long fuzz run (the command answered it): stop
     msg = err.getvalue().strip().splitlines()[-1:] if rc else []
     kind = msg[0].split(': error: ')[-1].split(':')[-1][:40] if msg else ''
     with contextlib.suppress(Exception):  # outside @given: no statistics
@@ -264,6 +268,7 @@ def _floats(path: Path, col: str) -> np.ndarray:
 # ----------------------------------------------------------------------------- friction
 @given(ops=st.lists(mutation, min_size=1, max_size=3), bops=st.lists(byte_mutation, max_size=1))
 def test_friction_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_record(), ops), bops))
         out = d / 'out'
@@ -286,6 +291,7 @@ def test_friction_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
 # ----------------------------------------------------------------------------- decay
 @given(ops=st.lists(mutation, min_size=1, max_size=3), bops=st.lists(byte_mutation, max_size=1))
 def test_decay_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_decay(), ops), bops))
         out = d / 'out'
@@ -302,6 +308,7 @@ def test_decay_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
 # ----------------------------------------------------------------------------- discrepancy
 @given(ops=st.lists(mutation, min_size=1, max_size=2), bops=st.lists(byte_mutation, max_size=1))
 def test_discrepancy_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_record(), ops), bops))
         out = d / 'out'

@@ -66,8 +66,11 @@ MEDIAN_WIDTH = 5
 #: A sample beyond this many physical scales is never a measurement.
 GROSS_FACTOR = 1e3
 #: Longest burst (a run of corrupted samples: a saturating channel, an ADC glitch)
-#: that is repaired [samples]; a longer excursion is left to the block checks.
-BURST_MAX = 64
+#: that is repaired [samples]; a longer excursion is left to the block checks. A
+#: burst needs two steps no physical signal makes, so a long limit finds nothing
+#: in clean records; it keeps a 100-400-sample burst from the fits (at the start of
+#: a record one drove the discrepancy fit's simulations 200x slower).
+BURST_MAX = 512
 #: A step of a channel between two samples larger than this many physical scales
 #: is not physical (torsion moment and speeds are continuous states; the
 #: acceleration jumps by at most about one scale at a re-stick, Equ. 1) [-].
