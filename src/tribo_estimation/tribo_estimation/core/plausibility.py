@@ -103,7 +103,9 @@ def find_spikes(x: FloatArray, scale: float) -> npt.NDArray[np.bool_]:
     """Mask of isolated spikes and gross outliers in ``x``.
 
     ``scale`` is the channel's physical scale (same unit as ``x``): a sample
-    more than ``GROSS_FACTOR * scale`` from zero (``scale > 0``) is always an outlier; otherwise
+    more than ``GROSS_FACTOR * scale`` from zero (``scale > 0``; without a scale,
+    ``GROSS_FACTOR`` times the channel's 1-99 % range from its median) is always
+    an outlier; otherwise
     (not within two samples of either end, where a step cannot be told from a
     spike) a spike needs a residual above ``SPIKE_SIGMA`` robust
     standard deviations and above ``SPIKE_RANGE`` times the channel's
@@ -124,7 +126,12 @@ def find_spikes(x: FloatArray, scale: float) -> npt.NDArray[np.bool_]:
         lo, hi = np.percentile(xs, [1.0, 99.0])
         span = float(hi - lo) if math.isfinite(float(hi - lo)) else math.inf
         thr = max(SPIKE_SIGMA * sigma, SPIKE_RANGE * span, 1e-12 * max(scale, 0.0))
-        gross = np.abs(xs) > GROSS_FACTOR * scale if scale > 0 else np.zeros(n, dtype=bool)
+        if scale > 0:
+            gross = np.abs(xs) > GROSS_FACTOR * scale
+        else:  # no physical scale: GROSS_FACTOR times the channel's own 1-99 % range off
+            # its median (a constant channel: any other value; also at the two end
+            # samples, where the running median cannot judge)
+            gross = np.abs(xs - float(np.median(xs))) > GROSS_FACTOR * span
         out: npt.NDArray[np.bool_] = bad | gross | ~np.isfinite(res) | (res > thr)
     return out
 
