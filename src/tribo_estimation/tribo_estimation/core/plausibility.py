@@ -65,6 +65,8 @@ SPIKE_RANGE = 0.2
 MEDIAN_WIDTH = 5
 #: A sample beyond this many physical scales is never a measurement.
 GROSS_FACTOR = 1e3
+#: No channel of the rig measures a magnitude beyond this (SI units) [-].
+ABSURD = 1e30
 #: Longest burst (a run of corrupted samples: a saturating channel, an ADC glitch)
 #: that is repaired [samples]; a longer excursion is left to the block checks. A
 #: burst needs two steps no physical signal makes, so a long limit finds nothing
@@ -274,19 +276,51 @@ class Scales:
         )
 
     @classmethod
-    def from_data(cls, torque: FloatArray, accel: FloatArray, speed: FloatArray) -> Scales:
+    def from_data(
+        cls, torque: FloatArray, accel: FloatArray, speed: FloatArray, source: str = 'record'
+    ) -> Scales:
         """Take the scales from the record itself.
 
-        Median of each |channel| (robust to bursts
-        of up to half the record), for a record without a rig config (free decay);
-        ``f_stick_slip`` is NaN.
+        Median of each |channel| (robust to bursts of up to half the record), for a
+        record without a rig config (free decay); ``f_stick_slip`` is NaN.
+
+        Parameters
+        ----------
+        torque, accel, speed : numpy.ndarray
+            Torsion moment [N m], chamber acceleration [rad/s^2], shaft speed [rad/s].
+        source : str
+            Name of the record for messages.
+
+        Returns
+        -------
+        Scales
+            The record's own scales (``from_record`` True).
+
+        Raises
+        ------
+        UnitError
+            A channel's median is beyond :data:`ABSURD` (no rig measures that:
+            most of the channel is garbage).
         """
 
-        def amp(x: FloatArray) -> float:
+        def amp(x: FloatArray, name: str) -> float:
             a = np.abs(x[np.isfinite(x)])
-            return float(np.median(a)) if a.size else 0.0
+            with np.errstate(over='ignore', invalid='ignore'):  # median of two 1e308
+                med = float(np.median(a)) if a.size else 0.0
+            if med > ABSURD:
+                raise UnitError(
+                    f'{source}: {name} is not a measurement: median |value| {med:.3g} '
+                    f'(most samples beyond {ABSURD:g})'
+                )
+            return med
 
-        return cls(amp(torque), amp(accel), amp(speed), math.nan, True)
+        return cls(
+            amp(torque, 'torsion_moment'),
+            amp(accel, 'angular_acceleration'),
+            amp(speed, 'speed'),
+            math.nan,
+            True,
+        )
 
 
 def _amp(x: FloatArray) -> float:
