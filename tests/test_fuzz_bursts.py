@@ -150,6 +150,15 @@ def test_free_decay_far_above_its_median_has_no_bursts(fs: float, duration: floa
     assert np.max(np.abs(t[i : i + 20])) <= np.max(np.abs(tq[i - 50 : i + 70]))
 
 
+def test_steps_within_the_noise_are_no_bursts() -> None:
+    from tribo_estimation.core.plausibility import find_bursts
+
+    x = np.random.default_rng(5).normal(0.0, 1.0, 137)  # steps above 3 scales, in the noise
+    assert not find_bursts(x, 0.1).any()
+    x[60:70] += 100.0  # 100 noise levels: a burst
+    assert list(np.flatnonzero(find_bursts(x, 0.1))) == list(range(60, 70))
+
+
 def test_burst_across_chunk_edges_same_as_whole() -> None:
     from tribo_estimation.core.align import AlignedChunk
     from tribo_estimation.core.plausibility import SpikeLog, checked_chunks, despike_chunk

@@ -180,6 +180,8 @@ def find_bursts(x: FloatArray, scale: float, max_len: int = BURST_MAX) -> npt.ND
     if math.isfinite(sig):
         thr = max(thr, SPIKE_SIGMA * math.sqrt(2.0) * sig)
     jumps = np.flatnonzero(step > thr)  # a step between sample j and j + 1
+    if jumps.size == 0:  # all steps within the noise
+        return out
     i = 0
     while i < jumps.size:
         s = int(jumps[i]) + 1  # first displaced sample
