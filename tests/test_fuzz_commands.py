@@ -94,9 +94,10 @@ def tribo(*args: str) -> Run:
         except SystemExit as exc:  # argparse
             rc = int(exc.code or 0)
     if FUZZ_LOG:
+        elapsed = time.monotonic() - t0
         with open(FUZZ_LOG, 'a', encoding='utf-8') as fh:
-            fh.write(f'{args[0] if args else "-"} {rc} {time.monotonic() - t0:.3f}\n')
-            if rc not in (0, 2):  # the input of a bug or a hang, for a replay
+            fh.write(f'{args[0] if args else "-"} {rc} {elapsed:.3f}\n')
+            if rc not in (0, 2) or elapsed > 10.0:  # a bug or a slow run: its input
                 fh.write(f'# input: {_CURRENT.get("input", "?")}\n')
     if rc == 130 and os.environ.get('HYPOTHESIS_PROFILE') == 'fuzz':
         raise KeyboardInterrupt  # Ctrl-C of a long fuzz run (the command answered it): stop
