@@ -77,13 +77,15 @@ test: setup
 	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
 
 # Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
-# runs its short profile): FUZZ_EXAMPLES generated bad inputs per command.
+# runs its short profile): FUZZ_EXAMPLES generated bad inputs per command (the burst
+# property test a quarter of them); FUZZ_LOG=path logs every command run (command,
+# exit code, seconds), so a run stopped early still tells how many inputs ran.
 FUZZ_EXAMPLES ?= 10000
 fuzz: setup
 	@echo '[fuzz] $(FUZZ_EXAMPLES) generated bad inputs per command and decoder'
 	@$(IN_ENV) HYPOTHESIS_PROFILE=fuzz HYPOTHESIS_MAX_EXAMPLES=$(FUZZ_EXAMPLES) python -m pytest -q \
 	  -n $(PYTEST_JOBS) --timeout=0 --hypothesis-show-statistics tests/test_fuzz_commands.py \
-	  tests/test_fuzz_decoders.py
+	  tests/test_fuzz_decoders.py tests/test_fuzz_bursts.py
 
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py

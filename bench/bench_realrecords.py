@@ -62,9 +62,12 @@ TARGET_COUNT = 0.05
 
 @dataclass(frozen=True)
 class Condition:
-    """One row of the matrix: speed [rpm] (first speed of a step), ``step_to`` [rpm]
+    """Describe one row of the matrix.
+
+    Speed [rpm] (first speed of a step), ``step_to`` [rpm]
     (0 = none), ``startup`` in the record, speed lag [s], torsion lag [s], noise
-    scale [-], friction law (None = RIG.yaml's)."""
+    scale [-], friction law (None = RIG.yaml's).
+    """
 
     name: str
     speed: float
@@ -92,6 +95,7 @@ class Row:
 
 
 def conditions(quick: bool) -> list[Condition]:
+    """List the conditions of the matrix (``quick``: a short subset)."""
     if quick:
         return [
             Condition('base 25', 25),
@@ -139,12 +143,26 @@ def _true_counts(rec: RecordTruth, t0: float, t1: float) -> int:
     return sum(1 for a, b in rec.sticks if t0 < a <= t1 and b - a >= MIN_STICK)
 
 
+def _num(base: dict[str, object], key: str) -> float:
+    """Return RIG.yaml's number ``key``."""
+    value = base[key]
+    if not isinstance(value, (int, float)):
+        raise TypeError(f'{RIG_YAML}: {key} is not a number: {value!r}')
+    return float(value)
+
+
+def _rig(base: dict[str, object]) -> RigParams:
+    """Return the rig of RIG.yaml's values."""
+    return RigParams.from_mapping({k: _num(base, k) for k in RigParams.field_names()})
+
+
 def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: float) -> Row:
-    rig = RigParams.from_mapping(base)  # type: ignore[arg-type]
+    """Generate the record of condition ``c`` and run ``tribo friction`` on it."""
+    rig = _rig(base)
     law = (
-        FrictionLaw(*c.law, k=float(base['k']))  # type: ignore[arg-type]
+        FrictionLaw(*c.law, k=_num(base, 'k'))
         if c.law
-        else FrictionLaw(float(base['mu0']), float(base['mu_inf']), float(base['k']))  # type: ignore[arg-type]
+        else FrictionLaw(_num(base, 'mu0'), _num(base, 'mu_inf'), _num(base, 'k'))
     )
     rec = _record(c, rig, law, duration)
     csv = tmp / f'{abs(hash(c.name))}.csv'
@@ -212,6 +230,7 @@ def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: fl
 
 
 def main(argv: list[str] | None = None) -> list[Row]:
+    """Run the matrix and print its table; returns the rows."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='three conditions of 2 s')
     ap.add_argument('--duration', type=float, default=None, help='record length [s] (3)')
@@ -248,8 +267,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
     worst_det = max(r.cnt_det for r in rows)
     print(f'stick detector: worst per-block count error {100 * worst_det:.1f} %')
     if not a.quick:
-        rig = RigParams.from_mapping(base)
-        law = FrictionLaw(float(base['mu0']), float(base['mu_inf']), float(base['k']))
+        rig = _rig(base)
+        law = FrictionLaw(_num(base, 'mu0'), _num(base, 'mu_inf'), _num(base, 'k'))
         tq, ac, sp = rig_channels(1.0, speed_lag=0.005)
         t0 = time.perf_counter()
         rec = make_record(

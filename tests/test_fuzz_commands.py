@@ -25,6 +25,7 @@ import math
 import os
 import signal
 import tempfile
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,17 +73,34 @@ class Run:
     stderr: str
 
 
+#: Optional log of every command run (``FUZZ_LOG=path``): one line ``command exit
+#: seconds`` each, appended as the run ends, so a long fuzz run that is stopped early
+#: still tells how many inputs each command got.
+FUZZ_LOG = os.environ.get('FUZZ_LOG', '')
+#: The generated input of the running example (for :data:`FUZZ_LOG`).
+_CURRENT: dict[str, str] = {}
+
+
 def tribo(*args: str) -> Run:
     """``tribo ARGS`` in-process within :data:`LIMIT_S`."""
     from tribo_bringup.cli import main
 
     out, err = io.StringIO(), io.StringIO()
+    t0 = time.monotonic()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             with _time_limit(LIMIT_S):
                 rc = main(list(args))
         except SystemExit as exc:  # argparse
             rc = int(exc.code or 0)
+    if FUZZ_LOG:
+        elapsed = time.monotonic() - t0
+        with open(FUZZ_LOG, 'a', encoding='utf-8') as fh:
+            fh.write(f'{args[0] if args else "-"} {rc} {elapsed:.3f}\n')
+            if rc not in (0, 2) or elapsed > 10.0:  # a bug or a slow run: its input
+                fh.write(f'# input: {_CURRENT.get("input", "?")}\n')
+    if rc == 130 and os.environ.get('HYPOTHESIS_PROFILE') == 'fuzz':
+        raise KeyboardInterrupt  # Ctrl-C of a long fuzz run (the command answered it): stop
     msg = err.getvalue().strip().splitlines()[-1:] if rc else []
     kind = msg[0].split(': error: ')[-1].split(':')[-1][:40] if msg else ''
     with contextlib.suppress(Exception):  # outside @given: no statistics
@@ -251,6 +269,7 @@ def _floats(path: Path, col: str) -> np.ndarray:
 # ----------------------------------------------------------------------------- friction
 @given(ops=st.lists(mutation, min_size=1, max_size=3), bops=st.lists(byte_mutation, max_size=1))
 def test_friction_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_record(), ops), bops))
         out = d / 'out'
@@ -273,6 +292,7 @@ def test_friction_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
 # ----------------------------------------------------------------------------- decay
 @given(ops=st.lists(mutation, min_size=1, max_size=3), bops=st.lists(byte_mutation, max_size=1))
 def test_decay_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_decay(), ops), bops))
         out = d / 'out'
@@ -289,6 +309,7 @@ def test_decay_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
 # ----------------------------------------------------------------------------- discrepancy
 @given(ops=st.lists(mutation, min_size=1, max_size=2), bops=st.lists(byte_mutation, max_size=1))
 def test_discrepancy_on_bad_records(ops: list[tuple], bops: list[tuple]) -> None:
+    _CURRENT['input'] = repr((ops, bops))
     with workdir() as d:
         (d / 'in.csv').write_bytes(render(mutate(base_record(), ops), bops))
         out = d / 'out'

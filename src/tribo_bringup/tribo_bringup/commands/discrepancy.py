@@ -167,13 +167,14 @@ def _candidate_names(args: argparse.Namespace) -> tuple[str, ...] | None:
 
 def _load_record(
     src: Path, args: argparse.Namespace, cfg: RigConfig
-) -> tuple[Record, Exception | None]:
+) -> tuple[Record, Exception | None, dict[str, int | str]]:
     """Read one input (rig CSV or bag) as a :class:`Record`.
 
     The record holds the ``--start``/``--duration`` window, its time base and
-    channels checked and its spikes repaired
-    (:mod:`tribo_estimation.core.plausibility`); also the truncation error of a bag
-    that ends early (its good part is returned).
+    channels checked and its spikes and bursts repaired
+    (:mod:`tribo_estimation.core.plausibility`); also returned are the truncation
+    error of a bag that ends early (its good part is returned) and the count of
+    replaced samples.
     """
     import numpy as np
 
@@ -184,6 +185,7 @@ def _load_record(
         check_channels,
         check_time_base,
         despike_chunk,
+        repair_summary,
     )
 
     if not src.exists():
@@ -216,8 +218,12 @@ def _load_record(
     )
     for w in check_channels(torque[sel], accel[sel], speed[sel], scales, str(src)):
         _say(f'warning: {w}')
-    if int(np.count_nonzero(spk)):
-        _say(f'{int(np.count_nonzero(spk))} spike samples replaced by interpolation')
+    repairs = repair_summary(spk[sel])
+    if repairs['spikes']:
+        _say(
+            f'{repairs["spikes"]} samples replaced by interpolation (spikes, '
+            f'{repairs["bursts"]} bursts; discrepancy.json "input")'
+        )
     record = Record(
         *(np.ascontiguousarray(a[sel], dtype=np.float64) for a in (t, torque, accel, speed))
     )
@@ -225,7 +231,19 @@ def _load_record(
         f'{record.time.size} samples at {record.fs:.0f} Hz '
         f'({record.time[-1] - record.time[0]:.2f} s)'
     )
-    return record, truncated
+    return record, truncated, repairs
+
+
+def _add_input(path: Path, repairs: dict[str, int | str]) -> None:
+    """Add the input's replaced samples to a written ``discrepancy.json``.
+
+    The ``input`` section holds the counts of spike and burst samples and the quality flag.
+    """
+    import json
+
+    data = json.loads(path.read_text())
+    data['input'] = repairs
+    path.write_text(json.dumps(data, indent=2, allow_nan=False) + '\n')
 
 
 def _check_window(args: argparse.Namespace) -> None:
@@ -255,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
         candidates=names,
         torsion_lag=not args.no_torsion_lag,
     )
-    record, truncated = _load_record(Path(args.input[0]), args, cfg)
+    record, truncated, repairs = _load_record(Path(args.input[0]), args, cfg)
     result = run_discrepancy(
         record, cfg.rig, cfg.drive, k=cfg.friction.k, settings=settings, progress=_say
     )
@@ -264,6 +282,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with atomic_output_dir(out) as stage:
         write_json(result, stage / 'discrepancy.json')
+        _add_input(stage / 'discrepancy.json', repairs)
         if not args.no_plots:
             from tribo_estimation.core.discrepancy.plots import write_plots
 
@@ -294,7 +313,7 @@ def _run_joint(args: argparse.Namespace) -> int:
     cfg = load_rig_config(args.rig)
     records = []
     for name in args.input:
-        record, truncated = _load_record(Path(name), args, cfg)
+        record, truncated, _ = _load_record(Path(name), args, cfg)
         if truncated is not None:
             raise truncated  # a joint fit needs every record whole
         records.append(record)

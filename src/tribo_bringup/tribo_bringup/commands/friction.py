@@ -11,18 +11,20 @@ the length of the session.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from tribo_bringup.argtypes import bounded_float
 from tribo_bringup.errors import BagError, BagTruncatedError
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.blockfit import BlockDetail
 
 #: Observer samples kept per block for the mu-vs-slip-speed figure.
 _POINTS_PER_BLOCK = 60
@@ -30,7 +32,7 @@ _POINTS_PER_BLOCK = 60
 _DETAIL_S = 0.15
 
 
-def register(sub: Any) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``friction`` subcommand."""
     p = sub.add_parser(
         'friction',
@@ -39,10 +41,12 @@ def register(sub: Any) -> None:
         '(paper Equ. 8) block by block from the torsion moment, the chamber acceleration '
         'and the shaft speed of a recorded session. Writes OUT/blocks.csv (one row per '
         'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
-        'fit_failed, short, spikes; the last column counts the spike samples replaced '
-        'before the fit) and the figures blocks.png, mu_slip.png and detail.png. The '
-        'channels are checked against the rig first: a torque in N mm, a speed in rpm or '
-        'a time in ms is named (exit 2); nothing is left in OUT on an error.',
+        'fit_failed, short, spikes, bursts, repaired; the last columns count the samples '
+        'replaced before the fit and the bursts among them: both are left out of the fit, '
+        'a block with over 20 %% replaced is not fitted) and the figures blocks.png, '
+        'mu_slip.png and detail.png. The channels are checked against the rig first: a '
+        'torque in N mm, a speed in rpm or a time in ms is named (exit 2); nothing is left '
+        'in OUT on an error.',
     )
     p.add_argument(
         'input', help='rig CSV (time,torsion_moment,angular_acceleration,speed in SI) or a bag'
@@ -135,9 +139,11 @@ def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
 
 
 def bag_events(path: Path, namespace: str | None = None) -> Iterator[Any]:
-    """Aligner events from the ``rig/*`` SampleBlock streams of a bag, of the rig in
-    ``namespace`` (default: the only rig of the bag)
-    (:func:`tribo_bringup.sessions.rig_bag_events`)."""
+    """Read aligner events from the ``rig/*`` SampleBlock streams of a bag.
+
+    Of the rig in ``namespace`` (default: the only rig of the bag)
+    (:func:`tribo_bringup.sessions.rig_bag_events`).
+    """
     from tribo_bringup.sessions import rig_bag_events
 
     return rig_bag_events(path, namespace)
@@ -154,7 +160,8 @@ class _Collector:
         #: time origin of the figures [s]: bags carry wall-clock stamps, shown from the start
         self.origin: float | None = None
 
-    def add(self, det: Any) -> None:
+    def add(self, det: BlockDetail) -> None:
+        """Keep the figure data of one evaluated block."""
         from tribo_estimation.plots import DetailTrace, time_origin
 
         d = det.data
@@ -193,12 +200,7 @@ class _Collector:
 def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
     from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
-    from tribo_estimation.core.blockfit import (
-        BlockConfig,
-        BlockCsvWriter,
-        BlockEstimator,
-        with_flags,
-    )
+    from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.drive import MISMATCH_LIMIT
     from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
@@ -215,11 +217,11 @@ def run(args: argparse.Namespace) -> int:
         ramp_time=cfg_rig.drive.ramp_time,
     )
     out = Path(args.out)
-    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg)
+    spikes = SpikeLog()
+    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg, repairs=spikes)
     jitter: list[float] = []
     raw_events = bag_events(src, args.namespace) if _is_bag(src) else csv_events(src, jitter)
     scales = Scales.of(cfg_rig.rig, cfg_rig.friction, nominal)
-    spikes = SpikeLog()
     warnings: list[str] = []
     events = checked_chunks(raw_events, scales, str(src), spikes, warnings)
     fnr = cfg_rig.rig.F_N * cfg_rig.rig.R
@@ -229,17 +231,10 @@ def run(args: argparse.Namespace) -> int:
     last_report = t_wall
     with atomic_output_dir(out) as stage, BlockCsvWriter(stage / 'blocks.csv') as writer:
 
-        def handle(det: Any) -> None:
+        def handle(det: BlockDetail) -> None:
             nonlocal last_report
             while warnings:
                 print(f'friction: warning: {warnings.pop(0)}', file=sys.stderr)
-            r0 = det.result
-            n_spk = spikes.count(r0.first_index, r0.first_index + round(args.block * det.data.fs))
-            spikes.forget_before(r0.first_index)
-            if n_spk:
-                det = dataclasses.replace(
-                    det, result=with_flags(dataclasses.replace(r0, spikes=n_spk), 'spikes')
-                )
             writer.write(det.result)
             results.append(det.result)
             coll.add(det)
@@ -301,7 +296,11 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         if spikes.total:
-            print(f'friction: {spikes.total} spike samples replaced', file=sys.stderr)
+            print(
+                f'friction: {spikes.total} samples replaced (spikes, bursts; left out of the '
+                'fits, blocks.csv columns spikes and bursts)',
+                file=sys.stderr,
+            )
         print(
             f'friction: {len(results)} blocks ({n_ok} ok) -> {out / "blocks.csv"} '
             f'in {time.monotonic() - t_wall:.1f} s',

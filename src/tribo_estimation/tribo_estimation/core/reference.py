@@ -64,16 +64,20 @@ EV_BREAKAWAY = 3  # stick ended
 
 @dataclass(frozen=True)
 class SpeedProfile:
-    """Piecewise-linear drive speed w0(t) [rad/s] through ``breakpoints``
+    """Describe a piecewise-linear drive speed.
+
+    w0(t) [rad/s] through ``breakpoints``
     ``((t0, w0), (t1, w1), ...)`` (time [s] increasing, speed [rad/s]); constant
     before the first and after the last breakpoint. The drive angle phi0(t) [rad]
     is its exact integral from t = 0. A start-up ramp is ``((0, 0), (0.2, w))``,
     a speed step from 12 to 30 rpm at 2 s in 50 ms ``((0, 0), (0.2, w12),
-    (2.0, w12), (2.05, w30))``."""
+    (2.0, w12), (2.05, w30))``.
+    """
 
     breakpoints: tuple[tuple[float, float], ...]
 
     def __post_init__(self) -> None:
+        """Refuse non-finite or non-increasing breakpoints."""
         bp = self.breakpoints
         if len(bp) < 1:
             raise InvalidParameterError('SpeedProfile.breakpoints needs at least one point')
@@ -99,7 +103,7 @@ class SpeedProfile:
 
     @classmethod
     def from_drive(cls, drive: DriveProfile) -> SpeedProfile:
-        """Same w0(t), phi0(t) as the model's :class:`.model.DriveProfile`."""
+        """Build the same w0(t), phi0(t) as the model's :class:`.model.DriveProfile`."""
         return cls.startup(drive.nominal_speed, drive.ramp_time)
 
     @classmethod
@@ -111,8 +115,11 @@ class SpeedProfile:
         ramp: float = 0.2,
         transition: float = 0.05,
     ) -> SpeedProfile:
-        """Start-up ramp (``ramp`` [s], 0 = none) to ``speeds[0]``, then a linear change
-        to ``speeds[i]`` over ``transition`` [s] starting at ``step_times[i-1]`` [s]."""
+        """Build a start-up ramp followed by speed steps.
+
+        Start-up ramp (``ramp`` [s], 0 = none) to ``speeds[0]``, then a linear change
+        to ``speeds[i]`` over ``transition`` [s] starting at ``step_times[i-1]`` [s].
+        """
         if len(speeds) != len(step_times) + 1:
             raise InvalidParameterError('steps: need one step time less than speeds')
         bp: list[tuple[float, float]] = (
@@ -173,7 +180,8 @@ class SpeedProfile:
         """w0(t) [rad/s], vectorised."""
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         bp = np.asarray(self.breakpoints, dtype=float)
-        return np.interp(tt, bp[:, 0], bp[:, 1])
+        out: np.ndarray = np.interp(tt, bp[:, 0], bp[:, 1])
+        return out
 
     def angle(self, t: np.ndarray | float) -> np.ndarray:
         """phi0(t) [rad], vectorised."""
@@ -183,12 +191,14 @@ class SpeedProfile:
 
 @dataclass(frozen=True)
 class Unmodelled:
-    """Effects outside the discrepancy workflow's candidate library (benchmark truth;
-    no fitting model has them): ``backlash`` full width [rad] of a dead band in the
+    """Describe effects outside the discrepancy workflow's candidate library.
+
+    Benchmark truth (no fitting model has them): ``backlash`` full width [rad] of a dead band in the
     belt deflection phi2 - phi0 of Equ. 2 (drive backlash: the belt transmits no
     torque within +-backlash/2); ``stiffness_drift`` relative change of the
     measuring-spring stiffness C1 of Equ. 1 per second of test time [1/s]
-    (C1(t) = C1*(1 + stiffness_drift*t); the torsion channel shows C1(t)*phi1)."""
+    (C1(t) = C1*(1 + stiffness_drift*t); the torsion channel shows C1(t)*phi1).
+    """
 
     backlash: float = 0.0
     stiffness_drift: float = 0.0
@@ -314,13 +324,16 @@ def simulate_reference(
     max_segments: int = 1_000_000,
     unmodelled: Unmodelled | None = None,
 ) -> SimResult:
-    """Reference solution (no noise, no measurement side) at ``fs`` [Hz] for
+    """Compute the reference solution.
+
+    No noise, no measurement side, at ``fs`` [Hz] for
     ``duration`` [s] from ``initial`` (default at rest, sticking, t = 0).
 
     Same output arrays as :func:`.simulate.simulate`; ``event_times`` [s] and
     ``event_kinds`` (``EV_*``) log every switching event. ``rtol``/``atol`` of
     DOP853 (1e-8 is ample for records; the default serves the kernel's
-    convergence tests)."""
+    convergence tests).
+    """
     if not (math.isfinite(duration) and duration > 0.0 and math.isfinite(fs) and fs > 0.0):
         raise InvalidParameterError(f'bad duration {duration!r} s or fs {fs!r} Hz')
     n = round(duration * fs)
@@ -377,9 +390,11 @@ def simulate_reference(
             events.append(ev_slip)
             if not peak:
 
-                def ev_peak(tt: float, yy: np.ndarray, mode: tuple = mode) -> float:
+                def ev_peak(
+                    tt: float, yy: np.ndarray, mode: tuple[bool, float, bool] = mode
+                ) -> float:
                     d = mdl.rhs(tt, yy, *mode)
-                    return mode[1] * (d[3] - d[1])
+                    return float(mode[1] * (d[3] - d[1]))
 
                 events.append(ev_peak)
         for ev in events:
@@ -477,8 +492,11 @@ def simulate_reference(
 def stick_intervals(
     event_times: np.ndarray, event_kinds: np.ndarray, t_first: float, t_last: float, stuck0: bool
 ) -> list[tuple[float, float]]:
-    """Exact stick phases ``(start, end)`` [s] from an event log, clipped to
-    ``[t_first, t_last]`` [s]; ``stuck0`` whether the run started sticking."""
+    """List the exact stick phases of an event log.
+
+    ``(start, end)`` [s], clipped to
+    ``[t_first, t_last]`` [s]; ``stuck0`` whether the run started sticking.
+    """
     out: list[tuple[float, float]] = []
     start: float | None = t_first if stuck0 else None
     for te, kind in zip(event_times.tolist(), event_kinds.tolist(), strict=True):

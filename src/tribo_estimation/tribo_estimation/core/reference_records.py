@@ -73,6 +73,7 @@ class Channel:
     spike_amp: float = 0.0
 
     def __post_init__(self) -> None:
+        """Refuse non-finite or negative settings."""
         for name in ('lag', 'gain_error', 'offset', 'offset_drift', 'noise', 'colored_noise',
                      'colored_tau', 'spike_rate', 'spike_amp'):  # fmt: skip
             val = getattr(self, name)
@@ -92,8 +93,11 @@ class Channel:
 def rig_channels(
     scale: float = 1.0, *, speed_lag: float = 0.0, torsion_lag: float = 0.0, accel_lag: float = 0.0
 ) -> tuple[Channel, Channel, Channel]:
-    """(torsion, accel, speed) channels with ``scale`` times the white noise of
-    config/rig.yaml (:data:`RIG_NOISE`) and the given lags [s]."""
+    """Build the (torsion, accel, speed) channels of the rig.
+
+    With ``scale`` times the white noise of
+    config/rig.yaml (:data:`RIG_NOISE`) and the given lags [s].
+    """
     nt, na, ns = RIG_NOISE
     return (
         Channel(lag=torsion_lag, noise=scale * nt),
@@ -134,6 +138,7 @@ class RecordSpec:
     rtol: float = 1e-8
 
     def __post_init__(self) -> None:
+        """Refuse a record spec out of range."""
         for name in ('duration', 'fs'):
             val = getattr(self, name)
             if not (math.isfinite(val) and val > 0.0):
@@ -180,8 +185,11 @@ class RecordTruth:
     def sticks_between(
         self, t0: float, t1: float, min_duration: float = 0.0
     ) -> list[tuple[float, float]]:
-        """True stick phases lying inside [t0, t1] [s] (record time) of at least
-        ``min_duration`` [s]; phases cut by the record ends are left out."""
+        """List the true stick phases inside a window.
+
+        Phases inside [t0, t1] [s] (record time) of at least
+        ``min_duration`` [s]; phases cut by the record ends are left out.
+        """
         t_first, t_last = float(self.time[0]), float(self.time[-1])
         return [
             (a, b)
@@ -225,8 +233,11 @@ def _ar1(rng: np.random.Generator, n: int, std: float, dt: float, tau: float) ->
 def apply_channel(
     x: np.ndarray, ch: Channel, dt: float, rng: np.random.Generator, t_rec: np.ndarray
 ) -> np.ndarray:
-    """Instrument model of one channel (order in the module docstring); ``t_rec``
-    record time [s] from the first sample (for the offset drift)."""
+    """Apply the instrument model of one channel.
+
+    Order in the module docstring; ``t_rec``
+    record time [s] from the first sample (for the offset drift).
+    """
     y = first_order_lag(x, dt, ch.lag)
     y = y * (1.0 + ch.gain_error) + ch.offset + ch.offset_drift * t_rec
     n = y.size
@@ -303,8 +314,11 @@ def make_record(spec: RecordSpec) -> RecordTruth:
 
 
 def write_record_csv(path: str | Path, rec: RecordTruth, *, truth: bool = True) -> None:
-    """Write ``rec`` as a rig CSV (:func:`.rigio.write_rig_csv`); with ``truth`` the
-    columns ``friction_moment``, ``slip_speed``, ``stick`` follow the four channels."""
+    """Write ``rec`` as a rig CSV.
+
+    Via :func:`.rigio.write_rig_csv`; with ``truth`` the
+    columns ``friction_moment``, ``slip_speed``, ``stick`` follow the four channels.
+    """
     extra = (
         {
             'friction_moment': rec.friction_moment,

@@ -1,5 +1,7 @@
-"""Signal helpers shared by every fit: the one noise estimate, the one runs helper,
-the one chamber-speed reconstruction and the first-order sensor lag.
+"""Signal helpers shared by every fit.
+
+The one noise estimate, the one runs helper, the one chamber-speed
+reconstruction and the first-order sensor lag.
 
 All values keep the unit of their input; ``fs`` in Hz, time constants in s.
 """
@@ -57,11 +59,14 @@ def longest_run(mask: npt.ArrayLike) -> tuple[int, int]:
 
 
 def chamber_speed(torsion: FloatArray, fs: float, c1: float) -> FloatArray:
-    """Chamber speed w1 = phi1' = (dM_t/dt)/C1 [rad/s] from the torsion moment
-    M_t = C1*phi1 [N m] (local cubic over 2*7+1 samples, one-sided at the ends).
+    """Reconstruct the chamber speed from the torsion moment.
+
+    w1 = phi1' = (dM_t/dt)/C1 [rad/s] from M_t = C1*phi1 [N m] (local cubic over
+    2*7+1 samples, one-sided at the ends).
 
     Independent of the speed and acceleration channels (and so of their lags
-    and offsets); ``fs`` [Hz], ``c1`` [N m/rad]."""
+    and offsets); ``fs`` [Hz], ``c1`` [N m/rad].
+    """
     from scipy.signal import savgol_filter
 
     n = torsion.shape[0]
@@ -109,7 +114,8 @@ def moving_average(x: FloatArray, width: int) -> FloatArray:
     i = np.arange(n)
     lo = np.maximum(i - h, 0)
     hi = np.minimum(i + h + 1, n)
-    return (c[hi] - c[lo]) / (hi - lo)
+    out: FloatArray = (c[hi] - c[lo]) / (hi - lo)
+    return out
 
 
 __all__ = [

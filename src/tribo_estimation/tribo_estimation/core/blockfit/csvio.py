@@ -40,9 +40,17 @@ CSV_COLUMNS: tuple[str, ...] = (
 #: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
 #: fit used (``w0`` [rad/s], measured) and its relative deviation from the
 #: configured nominal speed (``drive_mismatch`` [-]) before ``quality``, and after it
-#: the spike count of each block (``spikes``: samples repaired before the fit,
-#: :mod:`.plausibility`). Older files without these are read too.
-FILE_COLUMNS: tuple[str, ...] = (*CSV_COLUMNS[:-1], 'w0', 'drive_mismatch', 'quality', 'spikes')
+#: the repairs of each block (``spikes``: samples replaced before the fit and left
+#: out of it, ``bursts``: runs of 3 or more of them; :mod:`..plausibility`). Older
+#: files without these are read too.
+FILE_COLUMNS: tuple[str, ...] = (
+    *CSV_COLUMNS[:-1],
+    'w0',
+    'drive_mismatch',
+    'quality',
+    'spikes',
+    'bursts',
+)
 REQUIRED_COLUMNS = CSV_COLUMNS
 
 
@@ -85,6 +93,7 @@ class BlockCsvWriter:
                 _fmt(r.drive_mismatch),
                 r.quality_str,
                 str(r.spikes),
+                str(r.bursts),
             ]
         )
         self._fh.flush()
@@ -95,18 +104,23 @@ class BlockCsvWriter:
         self._fh.close()
 
     def __enter__(self) -> BlockCsvWriter:
+        """Return the writer (context manager)."""
         return self
 
     def __exit__(self, *exc: object) -> None:
+        """Close the file."""
         self.close()
 
 
 def read_blocks_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """Read a ``blocks.csv`` into column arrays (float for numbers, object for text).
 
-    Raises:
-        MissingColumnError: a required column is missing (named in the message).
-        InvalidDataError: the file cannot be read or a number column holds text.
+    Raises
+    ------
+    MissingColumnError
+        a required column is missing (named in the message).
+    InvalidDataError
+        the file cannot be read or a number column holds text.
     """
     p = os.fspath(path)
     try:

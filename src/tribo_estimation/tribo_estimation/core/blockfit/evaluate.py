@@ -22,10 +22,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import EstimationError, FitError, UnitError
-from ..drive import estimate_drive
+from ..drive import DriveEstimate, estimate_drive
 from ..model import FrictionLaw, RigParams
 from ..observer import friction_moment
-from ..signal import chamber_speed, longest_run
+from ..signal import chamber_speed, longest_run, runs
 from ..sticks import (
     StickPhase,
     chamber_speed_integral,
@@ -36,7 +36,9 @@ from ..sticks import (
 )
 from .fit import fit_block
 from .results import (
+    BURST_MIN,
     FLAGS,
+    MAX_REPAIRED,
     BlockConfig,
     BlockData,
     BlockDetail,
@@ -53,8 +55,11 @@ MIN_BREAKAWAYS = 3
 
 # ============================================================ signal checks
 def is_saturated(x: FloatArray, run: int) -> bool:
-    """True if ``x`` holds ``run`` or more equal consecutive samples at its max or min
-    (a clipped sensor). A constant signal is not called saturated."""
+    """Tell whether ``x`` looks clipped.
+
+    True if ``x`` holds ``run`` or more equal consecutive samples at its max or min
+    (a clipped sensor). A constant signal is not called saturated.
+    """
     n = x.shape[0]
     if n < run:
         return False
@@ -70,6 +75,98 @@ def is_saturated(x: FloatArray, run: int) -> bool:
         if b - a >= run:
             return True
     return False
+
+
+def repair_counts(repaired: BoolArray) -> tuple[int, int]:
+    """Count the replaced samples and the bursts among them.
+
+    Parameters
+    ----------
+    repaired : numpy.ndarray
+        True at the samples replaced before the fit (bool).
+
+    Returns
+    -------
+    tuple of int
+        Replaced samples and bursts (runs of at least :data:`.results.BURST_MIN`
+        samples).
+    """
+    st, en = runs(repaired)
+    return int(np.count_nonzero(repaired)), int(np.count_nonzero(en - st >= BURST_MIN))
+
+
+def repair_flags(repaired: BoolArray) -> set[str]:
+    """Name the quality flags of a block's replaced samples.
+
+    Parameters
+    ----------
+    repaired : numpy.ndarray
+        True at the samples replaced before the fit (bool).
+
+    Returns
+    -------
+    set of str
+        ``spikes`` for runs shorter than :data:`.results.BURST_MIN`, ``bursts``
+        for longer ones, ``repaired`` when more than :data:`.results.MAX_REPAIRED`
+        of the samples were replaced (the block is not fitted).
+    """
+    st, en = runs(repaired)
+    flags: set[str] = set()
+    if np.any(en - st < BURST_MIN):
+        flags.add('spikes')
+    if np.any(en - st >= BURST_MIN):
+        flags.add('bursts')
+    if repaired.size and float(np.mean(repaired)) > MAX_REPAIRED:
+        flags.add('repaired')
+    return flags
+
+
+def drive_over_cycles(
+    drive: DriveEstimate, time: FloatArray, speed: FloatArray, phases: list[StickPhase]
+) -> DriveEstimate:
+    """Level the drive profile with the shaft speed's mean over whole stick-slip cycles.
+
+    The shaft speed w2 oscillates with the stick-slip cycle, so its mean over a
+    block that holds a fraction of a cycle more or less is off the drive speed
+    (at 10 rpm by up to 0.5 %, which biases mu0 and mu_inf far beyond their
+    standard errors). Over whole cycles, from one stick start to a later one,
+    the shaft turns as far as the drive (the twist of Equ. 2 repeats), so the mean
+    of w2 from the first to the last stick start is the drive's mean there; the
+    profile is shifted to match it.
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        Drive profile measured from the shaft speed (block-local time [s]).
+    time : numpy.ndarray
+        Block-local sample times [s].
+    speed : numpy.ndarray
+        Shaft speed w2 [rad/s].
+    phases : list of StickPhase
+        Stick phases of the block (block-local times [s]).
+
+    Returns
+    -------
+    DriveEstimate
+        The shifted profile; ``drive`` itself with fewer than three stick starts
+        in the block or cycles covering less than half of it.
+    """
+    n = time.shape[0]
+    if n < 2:
+        return drive
+    fs = (n - 1) / float(time[-1] - time[0]) if time[-1] > time[0] else math.nan
+    if not math.isfinite(fs):
+        return drive
+    starts = [round(ph.start * fs) for ph in phases if ph.start * fs > 0.5]
+    if len(starts) < 3:
+        return drive
+    i0, i1 = starts[0], min(starts[-1], n)
+    if i1 - i0 < n // 2:
+        return drive
+    shift = float(np.mean(speed[i0:i1])) - float(np.mean(drive.speed(time[i0:i1])))
+    if not math.isfinite(shift):
+        return drive
+    return replace(drive, knot_speed=drive.knot_speed + shift)
 
 
 def _check_speed_units(cfg: BlockConfig, speed: FloatArray) -> None:
@@ -92,8 +189,10 @@ def _check_speed_units(cfg: BlockConfig, speed: FloatArray) -> None:
 def _torsion_lag(
     cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
 ) -> float:
-    """The torsion amplifier's lag [s]: configured, else estimated from the block
-    (below 0.1 ms taken as none)."""
+    """Return the torsion amplifier's lag [s].
+
+    Configured, else estimated from the block (below 0.1 ms taken as none).
+    """
     if cfg.torsion_lag is not None:
         return cfg.torsion_lag
     try:
@@ -106,8 +205,11 @@ def _torsion_lag(
 def _compensated_torsion(
     cfg: BlockConfig, rig: RigParams, torsion: FloatArray, accel: FloatArray, fs: float
 ) -> tuple[FloatArray, float]:
-    """The torsion moment [N m] with the amplifier's first-order lag taken out (the
-    mean kept), and the lag [s] (0: none, ``torsion`` returned as it is)."""
+    """Take the amplifier's first-order lag out of the torsion moment.
+
+    Returns the torsion moment [N m] with the lag taken out (the mean kept) and
+    the lag [s] (0: none, ``torsion`` returned as it is).
+    """
     tau_t = _torsion_lag(cfg, rig, torsion, accel, fs)
     if tau_t <= 0.0:
         return torsion, tau_t
@@ -117,7 +219,7 @@ def _compensated_torsion(
 
 
 def _stick_mask(phases: list[StickPhase], n: int, fs: float) -> BoolArray:
-    """True at the samples of the stick phases (block-local times [s])."""
+    """Mark the samples of the stick phases (block-local times [s])."""
     stick = np.zeros(n, dtype=bool)
     for ph in phases:
         i0 = max(0, math.ceil(ph.start * fs - 1e-9))
@@ -127,8 +229,11 @@ def _stick_mask(phases: list[StickPhase], n: int, fs: float) -> BoolArray:
 
 
 def _judged(out: FitOutcome, phases: list[StickPhase]) -> tuple[FitOutcome, bool]:
-    """The outcome with mu0 withheld where the data do not determine it, and whether
-    the fit failed (not converged, non-finite or mu_inf's relative se above 50 %).
+    """Judge a fit outcome.
+
+    Returns the outcome with mu0 withheld where the data do not determine it, and
+    whether the fit failed (not converged, non-finite or mu_inf's relative se
+    above 50 %).
 
     mu0 is seen only at breakaways: with fewer than :data:`MIN_BREAKAWAYS` stick
     phases, or a relative se above 50 %, it is not reported (slip-slip without any
@@ -175,7 +280,7 @@ class _Outcome:
 def _detail(
     blk: PendingBlock, friction: FrictionLaw, cfg: BlockConfig, a: int, b: int, o: _Outcome
 ) -> BlockDetail:
-    """The :class:`BlockDetail` of block ``blk`` whose valid samples are ``[a, b)``.
+    """Build the :class:`BlockDetail` of block ``blk`` (valid samples ``[a, b)``).
 
     The torsion-moment statistics are those of the signal the fit saw (lag
     compensated when it was).
@@ -191,6 +296,7 @@ def _detail(
         data = BlockData(t0, blk.fs, tq_raw, ac_raw, sp_raw, empty, empty, np.zeros(0, bool))
     tq = data.torsion
     n = tq.shape[0]
+    n_rep, n_bursts = repair_counts(blk.repaired) if blk.repaired is not None else (0, 0)
     res = BlockResult(
         index=blk.index,
         first_index=blk.first_index,
@@ -214,6 +320,8 @@ def _detail(
         n_samples=n,
         n_iter=out.n_iter if out else 0,
         drive_mismatch=o.mismatch,
+        spikes=n_rep,
+        bursts=n_bursts,
     )
     sim = out.simulated if out else np.full(n, nan)
     return BlockDetail(res, data, sim)
@@ -259,6 +367,11 @@ def evaluate_block(
     if n < max(20, cfg.min_fraction * n_block):
         flags.add('short')
         return done(None, np.zeros(n, bool), 'steady', 0)
+    rep = blk.repaired[a:b] if blk.repaired is not None else np.zeros(n, dtype=bool)
+    if rep.any():
+        flags.update(repair_flags(rep))
+        if float(np.mean(rep)) > MAX_REPAIRED:  # mostly interpolated: nothing to fit
+            return done(None, np.zeros(n, bool), 'steady', 0)
     if not (np.all(np.isfinite(tq)) and np.all(np.isfinite(ac)) and np.all(np.isfinite(sp))):
         flags.add('fit_failed')
         return done(None, np.zeros(n, bool), 'steady', 0)
@@ -290,11 +403,18 @@ def evaluate_block(
     except EstimationError:
         phases = []
     stick = _stick_mask(phases, n, blk.fs)
+    drive = drive_over_cycles(drive, time, sp, phases)
+    w0 = drive.mean_speed(float(time[0]), float(time[-1]))
+    mismatch = (
+        (w0 - cfg.nominal_speed) / cfg.nominal_speed if cfg.nominal_speed is not None else nan
+    )
     # stick phases that start inside the block (one running at its start is counted
     # in the block before)
     n_sticks = sum(1 for ph in phases if ph.start > 0.5 / blk.fs)
     motion = classify_motion(time, tq, ac, sp, rig, sticks=phases)
-    data = BlockData(blk.t_start + a / blk.fs, blk.fs, tq, ac, sp, moment, w1, stick)
+    data = BlockData(
+        blk.t_start + a / blk.fs, blk.fs, tq, ac, sp, moment, w1, stick, rep if rep.any() else None
+    )
     # sliding means a slip speed clearly above the noise of v = w2 - w1 somewhere
     v_thr = max(0.1, min(0.3, 0.5 * abs(w0)))
     sliding = float(np.mean(np.abs(sp - w1) > v_thr))

@@ -73,11 +73,14 @@ def _sliding_nodes(
     stick_ends: IntArray,
     fs: float,
 ) -> IntArray:
-    """Extra shooting nodes in long sliding stretches (slip-slip): in every
+    """Place extra shooting nodes in long sliding stretches (slip-slip).
+
+    In every
     ``_SLIDE_SPACING`` s window, at least ``_SLIDE_SETTLE`` s after a breakaway
     and before the next stick phase, the sample of the largest slip speed
     ``vabs`` = |w2 - w1| [rad/s] (its slip-speed peak: the deceleration rule
-    holds right after it)."""
+    holds right after it).
+    """
     n = vabs.shape[0]
     spacing = max(1, round(_SLIDE_SPACING * fs))
     settle = max(1, round(_SLIDE_SETTLE * fs))
@@ -152,8 +155,11 @@ _JUMP_GUARD = 3
 
 
 def _jump_guard(a: FloatArray, threshold: float) -> BoolArray:
-    """True within +-_JUMP_GUARD samples of a jump of the (simulated) acceleration,
-    found as a second difference above ``threshold`` [rad/s^2]; NaN samples count too."""
+    """Mark the samples near a jump of the (simulated) acceleration.
+
+    True within +-_JUMP_GUARD samples of a second difference above ``threshold``
+    [rad/s^2]; NaN samples count too.
+    """
     n = a.shape[0]
     bad = ~np.isfinite(a)
     d2 = np.zeros(n)
@@ -165,6 +171,31 @@ def _jump_guard(a: FloatArray, threshold: float) -> BoolArray:
         k = np.ones(2 * _JUMP_GUARD + 1)
         jump = np.convolve(jump.astype(float), k, mode='same') > 0.0
     return jump | bad
+
+
+#: Samples on either side of a replaced one (spike, burst) that the fit leaves out
+#: too: the chamber speed and the observer moment spread a repair over a few
+#: samples [samples].
+_REPAIR_GUARD = 3
+
+
+def _dilate(mask: BoolArray, width: int) -> BoolArray:
+    """Widen the True runs of ``mask`` by ``width`` samples on either side.
+
+    Parameters
+    ----------
+    mask : numpy.ndarray
+        Samples to widen (bool).
+    width : int
+        Samples added on either side of each True sample.
+
+    Returns
+    -------
+    numpy.ndarray
+        The widened mask (bool, shape of ``mask``).
+    """
+    k = np.ones(2 * width + 1)
+    return np.asarray(np.convolve(mask.astype(np.float64), k, mode='same') > 0.0)
 
 
 def _robust_se(J: FloatArray, r: FloatArray, clusters: IntArray, n_par: int) -> FloatArray:
@@ -220,10 +251,13 @@ class _Nodes:
 def _shooting_nodes(
     p: FloatArray, d: BlockData, drive: DriveEstimate, speed_lag: float
 ) -> tuple[_Nodes, bool]:
-    """Segment starts: late in every stick phase (the stuck motion does not depend
+    """Place the shooting nodes of a block.
+
+    Segment starts: late in every stick phase (the stuck motion does not depend
     on the friction law until breakaway) and every 50 ms in long sliding
     stretches; states from :mod:`.shooting`. Returns the nodes and whether the
-    block has stick phases."""
+    block has stick phases.
+    """
     n = len(d)
     starts_s, ends_s = runs(d.stick)
     keep = (ends_s - starts_s) >= _MIN_NODE
@@ -287,11 +321,15 @@ _FIT_PARAMS: tuple[tuple[str, int, float, float], ...] = (
 def _start_values(
     d: BlockData, fnr: float, init: tuple[float, float] | None
 ) -> tuple[float, float]:
-    """Start values (mu0, mu_inf): the equation-error estimate, with the finite
+    """Choose the start values (mu0, mu_inf).
+
+    The equation-error estimate, with the finite
     entries of ``init`` in its place; mu0 NaN when the block has no stick phase.
 
-    Raises:
-        FitError: mu_inf is not finite or not below 10 (observer moment implausible).
+    Raises
+    ------
+    FitError
+        mu_inf is not finite or not below 10 (observer moment implausible).
     """
     mu0_i, muinf_i = initial_estimate(d, fnr, _MIN_NODE)
     if init is not None:
@@ -311,8 +349,10 @@ def _theta0(
     (slip-slip: mu0 acts only where a sliding phase restarts on the curve of
     Equ. 8); a fitted k starts at :func:`initial_k` (else at ``k``).
 
-    Raises:
-        FitError: a start value is not finite or mu0 is above 10.
+    Raises
+    ------
+    FitError
+        a start value is not finite or mu0 is above 10.
     """
     mu0_i, muinf_i = start
     if not math.isfinite(mu0_i):
@@ -349,19 +389,23 @@ class _Problem:
     meas_accel: FloatArray
     sig_m: float
     clusters: IntArray
+    keep: FloatArray
     _recent: dict[bytes, FloatArray] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def build(
         cls, p0: FloatArray, n_par: int, nodes: _Nodes, d: BlockData, sig_m: float
     ) -> _Problem:
-        """The problem of block ``d`` for the first ``n_par`` of (mu0, mu_inf, k)."""
+        """Build the problem of block ``d`` for the first ``n_par`` of (mu0, mu_inf, k)."""
         n = len(d)
         dt = 1.0 / d.fs
         used = np.arange(int(nodes.start[0]), n)
         # clusters for the standard errors: the shooting segments (nearly independent)
         seg_id = np.searchsorted(nodes.start, used, side='right') - 1
         clusters = np.concatenate((seg_id, seg_id)).astype(np.int64)
+        keep = np.ones(n)
+        if d.repaired is not None and d.repaired.any():
+            keep[_dilate(d.repaired, _REPAIR_GUARD)] = 0.0
         return cls(
             p0=p0,
             index=[ix for _, ix, _, _ in _FIT_PARAMS[:n_par]],
@@ -374,11 +418,15 @@ class _Problem:
             meas_accel=d.accel[used],
             sig_m=sig_m,
             clusters=clusters,
+            keep=keep[used],
         )
 
     def simulate(self, theta: FloatArray) -> FloatArray:
-        """Kernel output channels of the block at ``theta`` (new arrays, never
-        mutated; the last four simulations are kept)."""
+        """Simulate the block at ``theta``.
+
+        Returns the kernel output channels (new arrays, never mutated; the last
+        four simulations are kept).
+        """
         key = np.asarray(theta, dtype=np.float64).tobytes()
         if key in self._recent:
             return self._recent[key]
@@ -394,20 +442,23 @@ class _Problem:
         return out
 
     def accel_weights(self, theta0: FloatArray, sig_a: float) -> FloatArray:
-        """Weights of the compared acceleration samples [s^2/rad]: ``1/sig_a``, 0
+        """Weigh the compared acceleration samples [s^2/rad].
+
+        ``1/sig_a`` (0 at replaced samples), 0
         next to a switching event of the simulation at ``theta0`` (+-_JUMP_GUARD
         samples; the acceleration jumps when the event crosses the sample instant).
-        The torsion moment (continuous in theta) keeps every sample."""
+        The torsion moment (continuous in theta) keeps every sample.
+        """
         sim0 = self.simulate(theta0)
         guard = _jump_guard(sim0[kn.OUT_ACCEL], 10.0 * sig_a)[self.used]
-        return np.where(guard, 0.0, 1.0 / sig_a)
+        return np.where(guard, 0.0, self.keep / sig_a)
 
     def residual(self, theta: FloatArray, w_acc: FloatArray) -> FloatArray:
         """Weighted residuals (torsion moment, then acceleration) at ``theta`` [-]."""
         out = self.simulate(theta)
         return np.concatenate(
             (
-                (out[kn.OUT_TORSION, self.used] - self.meas_torsion) / self.sig_m,
+                (out[kn.OUT_TORSION, self.used] - self.meas_torsion) * (self.keep / self.sig_m),
                 (out[kn.OUT_ACCEL, self.used] - self.meas_accel) * w_acc,
             )
         )
@@ -459,8 +510,10 @@ def fit_block(
             integrates on absolute time: epoch stamps (about 1.8e9 s) would leave
             ``t + dt`` with a rounding error of 2e-7 s, 0.2 % of a 10 kHz step.
 
-    Raises:
-        FitError: too few samples, no usable start value or non-finite residuals.
+    Raises
+    ------
+    FitError
+        too few samples, no usable start value or non-finite residuals.
     """
     n = len(d)
     if n < 20:
@@ -487,7 +540,9 @@ def fit_block(
         mu0_se=float(se[0]),
         mu_inf_se=float(se[1]),
         k_se=float(se[2]) if n_par == 3 else 0.0,
-        rms_residual=float(np.sqrt(np.mean((sim_t[prob.used] - prob.meas_torsion) ** 2))),
+        rms_residual=float(
+            np.sqrt(np.mean(((sim_t[prob.used] - prob.meas_torsion)[prob.keep > 0.0]) ** 2))
+        ),
         simulated=sim_t,
         n_iter=sol.n_iter,
         n_eval=sol.nfev + 1,

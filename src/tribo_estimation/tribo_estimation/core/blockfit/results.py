@@ -25,27 +25,40 @@ BoolArray = npt.NDArray[np.bool_]
 class BlockConfig:
     """Settings of the block-wise fit.
 
-    Attributes:
-        block_length: block duration [s] (paper: 1 s).
-        fit_k: also fit the Stribeck constant k [s/rad] (else k stays fixed).
-        nominal_speed: drive speed w0 [rad/s]; ``None`` = mean of the tachometer per block.
-        ramp_time: start-up ramp of the drive [s]; blocks starting before
-            ``ramp_time`` after the stream start are flagged ``startup``.
-        noise_torque: noise of the torsion moment [N m]; ``None`` = estimated per block.
-        noise_accel: noise of the acceleration [rad/s^2]; ``None`` = estimated per block.
-        max_iter: Levenberg-Marquardt iterations at most [-].
-        min_fraction: smallest fraction of valid samples for a fit [-].
-        saturation_run: this many equal consecutive samples at the block's
-            extreme value mark a clipped sensor [samples].
-        min_stick_duration: shortest stick phase counted (1 ms: 10 samples at 10 kHz;
-            shorter ones are micro-sticks) [s].
-        speed_lag: known first-order lag of the shaft-speed sensor [s] (the fit uses
-            the speed channel only for the drive level and, lag-corrected, at
-            sliding nodes).
-        torsion_lag: first-order lag of the torsion amplifier [s]; ``None`` = estimated
-            per block (:func:`sticks.estimate_torsion_lag`), 0 = none. The measured
-            torsion moment is compensated before the fit
-            (:func:`sticks.torsion_lag_compensated`, exact for a first-order lag).
+    Attributes
+    ----------
+    block_length
+        block duration [s] (paper: 1 s).
+    fit_k
+        also fit the Stribeck constant k [s/rad] (else k stays fixed).
+    nominal_speed
+        drive speed w0 [rad/s]; ``None`` = mean of the tachometer per block.
+    ramp_time
+        start-up ramp of the drive [s]; blocks starting before
+        ``ramp_time`` after the stream start are flagged ``startup``.
+    noise_torque
+        noise of the torsion moment [N m]; ``None`` = estimated per block.
+    noise_accel
+        noise of the acceleration [rad/s^2]; ``None`` = estimated per block.
+    max_iter
+        Levenberg-Marquardt iterations at most [-].
+    min_fraction
+        smallest fraction of valid samples for a fit [-].
+    saturation_run
+        this many equal consecutive samples at the block's
+        extreme value mark a clipped sensor [samples].
+    min_stick_duration
+        shortest stick phase counted (1 ms: 10 samples at 10 kHz;
+        shorter ones are micro-sticks) [s].
+    speed_lag
+        known first-order lag of the shaft-speed sensor [s] (the fit uses
+        the speed channel only for the drive level and, lag-corrected, at
+        sliding nodes).
+    torsion_lag
+        first-order lag of the torsion amplifier [s]; ``None`` = estimated
+        per block (:func:`sticks.estimate_torsion_lag`), 0 = none. The measured
+        torsion moment is compensated before the fit
+        (:func:`sticks.torsion_lag_compensated`, exact for a first-order lag).
     """
 
     block_length: float = 1.0
@@ -62,6 +75,7 @@ class BlockConfig:
     torsion_lag: float | None = None
 
     def __post_init__(self) -> None:
+        """Refuse settings out of range (:class:`InvalidParameterError`)."""
         if not (math.isfinite(self.block_length) and 0.01 <= self.block_length <= 600.0):
             raise InvalidParameterError(
                 f'block_length must be in [0.01, 600] s, got {self.block_length!r}'
@@ -106,33 +120,73 @@ class BlockConfig:
 MOTIONS = ('stick-slip', 'slip-slip', 'steady')
 
 #: Quality flags; a block with any of them is not a good estimate.
-FLAGS = ('gap', 'saturated', 'no_sliding', 'startup', 'fit_failed', 'short', 'spikes')
+FLAGS = (
+    'gap',
+    'saturated',
+    'no_sliding',
+    'startup',
+    'fit_failed',
+    'short',
+    'spikes',
+    'bursts',
+    'repaired',
+)
+
+#: Largest fraction of a block's samples that may be replaced (spikes, bursts:
+#: :mod:`..plausibility`) for the block to be fitted; above it the block is
+#: flagged ``repaired`` and not fitted [-].
+MAX_REPAIRED = 0.2
+
+#: A run of at least this many replaced samples is a burst, shorter ones are
+#: spikes [samples].
+BURST_MIN = 3
 
 
 @dataclass(frozen=True)
 class BlockResult:
     """Result of one block (one row of ``blocks.csv``, one ``FrictionEstimate``).
 
-    Attributes:
-        index: block number since the stream start [-].
-        first_index: index of the block's first sample [samples].
-        t_start, t_end: block start and end, stream time [s].
-        mu0, mu_inf: friction coefficients of Equ. 8 [-] (NaN if not identifiable).
-        mu0_se, mu_inf_se: their standard errors [-].
-        k, k_se: Stribeck constant used [s/rad] and its standard error (0 if fixed).
-        moment_min, moment_max, moment_mean: torsion moment C1*phi1 over the block [N m].
-        motion: ``stick-slip``, ``slip-slip`` or ``steady``.
-        n_sticks: stick phases in the block [-].
-        stick_fraction: fraction of the block's samples sticking [-].
-        rms_residual: RMS of the torsion-moment residual of the fit [N m].
-        quality: flags from :data:`FLAGS` (empty = ok).
-        w0: drive speed the fit used, measured from the shaft speed (mean over the
-            block) [rad/s].
-        drive_mismatch: relative deviation of ``w0`` from the configured nominal
-            speed [-] (NaN: none configured); beyond 5 % the command warns.
-        n_samples: valid samples used [-].
-        n_iter: Levenberg-Marquardt iterations [-].
-        spikes: samples replaced as spikes before the fit (core.plausibility) [-].
+    Attributes
+    ----------
+    index
+        block number since the stream start [-].
+    first_index
+        index of the block's first sample [samples].
+    t_start, t_end
+        block start and end, stream time [s].
+    mu0, mu_inf
+        friction coefficients of Equ. 8 [-] (NaN if not identifiable).
+    mu0_se, mu_inf_se
+        their standard errors [-].
+    k, k_se
+        Stribeck constant used [s/rad] and its standard error (0 if fixed).
+    moment_min, moment_max, moment_mean
+        torsion moment C1*phi1 over the block [N m].
+    motion
+        ``stick-slip``, ``slip-slip`` or ``steady``.
+    n_sticks
+        stick phases in the block [-].
+    stick_fraction
+        fraction of the block's samples sticking [-].
+    rms_residual
+        RMS of the torsion-moment residual of the fit [N m].
+    quality
+        flags from :data:`FLAGS` (empty = ok).
+    w0
+        drive speed the fit used, measured from the shaft speed (mean over the
+        block's whole stick-slip cycles) [rad/s].
+    drive_mismatch
+        relative deviation of ``w0`` from the configured nominal
+        speed [-] (NaN: none configured); beyond 5 % the command warns.
+    n_samples
+        valid samples used [-].
+    n_iter
+        Levenberg-Marquardt iterations [-].
+    spikes
+        samples replaced before the fit (spikes and bursts, core.plausibility;
+        left out of the fit's residuals) [-].
+    bursts
+        runs of at least :data:`BURST_MIN` replaced samples in the block [-].
     """
 
     index: int
@@ -158,6 +212,7 @@ class BlockResult:
     n_iter: int = 0
     drive_mismatch: float = math.nan
     spikes: int = 0
+    bursts: int = 0
 
     @property
     def ok(self) -> bool:
@@ -174,15 +229,27 @@ class BlockResult:
 class BlockData:
     """Measured and observed signals of one contiguous stretch (one block).
 
-    Attributes:
-        t0: time of the first sample [s].
-        fs: sample rate [Hz].
-        torsion: torsion moment C1*phi1 [N m].
-        accel: chamber acceleration w1' [rad/s^2].
-        speed: shaft speed w2 (tachometer) [rad/s].
-        moment: observer friction moment M [N m] (Equ. 1).
-        chamber_speed: observer chamber speed w1 [rad/s].
-        stick: True where the discs stick.
+    Attributes
+    ----------
+    t0
+        time of the first sample [s].
+    fs
+        sample rate [Hz].
+    torsion
+        torsion moment C1*phi1 [N m].
+    accel
+        chamber acceleration w1' [rad/s^2].
+    speed
+        shaft speed w2 (tachometer) [rad/s].
+    moment
+        observer friction moment M [N m] (Equ. 1).
+    chamber_speed
+        observer chamber speed w1 [rad/s].
+    stick
+        True where the discs stick.
+    repaired
+        True at samples replaced before the fit (spikes, bursts), which
+        the fit leaves out of its residuals; None: none.
     """
 
     t0: float
@@ -193,8 +260,10 @@ class BlockData:
     moment: FloatArray
     chamber_speed: FloatArray
     stick: BoolArray
+    repaired: BoolArray | None = None
 
     def __len__(self) -> int:
+        """Return the number of samples."""
         return int(self.torsion.shape[0])
 
 
@@ -229,6 +298,7 @@ class PendingBlock:
     Arrays have the block length; ``valid`` is False where samples are missing (gap).
     ``moment`` is the streaming observer's friction moment [N m] (None: computed
     per block). ``flags`` are those known while collecting (``gap``, ``startup``).
+    ``repaired`` is True at samples replaced before (spikes, bursts; None: none).
     """
 
     index: int
@@ -241,10 +311,12 @@ class PendingBlock:
     valid: BoolArray
     moment: FloatArray | None = None
     flags: set[str] = field(default_factory=set)
+    repaired: BoolArray | None = None
 
     @property
     def t_end(self) -> float:
-        return self.t_start + self.torsion.shape[0] / self.fs
+        """End of the block, stream time [s]."""
+        return float(self.t_start + self.torsion.shape[0] / self.fs)
 
 
 @dataclass(frozen=True)
@@ -257,6 +329,6 @@ class BlockDetail:
 
 
 def with_flags(r: BlockResult, *extra: str) -> BlockResult:
-    """A copy of ``r`` with further quality flags."""
+    """Copy ``r`` with further quality flags."""
     q = [f for f in FLAGS if f in set(r.quality) | set(extra)]
     return replace(r, quality=tuple(q))

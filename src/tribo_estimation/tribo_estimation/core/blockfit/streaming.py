@@ -19,6 +19,7 @@ import numpy as np
 from ..align import AlignedChunk, AlignEvent, ChannelAligner, GapEvent, RestartEvent
 from ..model import DriveProfile, FrictionLaw, RigParams
 from ..observer import FrictionObserver
+from ..plausibility import SpikeLog
 from ..signal import CHAMBER_HALF, chamber_speed
 from .evaluate import evaluate_block
 from .results import BlockConfig, BlockDetail, BlockResult, FloatArray, PendingBlock
@@ -36,10 +37,33 @@ class BlockEstimator:
     worker thread). :meth:`feed` does both.
     """
 
-    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+    def __init__(
+        self,
+        rig: RigParams,
+        friction: FrictionLaw,
+        cfg: BlockConfig,
+        repairs: SpikeLog | None = None,
+    ) -> None:
+        """Set up the estimator.
+
+        Parameters
+        ----------
+        rig : RigParams
+            Rig parameters (Tab. 1, F_N [N], R [m]).
+        friction : FrictionLaw
+            Start values of the friction law (k fixed unless fitted).
+        cfg : BlockConfig
+            Settings of the block fit.
+        repairs : SpikeLog or None
+            Log of the samples replaced before (spikes, bursts:
+            :func:`..plausibility.checked_chunks`), filled before each chunk
+            arrives here; the blocks carry the mask, their fits leave those
+            samples out and count them (``spikes``, ``bursts``).
+        """
         self.rig = rig
         self.friction = friction
         self.cfg = cfg
+        self.repairs = repairs
         self.fs: float | None = None
         self._n = 0
         self._cur: PendingBlock | None = None
@@ -72,6 +96,7 @@ class BlockEstimator:
             valid=np.zeros(n, dtype=bool),
             moment=np.full(n, np.nan),
             flags=flags,
+            repaired=np.zeros(n, dtype=bool) if self.repairs is not None else None,
         )
 
     def push(self, event: AlignEvent) -> list[PendingBlock]:
@@ -124,10 +149,14 @@ class BlockEstimator:
             assert cur.moment is not None
             cur.moment[off : off + take] = moment[pos : pos + take]
             cur.valid[off : off + take] = True
+            if self.repairs is not None and cur.repaired is not None:
+                cur.repaired[off : off + take] = self.repairs.mask(idx, idx + take)
             pos += take
             if off + take == n:
                 done.append(cur)
                 self._cur = None
+        if self.repairs is not None:
+            self.repairs.forget_before(ch.first_index + m)  # bounded memory
         return done
 
     def flush(self) -> list[PendingBlock]:
@@ -171,7 +200,8 @@ def estimate_blocks(
 class MomentChunk:
     """Observer friction moment M [N m] for samples ``first_index ...`` (``/friction/moment``).
 
-    ``t0`` time of the first sample [s], ``sample_rate`` [Hz]."""
+    ``t0`` time of the first sample [s], ``sample_rate`` [Hz].
+    """
 
     first_index: int
     t0: float
@@ -231,8 +261,11 @@ class StreamingPipeline:
         return self.estimator.evaluate(blk).result
 
     def warm_up(self) -> None:
-        """Fit a short simulated stretch once, so the compiled code is loaded before
-        the first real block ends (keeps the first estimate's latency low)."""
+        """Fit a short simulated stretch once.
+
+        The compiled code is then loaded before the first real block ends (keeps
+        the first estimate's latency low).
+        """
         from ..simulate import simulate
 
         est = self.estimator
