@@ -20,6 +20,17 @@ IntArray = npt.NDArray[np.int64]
 CHAMBER_HALF = 7
 
 
+def mad_sigma(x: FloatArray) -> float:
+    """Return the robust standard deviation ``1.4826 * median(|x - median(x)|)`` [unit of x].
+
+    NaN for an empty array.
+    """
+    if x.size == 0:
+        return math.nan
+    med = float(np.median(x))
+    return 1.4826 * float(np.median(np.abs(x - med)))
+
+
 def noise_level(x: FloatArray, order: int = 2) -> float:
     """Robust white-noise standard deviation of a sampled signal [unit of x].
 
@@ -38,8 +49,7 @@ def noise_level(x: FloatArray, order: int = 2) -> float:
     d = d[np.isfinite(d)]
     if d.size < 8 - order:
         return math.nan
-    mad = float(np.median(np.abs(d - np.median(d))))
-    return 1.4826 * mad / math.sqrt(float(math.comb(2 * order, order)))
+    return mad_sigma(d) / math.sqrt(float(math.comb(2 * order, order)))
 
 
 def runs(mask: npt.ArrayLike) -> tuple[IntArray, IntArray]:
