@@ -24,7 +24,8 @@ from tribo_bringup.argtypes import bounded_float
 from tribo_bringup.errors import BagError, BagTruncatedError
 
 if TYPE_CHECKING:
-    from tribo_estimation.core.blockfit import BlockDetail
+    from tribo_estimation.core.align import AlignEvent
+    from tribo_estimation.core.blockfit import BlockDetail, BlockResult
 
 #: Observer samples kept per block for the mu-vs-slip-speed figure.
 _POINTS_PER_BLOCK = 60
@@ -79,7 +80,7 @@ def _is_bag(path: Path) -> bool:
     return path.is_dir() or path.suffix in ('.mcap', '.db3')
 
 
-def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
+def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[AlignEvent]:
     """Aligner events (chunks and gaps) from a rig CSV read block by block.
 
     The rate comes from the first block (:func:`~tribo_estimation.core.rigio.estimate_rate`;
@@ -138,7 +139,7 @@ def csv_events(path: Path, jitter: list[float] | None = None) -> Iterator[Any]:
             next_index = int(idx[b - 1]) + 1
 
 
-def bag_events(path: Path, namespace: str | None = None) -> Iterator[Any]:
+def bag_events(path: Path, namespace: str | None = None) -> Iterator[AlignEvent]:
     """Read aligner events from the ``rig/*`` SampleBlock streams of a bag.
 
     Of the rig in ``namespace`` (default: the only rig of the bag)
@@ -309,7 +310,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plots(out: Path, results: list[Any], coll: _Collector, k: float) -> None:
+def _plots(out: Path, results: list[BlockResult], coll: _Collector, k: float) -> None:
     from tribo_estimation.core.blockfit import results_table
     from tribo_estimation.plots import plot_blocks, plot_detail, plot_mu_slip
 
