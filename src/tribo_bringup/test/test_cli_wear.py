@@ -95,3 +95,41 @@ def test_bad_counts_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     bad.write_text('t_start,t_end,counts,live_time\n60,120,10,59\n0,60,10,59\n')
     assert main(['wear', str(bad), '--nvct', nvct, '--out', str(tmp_path / 'o')]) == 2
     assert 'back in time' in capsys.readouterr().err
+
+
+def test_background_above_the_counts_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # found by make fuzz: background_cps 1e5 against counts of ~1e3/s gave a total wear
+    # volume of -1.9e12 um^3 with exit 0. Far fewer counts than the background alone
+    # gives (> 5 sigma) is a contradiction: one line naming it, exit 2, nothing in --out.
+    counts = tmp_path / 'c.csv'
+    sim = str(CONFIG_DIR / 'sim_detector.yaml')
+    assert main(['wear', '--simulate', str(counts), '--sim', sim, '--seed', '5']) == 0
+    raw = (CONFIG_DIR / 'nvct.yaml').read_text()
+    assert 'background_cps: 1.0' in raw
+    nvct = tmp_path / 'nvct.yaml'
+    nvct.write_text(raw.replace('background_cps: 1.0', 'background_cps: 1.0e5'))
+    (tmp_path / 'depth_profile.csv').write_text((CONFIG_DIR / 'depth_profile.csv').read_text())
+    out = tmp_path / 'out'
+    capsys.readouterr()
+    assert main(['wear', str(counts), '--nvct', str(nvct), '--out', str(out), '--no-plots']) == 2
+    err = capsys.readouterr().err
+    assert 'fewer counts than the configured background' in err, err
+    assert len([ln for ln in err.splitlines() if 'error' in ln]) == 1, err
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_dwell_far_below_the_background_is_flagged_and_not_used() -> None:
+    from tribo_nvct.core.config import load_config
+    from tribo_nvct.core.counting import Dwell
+    from tribo_nvct.core.streaming import WearEvaluator
+
+    cfg = load_config(CONFIG_DIR / 'nvct.yaml')  # background 1 count/s
+    ev = WearEvaluator(cfg)
+    # 600 s live: the background alone gives 600 +- 24.5 counts; 400 counts is 8 sigma
+    # below it (flagged), 560 counts 1.6 sigma (a plain fluctuation: not flagged)
+    low = ev.add(Dwell(0.0, 600.0, 400, 600.0))
+    ok = ev.add(Dwell(600.0, 1200.0, 560, 600.0))
+    assert low is not None and 'below_background' in low.flags and not low.usable
+    assert ok is not None and 'below_background' not in ok.flags

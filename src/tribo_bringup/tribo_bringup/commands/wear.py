@@ -151,6 +151,16 @@ def _evaluate_run(
             n_dup += 1
         if i % 50 == 0:
             print(f'wear: {counts.name}: dwell {i + 1}/{len(dwells)}', file=sys.stderr)
+    below = [p for p in ev.points if 'below_background' in p.flags]
+    if ev.points and 2 * len(below) > len(ev.points):
+        rates = sorted(p.counts / p.live_time for p in ev.points if p.live_time > 0)
+        raise _err(
+            f'{nvct}: {len(below)} of {len(ev.points)} dwells of {counts.name} counted far '
+            f'fewer counts than the configured background alone gives (background '
+            f'{cfg.background.rate:.4g} counts/s, median measured rate '
+            f'{rates[len(rates) // 2] if rates else math.nan:.4g} counts/s): the background '
+            'or the counts are wrong'
+        )
     evaluation = ev.evaluation()
     dwell_s = float(sorted(d.real_time for d in dwells)[len(dwells) // 2])
     summary = evaluation.summary(cfg, dwell_s)

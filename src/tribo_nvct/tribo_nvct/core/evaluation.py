@@ -384,6 +384,9 @@ def evaluate(
     n_beyond = sum(1 for p in points if 'beyond_profile' in p.flags)
     if n_beyond:
         flags.append(f'beyond_profile_points={n_beyond}')
+    n_below_bg = sum(1 for p in points if 'below_background' in p.flags)
+    if n_below_bg:
+        flags.append(f'below_background_points={n_below_bg}')
     d_s = cfg.sliding_distance(t2)
     denom = cfg.load * d_s
     if line is not None:

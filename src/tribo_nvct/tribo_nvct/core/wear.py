@@ -30,6 +30,13 @@ from tribo_nvct.core.counting import (
 FLAG_NOT_MIXED = 'not_mixed'
 FLAG_BEYOND = 'beyond_profile'
 FLAG_BELOW = 'below_detection_limit'
+#: The dwell counted far fewer counts than the configured background alone gives
+#: (more than :data:`BELOW_BACKGROUND_SIGMA` standard deviations): impossible for a
+#: Poisson count, so the background or the counts are wrong; the point is not used.
+FLAG_BELOW_BACKGROUND = 'below_background'
+#: Standard deviations (Poisson counts and the background's own SE) that make a
+#: dwell's deficit against the background a contradiction [-].
+BELOW_BACKGROUND_SIGMA = 5.0
 FLAG_GAP = 'gap'
 
 
@@ -42,7 +49,7 @@ class WearPoint:
     height, height_se: mean wear height h [m] (statistical SE); height_sys_se: systematic [m];
     tagged_volume, tagged_volume_se: V_I = h*A_I [m^3];
     volume, volume_se, volume_sys_se: V_W = V_I*k_A [m^3];
-    flags: subset of not_mixed, beyond_profile, below_detection_limit, gap.
+    flags: subset of not_mixed, beyond_profile, below_detection_limit, below_background, gap.
     """
 
     t_start: float
@@ -74,7 +81,7 @@ class WearPoint:
     @property
     def usable(self) -> bool:
         """True if the point may enter fits (mixed oil, inside the profile)."""
-        return FLAG_NOT_MIXED not in self.flags and FLAG_BEYOND not in self.flags
+        return not {FLAG_NOT_MIXED, FLAG_BEYOND, FLAG_BELOW_BACKGROUND} & set(self.flags)
 
 
 def activity_to_wear(
@@ -115,6 +122,9 @@ def make_point(
     net_counts = act.net_rate * dwell.live_time
     if net_counts < currie_critical_level_counts(bg_counts):
         flags.append(FLAG_BELOW)
+    bg_se_counts = cfg.background.se * dwell.live_time
+    if net_counts < -BELOW_BACKGROUND_SIGMA * math.sqrt(max(bg_counts, 1.0) + bg_se_counts**2):
+        flags.append(FLAG_BELOW_BACKGROUND)
     if gap:
         flags.append(FLAG_GAP)
     A_I = cfg.tagged_area
