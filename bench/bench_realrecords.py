@@ -40,6 +40,7 @@ for _pkg in ('tribo_estimation', 'tribo_bringup'):
 
 from tribo_bringup.commands import friction as friction_cmd  # noqa: E402
 from tribo_estimation.core.blockfit import read_blocks_csv  # noqa: E402
+from tribo_estimation.core.config import RigConfig, load_rig_config  # noqa: E402
 from tribo_estimation.core.model import FrictionLaw, RigParams  # noqa: E402
 from tribo_estimation.core.reference import SpeedProfile  # noqa: E402
 from tribo_estimation.core.reference_records import (  # noqa: E402
@@ -143,27 +144,16 @@ def _true_counts(rec: RecordTruth, t0: float, t1: float) -> int:
     return sum(1 for a, b in rec.sticks if t0 < a <= t1 and b - a >= MIN_STICK)
 
 
-def _num(base: dict[str, object], key: str) -> float:
-    """Return RIG.yaml's number ``key``."""
-    value = base[key]
-    if not isinstance(value, (int, float)):
-        raise TypeError(f'{RIG_YAML}: {key} is not a number: {value!r}')
-    return float(value)
-
-
-def _rig(base: dict[str, object]) -> RigParams:
-    """Return the rig of RIG.yaml's values."""
-    return RigParams.from_mapping({k: _num(base, k) for k in RigParams.field_names()})
+def _rig_config() -> RigConfig:
+    """Return config/rig.yaml read by the project's one rig-config loader."""
+    return load_rig_config(RIG_YAML)
 
 
 def run_condition(c: Condition, base: dict[str, object], tmp: Path, duration: float) -> Row:
     """Generate the record of condition ``c`` and run ``tribo friction`` on it."""
-    rig = _rig(base)
-    law = (
-        FrictionLaw(*c.law, k=_num(base, 'k'))
-        if c.law
-        else FrictionLaw(_num(base, 'mu0'), _num(base, 'mu_inf'), _num(base, 'k'))
-    )
+    rc = _rig_config()
+    rig = rc.rig
+    law = FrictionLaw(*c.law, k=rc.friction.k) if c.law else rc.friction
     rec = _record(c, rig, law, duration)
     csv = tmp / f'{abs(hash(c.name))}.csv'
     write_record_csv(csv, rec, truth=False)
@@ -267,8 +257,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
     worst_det = max(r.cnt_det for r in rows)
     print(f'stick detector: worst per-block count error {100 * worst_det:.1f} %')
     if not a.quick:
-        rig = _rig(base)
-        law = FrictionLaw(_num(base, 'mu0'), _num(base, 'mu_inf'), _num(base, 'k'))
+        rc = _rig_config()
+        rig, law = rc.rig, rc.friction
         tq, ac, sp = rig_channels(1.0, speed_lag=0.005)
         t0 = time.perf_counter()
         rec = make_record(
