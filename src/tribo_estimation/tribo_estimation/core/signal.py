@@ -1,7 +1,8 @@
 """Signal helpers shared by every fit.
 
-The one noise estimate, the one runs helper, the one chamber-speed
-reconstruction and the first-order sensor lag.
+The one noise estimate, the one runs helper, the one smoothed derivative
+(:func:`local_slope`), the one chamber-speed reconstruction and the first-order
+sensor lag.
 
 All values keep the unit of their input; ``fs`` in Hz, time constants in s.
 """
@@ -68,22 +69,66 @@ def longest_run(mask: npt.ArrayLike) -> tuple[int, int]:
     return int(st[i]), int(en[i])
 
 
-def chamber_speed(torsion: FloatArray, fs: float, c1: float) -> FloatArray:
-    """Reconstruct the chamber speed from the torsion moment.
+def local_slope(x: FloatArray, dt: float, window: int, order: int = 1) -> FloatArray:
+    """Return the slope x' of a local least-squares polynomial (Savitzky-Golay).
 
-    w1 = phi1' = (dM_t/dt)/C1 [rad/s] from M_t = C1*phi1 [N m] (local cubic over
-    2*7+1 samples, one-sided at the ends).
+    The one smoothed derivative of the project: a polynomial of degree ``order`` fitted
+    over a centred window of ``window`` samples gives x' at each sample; at the ends
+    the polynomial of the first/last full window is used. For ``order`` 1 this is the
+    least-squares line, ``x'_i = sum_k k*x_(i+k) / (dt*sum_k k^2)``.
 
-    Independent of the speed and acceleration channels (and so of their lags
-    and offsets); ``fs`` [Hz], ``c1`` [N m/rad].
+    Parameters
+    ----------
+    x : FloatArray
+        Samples [any unit].
+    dt : float
+        Sample interval [s].
+    window : int
+        Window length [samples], odd; shrunk to the longest odd length the record holds.
+    order : int
+        Polynomial degree (1: line, 3: cubic).
+
+    Returns
+    -------
+    FloatArray
+        x' [unit of x per s]; zeros when the record is shorter than ``order`` + 2 samples.
     """
     from scipy.signal import savgol_filter
 
-    n = torsion.shape[0]
-    win = min(2 * CHAMBER_HALF + 1, n - (1 - n % 2))
-    if win < 5:
+    n = int(x.shape[0])
+    win = min(int(window), n - (1 - n % 2))
+    if win < order + 2:
         return np.zeros(n)
-    return np.asarray(savgol_filter(torsion, win, 3, deriv=1, delta=1.0 / fs)) / c1
+    return np.asarray(savgol_filter(x, win, order, deriv=1, delta=dt), dtype=np.float64)
+
+
+def chamber_speed(torsion: FloatArray, fs: float, c1: float, window: int = 0) -> FloatArray:
+    """Reconstruct the chamber speed from the torsion moment.
+
+    w1 = phi1' = (dM_t/dt)/C1 [rad/s] from M_t = C1*phi1 [N m] (Equ. 4; local cubic
+    over ``window`` samples, default 2*7+1, by :func:`local_slope`).
+
+    Independent of the speed and acceleration channels (and so of their lags
+    and offsets).
+
+    Parameters
+    ----------
+    torsion : FloatArray
+        Torsion moment M_t [N m].
+    fs : float
+        Sample rate [Hz].
+    c1 : float
+        Torsion stiffness C1 [N m/rad].
+    window : int
+        Window of the local cubic [samples] (0: ``2*CHAMBER_HALF + 1``).
+
+    Returns
+    -------
+    FloatArray
+        w1 [rad/s] (zeros for fewer than 5 samples).
+    """
+    win = window if window > 0 else 2 * CHAMBER_HALF + 1
+    return local_slope(torsion, 1.0 / fs, win, order=3) / c1
 
 
 def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = None) -> FloatArray:

@@ -79,8 +79,8 @@ from .detect import (
     detect_sticks,
     drive_speed_level,
     find_sticks,
-    local_slope,
     slip_speed,
+    speed_mismatch,
     stick_residual,
 )
 from .lag import (
@@ -108,8 +108,8 @@ __all__ = [
     'drive_speed_level',
     'estimate_torsion_lag',
     'find_sticks',
-    'local_slope',
     'slip_speed',
+    'speed_mismatch',
     'stick_residual',
     'torsion_lag_compensated',
 ]

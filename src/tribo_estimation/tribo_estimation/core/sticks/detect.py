@@ -13,7 +13,7 @@ from scipy.ndimage import maximum_filter1d
 
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.observer import FrictionObserver
-from tribo_estimation.core.signal import noise_level, runs
+from tribo_estimation.core.signal import local_slope, noise_level, runs
 from tribo_estimation.errors import (
     InvalidDataError,
     InvalidParameterError,
@@ -132,21 +132,6 @@ def drive_speed_level(speed: np.ndarray, fs: float, window: float = _DRIVE_WIN) 
     return np.asarray((c[hi] - c[lo]) / (hi - lo))
 
 
-def local_slope(x: np.ndarray, dt: float, m: int = _SLOPE_WIN) -> np.ndarray:
-    """Return the least-squares slope of ``x`` over a centred window of ``m`` (odd) samples.
-
-    In [unit of x]/s; the ends use the first/last full window.
-    """
-    h = m // 2
-    k = np.arange(-h, h + 1, dtype=float)
-    kern = k / (np.sum(k * k) * dt)
-    n = x.size
-    if n < m:
-        return np.full(n, float(np.polyfit(np.arange(n) * dt, x, 1)[0]))
-    s = np.convolve(x, kern[::-1], mode='valid')
-    return np.concatenate((np.full(h, s[0]), s, np.full(h, s[-1])))
-
-
 def _detect_all(
     t: np.ndarray,
     mt: np.ndarray,
@@ -170,7 +155,7 @@ def _detect_all(
     if torsion_lag > 0.0:
         mt = torsion_lag_compensated(mt, w, dt, torsion_lag, rig.C1)
     r = stick_residual(rig, mt, ac, w)
-    slope = local_slope(r, dt)
+    slope = local_slope(r, dt, _SLOPE_WIN)
     sig = noise_level(r, order=3)
     if not sig > 0.0:  # constant residual, or fewer than 8 samples
         sig = 1e-9 * (float(np.max(np.abs(r))) + 1.0)
@@ -180,7 +165,7 @@ def _detect_all(
     w0 = drive_speed_level(w2, fs)
     # chamber speed w1 from torsion and acceleration only (complementary filter)
     w1 = -slip_speed(rig, mt, ac, np.zeros_like(w2), fs)
-    w2_slope = local_slope(w2, dt)
+    w2_slope = local_slope(w2, dt, _SLOPE_WIN)
     phases: list[StickPhase] = []
     for _pass in range(2):
         # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
@@ -208,12 +193,12 @@ def _detect_all(
             if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
                 continue
             kept.append((a, b, sl, i0, i1))
-        mismatch = _speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
+        mismatch = speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
         phases = []
         mids: list[float] = []
         w_line: list[float] = []
         for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True):
-            if dw > _W_MISMATCH:
+            if abs(dw) > _W_MISMATCH:
                 continue
             phases.append(StickPhase(float(a), float(b)))
             if i1 - i0 >= 6:
@@ -225,54 +210,76 @@ def _detect_all(
     return phases, float(np.mean(w0))
 
 
-#: Largest speed-channel lag :func:`_speed_mismatch` considers [s].
+#: Largest speed-channel lag :func:`speed_mismatch` considers [s].
 _MAX_SPEED_LAG = 0.02
 
 #: A phase whose median ``|w2 - w1|`` (speed channel, lag inverted, against the chamber
-#: speed) exceeds this [rad/s] is a slip, not a stick (:func:`_speed_mismatch`).
+#: speed) exceeds this [rad/s] is a slip, not a stick (:func:`speed_mismatch`).
 _W_MISMATCH = 0.5
 
 
-def _speed_mismatch(
-    w2: FloatArray, w2_slope: FloatArray, w1: FloatArray, spans: list[tuple[int, int]]
+def speed_mismatch(
+    w2: FloatArray,
+    w2_slope: FloatArray,
+    w1: FloatArray,
+    spans: list[tuple[int, int]],
+    *,
+    guard: int | None = None,
+    sensor: tuple[float, float] | None = None,
 ) -> list[float]:
-    """Return the median shaft-chamber speed difference of each phase [rad/s].
+    """Return the median shaft-chamber speed difference of each phase [rad/s] (signed).
 
-    While the discs stick the shaft moves with the chamber, ``w2 = w1`` (Equ. 1, 2).
-    The speed channel shows ``w2`` through a first-order lag ``tau`` and an offset
-    drifting linearly over the record ``c(t)``: ``y + tau*y' = w2 + c(t)``; ``w1``
-    [rad/s] comes from torsion and acceleration alone (:func:`slip_speed`'s filter).
-    ``tau`` (clipped to [0, 20 ms]) and ``c`` are fitted by least squares to the
-    interiors of the phases (twice: the second time without the phases the first fit
-    puts beyond :data:`_W_MISMATCH`), so the speed sensor's lag and offset do not
-    matter; a gain error ``e`` adds ``e*(w1 - mean w1)``, within 0.1 rad/s for 10 %
-    through a 12 -> 30 rpm step. A phase in which the discs still slip (the slow end
-    of a slip) shows its slip speed, several rad/s. A speed channel that disagrees
-    with the chamber speed in most phases does not show the shaft speed (a wrong
-    unit, a fault): the check is then skipped.
+    While the discs stick the shaft moves with the chamber, ``w2 = w1`` (Equ. 1, 2,
+    4). The speed channel ``y`` shows ``w2`` through a first-order lag ``tau`` and an
+    offset ``c(t)``: ``y + tau*y' = w2 + c(t)``; ``w1`` [rad/s] comes from torsion
+    (and acceleration) alone. The median of ``y + tau*y' - c(t) - w1`` over a phase's
+    interior is ~0 in a stick and the slip speed in a phase in which the discs still
+    slip (the slow end of a slip: several rad/s).
+
+    With ``sensor = (tau, offset)`` the speed sensor is known (constant offset). Without
+    it, ``tau`` (clipped to [0, 20 ms]) and an offset drifting linearly over the record
+    are fitted by least squares to the interiors of the phases (twice: the second time
+    without the phases the first fit puts beyond :data:`_W_MISMATCH`), so the sensor's
+    lag and offset do not matter; a gain error ``e`` adds ``e*(w1 - mean w1)``, within
+    0.1 rad/s for 10 % through a 12 -> 30 rpm step. A speed channel that disagrees with
+    the chamber speed in more than half of the phases does not show the shaft speed (a
+    wrong unit, a fault): the check is then skipped (all 0).
 
     Parameters
     ----------
     w2 : FloatArray
-        Speed channel [rad/s].
+        Speed channel y [rad/s].
     w2_slope : FloatArray
-        Its local slope [rad/s^2] (:func:`local_slope`).
+        Its local slope y' [rad/s^2] (:func:`tribo_estimation.core.signal.local_slope`).
     w1 : FloatArray
         Chamber speed [rad/s].
     spans : list of tuple of int
         First and stop sample of each phase.
+    guard : int, optional
+        Samples left out at each end of a phase; a phase whose interior has fewer than 3
+        samples gives 0. Default: ``min(5, length//4)``, interiors of 2 or more samples.
+    sensor : tuple of float, optional
+        Known ``(tau [s], offset [rad/s])`` of the speed sensor.
 
     Returns
     -------
     list of float
-        ``|median(y + tau*y' - c - w1)|`` per phase [rad/s] (0 for a phase of fewer
-        than 2 samples, and for every phase when fewer than two phases of 4 samples
-        can be used for the fit or when more than half of them disagree).
+        ``median(y + tau*y' - c - w1)`` per phase [rad/s] (0 for a phase too short to
+        tell; all 0 when the sensor is fitted and fewer than two phases of 4 samples
+        can be used or more than half of them disagree).
     """
     inner = []
     for i0, i1 in spans:
-        g = min(5, (i1 - i0) // 4)
+        g = min(5, (i1 - i0) // 4) if guard is None else guard
         inner.append((i0 + g, i1 - g))
+    shortest = 2 if guard is None else 3
+
+    def medians(e: FloatArray) -> list[float]:
+        return [float(np.median(e[a:b])) if b - a >= shortest else 0.0 for a, b in inner]
+
+    if sensor is not None:
+        tau, off = sensor
+        return medians(w2 + tau * w2_slope - off - w1)
     use = [k for k, (a, b) in enumerate(inner) if b - a >= 4]
     out = [0.0] * len(spans)
     if len(use) < 2:
@@ -283,9 +290,8 @@ def _speed_mismatch(
         x = np.stack([np.ones(idx.size), s[idx], -w2_slope[idx]], axis=1)
         coef = np.linalg.lstsq(x, w2[idx] - w1[idx], rcond=None)[0]
         tau = min(max(float(coef[2]), 0.0), _MAX_SPEED_LAG)
-        e = w2 + tau * w2_slope - coef[0] - coef[1] * s - w1
-        out = [abs(float(np.median(e[a:b]))) if b - a >= 2 else 0.0 for a, b in inner]
-        good = [k for k in use if out[k] <= _W_MISMATCH]
+        out = medians(w2 + tau * w2_slope - coef[0] - coef[1] * s - w1)
+        good = [k for k in use if abs(out[k]) <= _W_MISMATCH]
         if 2 * len(good) < len(use):
             return [0.0] * len(spans)
         if len(good) < 2 or good == use:

@@ -17,12 +17,13 @@ import numpy.typing as npt
 
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import lag_segments
-from tribo_estimation.core.signal import CHAMBER_HALF
+from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, local_slope
 from tribo_estimation.core.sticks import (
     MAX_TORSION_LAG,
     chamber_speed_integral,
     drive_speed_level,
     estimate_torsion_lag,
+    speed_mismatch,
     torsion_lag_compensated,
 )
 
@@ -48,12 +49,7 @@ def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
     FloatArray
         y' [rad/s^2] (zeros for a channel shorter than the window).
     """
-    from scipy.signal import savgol_filter
-
-    win = 4 * CHAMBER_HALF + 1
-    if speed.size < win:
-        return np.zeros(speed.size)
-    return np.asarray(savgol_filter(speed, win, 3, deriv=1, delta=dt), dtype=np.float64)
+    return local_slope(speed, dt, 4 * CHAMBER_HALF + 1, order=3)
 
 
 #: Length of the record pieces the torsion lag is estimated on [s] (the spread of
@@ -268,8 +264,6 @@ def identify_speed_sensor(
     SpeedSensor
         Lag [s] and offset [rad/s] with standard errors.
     """
-    from tribo_estimation.core.signal import chamber_speed
-
     if runs is None:
         a0, b0, _ = stick_runs(record, rig)
     else:
@@ -437,7 +431,9 @@ def false_stick_phases(
     While the discs stick, the shaft speed equals the chamber speed
     ``w1 = (dM_t/dt)/C1`` (Equ. 4), and the speed channel shows it through the
     sensor model of :func:`identify_speed_sensor` (``y = w - tau*y' + offset``).
-    The median of ``y + tau*y' - offset - w1`` over the phase's interior is
+    The median of ``y + tau*y' - offset - w1`` over the phase's interior
+    (:func:`tribo_estimation.core.sticks.speed_mismatch`, the detector's own check,
+    here with this known sensor) is
     ~0.01 rad/s in a stick and the slip speed (rad/s) in a phase the stick
     detector took for a stick while the discs still slip (seen at the slow end of a
     slip just before a real stick: 3 ms at 2-6 rad/s slip).
@@ -456,18 +452,15 @@ def false_stick_phases(
     numpy.ndarray of float
         Median speed disagreement per phase [rad/s] (0 for a phase too short to tell).
     """
-    from tribo_estimation.core.signal import chamber_speed
-
-    out = np.zeros(a0.size)
     if a0.size == 0:
-        return out
+        return np.zeros(0)
     sensor = identify_speed_sensor(record, rig, (a0, b0))
     tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
     off = sensor.offset if math.isfinite(sensor.offset) else 0.0
     w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    resid = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
-    guard = CHAMBER_HALF + 3
-    for k, (a, b) in enumerate(zip(a0.tolist(), b0.tolist(), strict=True)):
-        if b - a > 2 * guard + 2:
-            out[k] = float(np.median(resid[a + guard : b - guard]))
-    return out
+    spans = list(zip(a0.tolist(), b0.tolist(), strict=True))
+    slope = speed_slope(record.speed, record.dt)
+    mismatch = speed_mismatch(
+        record.speed, slope, w1, spans, guard=CHAMBER_HALF + 3, sensor=(tau, off)
+    )
+    return np.asarray(mismatch, dtype=np.float64)

@@ -15,6 +15,7 @@ import numpy as np
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
+from tribo_estimation.core.signal import chamber_speed
 from tribo_estimation.core.sticks import detect_sticks
 from tribo_estimation.errors import EstimationError, TooShortError
 
@@ -269,16 +270,13 @@ def sliding_start_states(
     FloatArray
         Kernel states, one row per segment.
     """
-    from scipy.signal import savgol_filter
-
     rig_c1 = float(p[kn.P_C1])
     rec = record
     i0 = starts
     # a sliding state's chamber speed sets the amplitude of the contact's lightly
     # damped oscillation for the whole segment: a local cubic over 5 ms (not
     # 1.5 ms) keeps its noise at ~4e-3 rad/s (config/rig.yaml noise)
-    win = min(SLIDE_WIN, rec.time.size - (1 - rec.time.size % 2))
-    w1 = savgol_filter(rec.torsion_moment, win, 3, deriv=1, delta=rec.dt)[i0] / rig_c1
+    w1 = chamber_speed(rec.torsion_moment, 1.0 / rec.dt, rig_c1, SLIDE_WIN)[i0]
     a1 = window_mean(rec.angular_acceleration, i0, SLIDE_WIN // 2)
     moment = np.empty(w1.size)
     for k in range(w1.size):
