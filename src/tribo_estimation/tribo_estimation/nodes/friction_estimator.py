@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import queue
 import threading
+import time
 from collections.abc import Sequence
 from typing import Unpack
 
@@ -33,16 +34,21 @@ from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_
 from tribo_estimation.core.blockfit import (
     BlockConfig,
     BlockResult,
+    MomentChunk,
     PendingBlock,
     StreamingPipeline,
 )
 from tribo_estimation.core.model import FrictionLaw, RigParams
+from tribo_estimation.core.plausibility import Scales
 from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS
 from tribo_msgs.msg import FrictionEstimate, SampleBlock
 
 #: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
 TOPICS: dict[str, str] = RIG_INPUTS
+
+#: Input pause after which the samples held by the input checks are released [s].
+IDLE_S = 0.5
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = FRICTION_ESTIMATOR_PARAMS
@@ -68,7 +74,10 @@ class FrictionEstimatorNode(Node):
             )
         except EstimationError as exc:
             raise ParameterError(str(exc)) from exc
-        self._pipe = StreamingPipeline(rig, friction, cfg)
+        scales = (
+            Scales.of(rig, friction, cfg.nominal_speed or 0.0) if v.flag('check_input') else None
+        )
+        self._pipe = StreamingPipeline(rig, friction, cfg, scales, source='rig topics')
         self._lock = threading.Lock()
         self._queue: queue.Queue[PendingBlock | None] = queue.Queue()
         qos = data_qos()
@@ -80,6 +89,8 @@ class FrictionEstimatorNode(Node):
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name='friction_fit', daemon=True)
         self._worker.start()
+        self._last_input = time.monotonic()
+        self._idle_timer = self.create_timer(0.5 * IDLE_S, self._on_idle)
         self.published = 0
         w0 = 'tachometer mean' if cfg.nominal_speed is None else f'{cfg.nominal_speed:g} rad/s'
         self.get_logger().info(
@@ -92,12 +103,32 @@ class FrictionEstimatorNode(Node):
         """Align one block and run the observer; queue the completed blocks for the fit."""
         try:
             with self._lock:
-                moments, blocks, notes = self._pipe.push(
+                self._last_input = time.monotonic()
+                out = self._pipe.push(
                     b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
                 )
         except EstimationError as exc:
-            self.get_logger().error(f'{b.channel}: block dropped: {exc}')
+            # a failed input check repeats on every block: log it every 5 s, not 500 times/s
+            self.get_logger().error(f'{b.channel}: block dropped: {exc}', throttle_duration_sec=5.0)
             return
+        self._emit(*out)
+
+    def _on_idle(self) -> None:
+        """Release the samples the input checks hold once the input has paused for IDLE_S."""
+        try:
+            with self._lock:
+                if not self._pipe.holding or time.monotonic() - self._last_input < IDLE_S:
+                    return
+                out = self._pipe.release()
+        except EstimationError as exc:
+            self.get_logger().error(f'input check: {exc}', throttle_duration_sec=5.0)
+            return
+        self._emit(*out)
+
+    def _emit(
+        self, moments: list[MomentChunk], blocks: list[PendingBlock], notes: list[str]
+    ) -> None:
+        """Publish observer output, log notes, queue completed blocks for the fit."""
         for note in notes:
             self.get_logger().warning(note)
         for mc in moments:

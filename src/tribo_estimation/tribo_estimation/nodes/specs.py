@@ -38,6 +38,14 @@ FRICTION_ESTIMATOR_PARAMS: tuple[ParamSpec, ...] = (
     *ESTIMATOR_RIG_PARAMS,
     ParamSpec('block_length', 's', 1.0, 0.01, 600.0, 'block length of the fit (paper: 1 s)'),
     ParamSpec('fit_k', '', False, description='also fit k (Equ. 8) per block', type='bool'),
+    ParamSpec(
+        'check_input',
+        '',
+        True,
+        description='check units and time base of the first 2 s and repair spikes '
+        '(as the offline tribo friction does)',
+        type='bool',
+    ),
 )
 
 #: Parameters of ``model_monitor``.

@@ -19,7 +19,7 @@ import numpy as np
 from ..align import AlignedChunk, AlignEvent, ChannelAligner, GapEvent, RestartEvent
 from ..model import DriveProfile, FrictionLaw, RigParams
 from ..observer import FrictionObserver
-from ..plausibility import SpikeLog
+from ..plausibility import ChunkChecker, Scales, SpikeLog
 from ..signal import CHAMBER_HALF, chamber_speed
 from .evaluate import evaluate_block
 from .results import BlockConfig, BlockDetail, BlockResult, FloatArray, PendingBlock
@@ -219,18 +219,93 @@ class StreamingPipeline:
     order gives the same blocks as the offline ``tribo friction``.
     """
 
-    def __init__(self, rig: RigParams, friction: FrictionLaw, cfg: BlockConfig) -> None:
+    def __init__(
+        self,
+        rig: RigParams,
+        friction: FrictionLaw,
+        cfg: BlockConfig,
+        scales: Scales | None = None,
+        source: str = 'live input',
+    ) -> None:
+        """Set up the aligner, the plausibility stage and the estimator.
+
+        Parameters
+        ----------
+        rig : RigParams
+            Rig parameters (Tab. 1, F_N [N], R [m]).
+        friction : FrictionLaw
+            Start values of the friction law.
+        cfg : BlockConfig
+            Settings of the block fit.
+        scales : Scales or None
+            Physical scales of the channels: the aligned stream then passes the
+            plausibility stage of the offline ``tribo friction``
+            (:class:`..plausibility.ChunkChecker`: unit and time-base check of the first
+            2 s, spike repair); None: no checks.
+        source : str
+            Name of the input in the messages of the checks.
+        """
         self.aligner = ChannelAligner()
-        self.estimator = BlockEstimator(rig, friction, cfg)
+        repairs = SpikeLog() if scales is not None else None
+        self.checker = (
+            ChunkChecker(scales, source, repairs)
+            if scales is not None and repairs is not None
+            else None
+        )
+        self.estimator = BlockEstimator(rig, friction, cfg, repairs=repairs)
+
+    def _stage(self, events: list[AlignEvent]) -> list[AlignEvent]:
+        if self.checker is None:
+            return events
+        if self.checker.failure is not None:
+            raise self.checker.failure
+        out: list[AlignEvent] = []
+        for ev in events:
+            out.extend(self.checker.push(ev))
+        return out
 
     def push(
         self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
     ) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
-        """Add one block of one channel; see the class docstring."""
+        """Add one block of one channel; see the class docstring.
+
+        Parameters
+        ----------
+        channel : str
+            Channel name (``torsion``, ``accel``, ``speed``).
+        first_index : int
+            Sample counter of the first sample.
+        sample_rate : float
+            Sample rate [Hz].
+        stamp : float
+            Time of the first sample [s].
+        data : FloatArray
+            Samples [SI unit of the channel].
+
+        Returns
+        -------
+        tuple
+            Observer output chunks, blocks ready to fit, notices (gaps, restarts,
+            plausibility warnings).
+
+        Raises
+        ------
+        InvalidDataError
+            The plausibility check of the first samples failed (a unit or time-base
+            error); raised again on every later call.
+        """
+        events = self._stage(self.aligner.push(channel, first_index, sample_rate, stamp, data))
+        return self._consume(events)
+
+    def _consume(
+        self, events: list[AlignEvent]
+    ) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
         moments: list[MomentChunk] = []
         blocks: list[PendingBlock] = []
         notes: list[str] = []
-        for ev in self.aligner.push(channel, first_index, sample_rate, stamp, data):
+        if self.checker is not None:
+            notes.extend(f'plausibility: {w}' for w in self.checker.take_warnings())
+        for ev in events:
             blocks.extend(self.estimator.push(ev))
             if isinstance(ev, AlignedChunk):
                 moments.append(
@@ -248,10 +323,47 @@ class StreamingPipeline:
                 )
         return moments, blocks, notes
 
+    @property
+    def holding(self) -> bool:
+        """Whether the plausibility stage holds samples back (see :meth:`release`)."""
+        return self.checker is not None and self.checker.holding
+
+    def release(self) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
+        """Pass on what the plausibility stage holds, for a stream that went quiet.
+
+        The stage holds the first samples until they are checked and the last few
+        samples of every chunk until the next one (spikes at a chunk edge are judged
+        with both sides). When no input comes for a while (a paused or finished test),
+        the node calls this so the last block completes; a later contiguous chunk is
+        then despiked without the released tail as context.
+
+        Returns
+        -------
+        tuple
+            As :meth:`push`.
+
+        Raises
+        ------
+        InvalidDataError
+            The check of the held samples failed.
+        """
+        if self.checker is None:
+            return [], [], []
+        return self._consume(self.checker.flush())
+
     def flush(self) -> list[PendingBlock]:
-        """End of input: remaining aligned data and the partial block."""
+        """End of input: remaining aligned data and the partial block.
+
+        Returns
+        -------
+        list of PendingBlock
+            Blocks ready to fit.
+        """
+        events = self._stage(self.aligner.flush())
+        if self.checker is not None:
+            events.extend(self.checker.flush())
         blocks: list[PendingBlock] = []
-        for ev in self.aligner.flush():
+        for ev in events:
             blocks.extend(self.estimator.push(ev))
         blocks.extend(self.estimator.flush())
         return blocks

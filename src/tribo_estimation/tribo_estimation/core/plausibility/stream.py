@@ -16,6 +16,7 @@ from tribo_estimation.core.plausibility.spikes import (
     SpikeLog,
     despike_chunk,
 )
+from tribo_estimation.errors import InvalidDataError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -89,6 +90,138 @@ class _Despiker:
         return out
 
 
+class ChunkChecker:
+    """Push-style plausibility stage for aligner events (offline and live input).
+
+    The first ``check_samples`` samples are held and checked once (time base and
+    channels, :func:`check_time_base`, :func:`check_channels`; warnings collect in
+    :attr:`warnings`) before anything is passed on; spikes of every
+    :class:`~tribo_estimation.core.align.AlignedChunk` are repaired
+    (:func:`despike_chunk`, judged across chunk boundaries) and logged in ``log``.
+    A failed check raises its :class:`~tribo_estimation.errors.InvalidDataError`
+    (:class:`~tribo_estimation.errors.UnitError`,
+    :class:`~tribo_estimation.errors.TimeBaseError`) and the same error again on
+    every later call: nothing is passed on after it.
+    """
+
+    def __init__(self, scales: Scales, source: str, log: SpikeLog, check_samples: int = 20_000):
+        """Set up the stage.
+
+        Parameters
+        ----------
+        scales : Scales
+            Physical scales of the channels (from the rig config).
+        source : str
+            Name of the input in messages (a file, a topic namespace).
+        log : SpikeLog
+            Log of the repaired samples.
+        check_samples : int
+            Samples held for the one-time check.
+        """
+        self.scales = scales
+        self.source = source
+        self.check_samples = check_samples
+        #: Warnings of the check not yet taken (:meth:`take_warnings`).
+        self.warnings: list[str] = []
+        self._desp = _Despiker(scales, log)
+        self._held: list[AlignEvent] = []
+        self._n_held = 0
+        self._checked = False
+        self._failure: InvalidDataError | None = None
+
+    def _check(self) -> None:
+        self._checked = True
+        chunks = [e for e in self._held if isinstance(e, AlignedChunk)]
+        if not chunks:
+            return
+        try:
+            check_time_base(chunks[0].sample_rate, self.source, self.scales.f_stick_slip)
+            self.warnings.extend(
+                check_channels(
+                    np.concatenate([c.torsion for c in chunks]),
+                    np.concatenate([c.accel for c in chunks]),
+                    np.concatenate([c.speed for c in chunks]),
+                    self.scales,
+                    self.source,
+                    whole_record=False,
+                )
+            )
+        except InvalidDataError as exc:
+            self._failure = exc
+            self._held.clear()
+            raise
+
+    @property
+    def holding(self) -> bool:
+        """Whether samples are held back (unchecked start, or a chunk's tail)."""
+        return bool(self._held) or self._desp.hold is not None
+
+    @property
+    def failure(self) -> InvalidDataError | None:
+        """The error of a failed check (None: passed or not yet checked)."""
+        return self._failure
+
+    def _gate(self, events: list[AlignEvent]) -> list[AlignEvent]:
+        if self._failure is not None:
+            raise self._failure
+        out: list[AlignEvent] = []
+        for ev in events:
+            if self._checked:
+                out.append(ev)
+                continue
+            self._held.append(ev)
+            if isinstance(ev, AlignedChunk):
+                self._n_held += len(ev)
+            if self._n_held >= self.check_samples:
+                self._check()
+                out.extend(self._held)
+                self._held.clear()
+        return out
+
+    def push(self, ev: AlignEvent) -> list[AlignEvent]:
+        """Take one aligner event; return the events checked and repaired so far.
+
+        Parameters
+        ----------
+        ev : AlignEvent
+            A chunk, gap or restart of the aligner.
+
+        Returns
+        -------
+        list of AlignEvent
+            Events ready for the estimator (in order).
+        """
+        if isinstance(ev, AlignedChunk):
+            return self._gate(self._desp.push(ev))
+        return self._gate([*self._desp.flush(), ev])
+
+    def flush(self) -> list[AlignEvent]:
+        """End of input: check what is held (if not done yet) and pass on the rest.
+
+        Returns
+        -------
+        list of AlignEvent
+            The remaining events.
+        """
+        out = self._gate(self._desp.flush())
+        if not self._checked:
+            self._check()
+            out.extend(self._held)
+            self._held.clear()
+        return out
+
+    def take_warnings(self) -> list[str]:
+        """Return the warnings collected so far and forget them.
+
+        Returns
+        -------
+        list of str
+            Warnings of the check (unit, speed-level), each naming the channel.
+        """
+        out, self.warnings = self.warnings, []
+        return out
+
+
 def checked_chunks(
     events: Iterable[AlignEvent],
     scales: Scales,
@@ -97,56 +230,33 @@ def checked_chunks(
     warn: list[str],
     check_samples: int = 20_000,
 ) -> Iterator[AlignEvent]:
-    """Pass aligner events through the checks and the repair.
+    """Pass aligner events through the checks and the repair (:class:`ChunkChecker`).
 
-    The first ``check_samples`` samples are checked
-    (time base and channels; warnings appended to ``warn``) before anything is
-    yielded, spikes of every :class:`~tribo_estimation.core.align.AlignedChunk`
-    are repaired (:func:`find_spikes`, judged across chunk boundaries) and logged
-    in ``log``.
+    Parameters
+    ----------
+    events : iterable of AlignEvent
+        Aligner events (offline input).
+    scales : Scales
+        Physical scales of the channels.
+    source : str
+        Name of the input in messages.
+    log : SpikeLog
+        Log of the repaired samples.
+    warn : list of str
+        Warnings of the check are appended here (before the first event is yielded).
+    check_samples : int
+        Samples held for the one-time check.
+
+    Yields
+    ------
+    AlignEvent
+        Checked and repaired events.
     """
-    held: list[AlignEvent] = []
-    n_held = 0
-    checked = False
-    desp = _Despiker(scales, log)
-
-    def check() -> None:
-        chunks = [e for e in held if isinstance(e, AlignedChunk)]
-        if not chunks:
-            return
-        check_time_base(chunks[0].sample_rate, source, scales.f_stick_slip)
-        warn.extend(
-            check_channels(
-                np.concatenate([c.torsion for c in chunks]),
-                np.concatenate([c.accel for c in chunks]),
-                np.concatenate([c.speed for c in chunks]),
-                scales,
-                source,
-                whole_record=False,
-            )
-        )
-
-    def stream() -> Iterator[AlignEvent]:
-        for ev in events:
-            if isinstance(ev, AlignedChunk):
-                yield from desp.push(ev)
-            else:
-                yield from desp.flush()
-                yield ev
-        yield from desp.flush()
-
-    for ev in stream():
-        if isinstance(ev, AlignedChunk):
-            n_held += len(ev)
-        if checked:
-            yield ev
-            continue
-        held.append(ev)
-        if n_held >= check_samples:
-            check()
-            checked = True
-            yield from held
-            held.clear()
-    if not checked:
-        check()
-        yield from held
+    checker = ChunkChecker(scales, source, log, check_samples)
+    for ev in events:
+        out = checker.push(ev)
+        warn.extend(checker.take_warnings())
+        yield from out
+    out = checker.flush()
+    warn.extend(checker.take_warnings())
+    yield from out
