@@ -13,7 +13,7 @@ from scipy.ndimage import maximum_filter1d
 
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.observer import FrictionObserver
-from tribo_estimation.core.signal import local_slope, noise_level, runs
+from tribo_estimation.core.signal import chamber_speed, local_slope, noise_level, runs
 from tribo_estimation.errors import (
     InvalidDataError,
     InvalidParameterError,
@@ -166,48 +166,123 @@ def _detect_all(
     # chamber speed w1 from torsion and acceleration only (complementary filter)
     w1 = -slip_speed(rig, mt, ac, np.zeros_like(w2), fs)
     w2_slope = local_slope(w2, dt, _SLOPE_WIN)
-    phases: list[StickPhase] = []
-    for _pass in range(2):
-        # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
-        v = w0 - slope / rig.C2
-        c_lo, c_stop = runs(np.abs(v) < thr)
-        c_hi = c_stop - 1  # last index of each run (inclusive)
-        starts = np.empty(c_lo.size)
-        ends = np.empty(c_lo.size)
-        slopes = np.empty(c_lo.size)
-        m = _stick_bounds(t, r, c_lo, c_hi, sig, n_sigma * sig, dt, starts, ends, slopes)
-        # plausibility: r can stay parallel to a stick line for a few ms around a high
-        # slip-speed peak (v ~ -(I2*v'' + K2*v')/C2); there the chamber has sprung far
-        # back from the drive speed, unlike in a stick where w1 = w2 stays near w0
-        u = np.abs(w0 - w1)
-        h = max(1, round(_U_WIN * fs))
-        u_loc = maximum_filter1d(u, 2 * h + 1, mode='nearest')
-        kept: list[tuple[float, float, float, int, int]] = []
-        for a, b, sl in zip(
-            starts[:m].tolist(), ends[:m].tolist(), slopes[:m].tolist(), strict=True
-        ):
-            if b <= a:
+
+    def passes(w0: FloatArray) -> tuple[list[StickPhase], FloatArray]:
+        phases: list[StickPhase] = []
+        for _pass in range(2):
+            # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
+            v = w0 - slope / rig.C2
+            c_lo, c_stop = runs(np.abs(v) < thr)
+            c_hi = c_stop - 1  # last index of each run (inclusive)
+            starts = np.empty(c_lo.size)
+            ends = np.empty(c_lo.size)
+            slopes = np.empty(c_lo.size)
+            m = _stick_bounds(t, r, c_lo, c_hi, sig, n_sigma * sig, dt, starts, ends, slopes)
+            # plausibility: r can stay parallel to a stick line for a few ms around a high
+            # slip-speed peak (v ~ -(I2*v'' + K2*v')/C2); there the chamber has sprung far
+            # back from the drive speed, unlike in a stick where w1 = w2 stays near w0
+            u = np.abs(w0 - w1)
+            h = max(1, round(_U_WIN * fs))
+            u_loc = maximum_filter1d(u, 2 * h + 1, mode='nearest')
+            kept: list[tuple[float, float, float, int, int]] = []
+            for a, b, sl in zip(
+                starts[:m].tolist(), ends[:m].tolist(), slopes[:m].tolist(), strict=True
+            ):
+                if b <= a:
+                    continue
+                i0 = int(np.searchsorted(t, a))
+                i1 = max(i0 + 1, int(np.searchsorted(t, b)))
+                if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
+                    continue
+                kept.append((a, b, sl, i0, i1))
+            mismatch = speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
+            phases = []
+            mids: list[float] = []
+            w_line: list[float] = []
+            for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True):
+                if abs(dw) > _W_MISMATCH:
+                    continue
+                phases.append(StickPhase(float(a), float(b)))
+                if i1 - i0 >= 6:
+                    mids.append(0.5 * (a + b))
+                    w_line.append(sl / rig.C2)
+            if len(mids) < 2:
+                break
+            w0 = np.interp(t, np.asarray(mids), np.asarray(w_line))
+        return phases, w0
+
+    phases, w0_used = passes(w0)
+    if len(phases) < 2:
+        # no stick-slip at the speed channel's level: a speed-channel offset beyond the
+        # threshold hides every stick; the stick lines themselves show the drive speed.
+        # Each clear level is tried, the one with the most sticks kept. A level near 0
+        # is no drive (a still chamber in steady sliding also gives a flat residual), and
+        # in the sticks of a true level the chamber moves with the drive (w1 = M_t'/C1,
+        # Equ. 4, from the torsion alone, near the level): a slow-slip bump of the
+        # histogram gives phases where it does not
+        level = float(np.mean(w0))
+        w1_torsion = chamber_speed(mt, fs, rig.C1)
+        for c in _stick_line_offsets(slope / rig.C2 - w0, thr):
+            if abs(level + c) < 2.0 * thr:
                 continue
-            i0 = int(np.searchsorted(t, a))
-            i1 = max(i0 + 1, int(np.searchsorted(t, b)))
-            if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
+            shifted, w0_shifted = passes(w0 + c)
+            if len(shifted) < max(2, len(phases) + 1):
                 continue
-            kept.append((a, b, sl, i0, i1))
-        mismatch = speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
-        phases = []
-        mids: list[float] = []
-        w_line: list[float] = []
-        for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True):
-            if abs(dw) > _W_MISMATCH:
-                continue
-            phases.append(StickPhase(float(a), float(b)))
-            if i1 - i0 >= 6:
-                mids.append(0.5 * (a + b))
-                w_line.append(sl / rig.C2)
-        if len(mids) < 2:
+            dev = []
+            for ph in shifted:
+                i0 = int(np.searchsorted(t, ph.start))
+                i1 = max(i0 + 1, int(np.searchsorted(t, ph.end)))
+                dev.append(float(np.median(w1_torsion[i0:i1] - w0_shifted[i0:i1])))
+            if float(np.median(np.abs(dev))) < max(_U_MIN, 0.5 * abs(level + c)):
+                phases, w0_used = shifted, w0_shifted
+    return phases, float(np.mean(w0_used))
+
+
+def _stick_line_offsets(d: FloatArray, thr: float, most: int = 3) -> list[float]:
+    """Return the speed-channel offsets the stick lines may show, clearest first [rad/s].
+
+    ``d = r'/C2 - w0`` per sample: in a stick the residual's slope is ``C2*w0`` (Equ.
+    6), so ``d`` is minus the channel's offset there, the same in every stick: a sharp
+    peak of its histogram; in a slip ``d`` spreads over the slip speeds, though a slow
+    slip can make a broad bump too. Every peak (of up to ``most``) that holds 3 % of the
+    samples within +-``thr``/4 and stands 4 times above the density 2-4 ``thr`` away
+    is a candidate; the caller keeps the one that gives the most sticks.
+
+    Parameters
+    ----------
+    d : FloatArray
+        Stick-line speed minus the channel's drive level per sample [rad/s].
+    thr : float
+        Slip-speed threshold of the candidate stage [rad/s].
+    most : int
+        Largest number of candidates.
+
+    Returns
+    -------
+    list of float
+        ``median(d)`` over each peak [rad/s] (to add to the level).
+    """
+    x = d[np.isfinite(d)]
+    width = 0.25 * thr
+    lim = 50.0 * thr
+    x = x[np.abs(x) < lim]
+    if x.size < 100:
+        return []
+    hist, edges = np.histogram(x, bins=np.arange(-lim, lim + width, width))
+    out: list[float] = []
+    for k in np.argsort(hist)[::-1][: 4 * most].tolist():
+        if len(out) >= most or hist[k] == 0:
             break
-        w0 = np.interp(t, np.asarray(mids), np.asarray(w_line))
-    return phases, float(np.mean(w0))
+        centre = 0.5 * (edges[k] + edges[k + 1])
+        if any(abs(centre - c) < thr for c in out):
+            continue
+        dist = np.abs(x - centre)
+        peak = x[dist <= width]
+        ring = np.count_nonzero((dist >= 2.0 * thr) & (dist < 4.0 * thr))
+        # densities per unit speed: the peak's over 2*width, the ring's over 4*thr
+        if peak.size >= 0.03 * d.size and peak.size / (2.0 * width) >= ring / thr:
+            out.append(float(np.median(peak)))
+    return out
 
 
 #: Largest speed-channel lag :func:`speed_mismatch` considers [s].
