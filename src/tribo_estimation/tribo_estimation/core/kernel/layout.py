@@ -11,23 +11,38 @@ anywhere else.
   fills it from ``RigParams``, ``FrictionLaw``, ``DriveProfile`` and ``Extensions``.
 - State vector ``s`` (length :data:`NS`, indices ``S_*``): what is carried from one
   call of the integrator to the next (:class:`tribo_estimation.core.model.RigState`).
-- Integrated state ``y`` (a tuple of :data:`NY` floats, indices ``Y_*``): the part of
-  ``s`` the RK4 step advances; the right-hand side returns :data:`ND` floats
-  (indices ``D_*``: the derivatives of ``y`` in the same order, then the friction
-  moment).
+  Defined by ONE table, :data:`STATE_SLOTS` (per slot: ``RigState`` field name, unit,
+  kind, finite or not, integrated or not); ``S_*``, ``NS``, :data:`S_FINITE`, ``Y_*``,
+  ``NY``, ``ND`` and ``RigState``'s conversion and checks all derive from it.
+- Integrated state ``y`` (a tuple of :data:`NY` floats, indices ``Y_*``): the slots of
+  ``s`` marked integrated, in table order (:data:`Y_SLOTS`); the RK4 step advances
+  it. The right-hand side returns :data:`ND` floats (the derivative of each entry of
+  ``y`` at the same index, then the friction moment at :data:`D_M`). The kernel
+  builds these tuples only in :mod:`.state`, for any ``NY``.
 - Output channels (:data:`N_CH` rows, indices ``OUT_*``) written per sample.
 
-Adding a state variable for an effect (e.g. a second lag): append its slot here
-(``S_NEW = NS`` and ``NS`` + 1; if it is integrated, ``Y_NEW`` = ``NY`` and ``NY`` + 1,
-``D_M`` moves one on), give it its derivative in
-:func:`tribo_estimation.core.kernel.equations.derivatives` (0 while it is inactive)
-and its field in ``RigState`` (``to_vector``/``from_vector``). ``model``, ``simulate``,
-``shooting`` and the fits size their arrays with ``NS``/``N_CH`` and address slots
-by name, so they follow without change. The RK4 step and the event search
-(:mod:`.step`, :mod:`.events`) carry ``y`` as a fixed-length tuple (numba
-compiles it to registers): their ``y0..y4`` argument lists grow by one. A
-measurement-side state (a sensor filter) needs no kernel change: it lives in
-``S_SENSOR``-like slots that :mod:`tribo_estimation.core.measurement` updates.
+Adding a state variable for an effect (e.g. a second lag) -- nothing else changes:
+
+1. here: its entry in :data:`STATE_SLOTS` (anywhere; every index follows by name)
+   and its index names ``S_NEW = state_index('new')`` and, if integrated,
+   ``Y_NEW = y_index('new')``;
+2. :func:`tribo_estimation.core.kernel.equations.effect_rates`: its rate,
+   ``d = with_entry(d, Y_NEW, ...)`` (``d`` arrives with 0 there, so an inactive
+   effect adds nothing), and, if the state restarts when sliding starts, its value in
+   :func:`~tribo_estimation.core.kernel.equations.breakaway_state`;
+3. its typed field in ``RigState`` (name as in the table; the default is its value
+   at rest). ``to_vector``/``from_vector`` and the checks follow the table.
+
+The RK4 step, the event search and the integrator (:mod:`.step`, :mod:`.events`,
+:mod:`.integrate`) carry ``y`` whole and address it by ``Y_*`` names; ``model``,
+``simulate``, ``shooting`` and the fits size their arrays with ``NS``/``N_CH`` and
+address slots by name (states built from measurements, :mod:`..shooting`, start a
+new slot at 0). ``test_kernel_state.py`` adds such a state to a copy of the package
+in exactly these three places and checks the result. A measurement-side state (a
+sensor filter) needs no kernel change: a non-integrated slot with ``finite=False``
+(NaN = not started), like ``sensor_lag``, that :mod:`tribo_estimation.core.measurement`
+updates. A discrete state of the stick/slip logic (like ``stick_time``) is set by the
+event handling in :mod:`.integrate`.
 """
 
 from __future__ import annotations
