@@ -551,27 +551,24 @@ def derivatives(
     phi1 = y[Y_PHI1]
     w1 = y[Y_W1]
     q1 = chamber_moment(p, phi1, w1)
-    d = D_ZERO
-    if stuck:
+    if stuck:  # w2 = w1: one body of inertia I1 + I2 (Equ. 6)
+        w2 = w1
         q2 = shaft_moment(p, t, y[Y_PHI2], w1)
-        wd = (q1 + q2) / (i1 + i2)
+        a1 = (q1 + q2) / (i1 + i2)
+        a2 = a1
         m = (i1 * q2 - i2 * q1) / (i1 + i2)
-        d = with_entry(d, Y_PHI1, w1)
-        d = with_entry(d, Y_W1, wd)
-        d = with_entry(d, Y_PHI2, w1)
-        d = with_entry(d, Y_W2, wd)
-        d = with_entry(d, D_M, m)
-        return effect_rates(p, t, y, True, direction, peak_passed, d)
-    w2 = y[Y_W2]
-    q2 = shaft_moment(p, t, y[Y_PHI2], w2)
-    v = w2 - w1
-    m = slip_friction_moment(p, t, v, direction, peak_passed, y[Y_LAG])
-    d = with_entry(d, Y_PHI1, w1)
-    d = with_entry(d, Y_W1, (q1 + m) / i1)
+    else:
+        w2 = y[Y_W2]
+        q2 = shaft_moment(p, t, y[Y_PHI2], w2)
+        m = slip_friction_moment(p, t, w2 - w1, direction, peak_passed, y[Y_LAG])
+        a1 = (q1 + m) / i1
+        a2 = (q2 - m) / i2
+    d = with_entry(D_ZERO, Y_PHI1, w1)
+    d = with_entry(d, Y_W1, a1)
     d = with_entry(d, Y_PHI2, w2)
-    d = with_entry(d, Y_W2, (q2 - m) / i2)
+    d = with_entry(d, Y_W2, a2)
     d = with_entry(d, D_M, m)
-    return effect_rates(p, t, y, False, direction, peak_passed, d)
+    return effect_rates(p, t, y, stuck, direction, peak_passed, d)
 
 
 @njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
