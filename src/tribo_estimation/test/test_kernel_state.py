@@ -101,6 +101,33 @@ def test_rigstate_checks_each_slot_as_the_table_says(slot: kn.StateSlot) -> None
         assert math.isnan(getattr(RigState(**{slot.name: math.nan}), slot.name))
 
 
+# ------------------------------------------------------------------ the tuple builders
+def test_tuple_builders_follow_the_state_length() -> None:
+    from tribo_estimation.core.kernel import state
+
+    rng = np.random.default_rng(7)
+    s = rng.normal(size=kn.NS)
+    y = state.from_state(s)
+    assert y == tuple(s[i] for i in kn.Y_SLOTS)
+    s2 = np.full(kn.NS, np.nan)
+    state.to_state(y, s2)
+    np.testing.assert_array_equal(s2[list(kn.Y_SLOTS)], s[list(kn.Y_SLOTS)])
+    assert np.isnan(np.delete(s2, list(kn.Y_SLOTS))).all()  # other slots untouched
+    k = [tuple(rng.normal(size=kn.ND)) for _ in range(4)]
+    a = 1e-3
+    # entries past NY (the friction moment) are ignored; 1-ulp tolerance for rounding
+    np.testing.assert_allclose(
+        state.axpy(y, a, k[0]), np.array(y) + a * np.array(k[0][: kn.NY]), rtol=4e-16
+    )
+    ref = np.array(y) + (2.0 * (np.array(k[1]) + np.array(k[2])) + np.array(k[0]) + np.array(k[3]))[
+        : kn.NY
+    ] * (a / 6.0)
+    np.testing.assert_allclose(state.rk4_combine(y, a / 6.0, *k), ref, rtol=4e-16)
+    # with_entry called from Python runs its Python body (the compiled form is used above)
+    assert state.with_entry(y, kn.Y_W2, 5.0) == (*y[: kn.Y_W2], 5.0, *y[kn.Y_W2 + 1 :])
+    assert state.with_entry(kn.D_ZERO, kn.D_M, 2.0)[kn.D_M] == 2.0
+
+
 # ------------------------------------------------------------------ no fixed length
 def _violations(path: Path) -> list[str]:
     """Literal indices into names, tuple displays of y's length, y0..y9 parameters."""
