@@ -3,8 +3,11 @@
 The drive (w0(t), phi0(t)), the friction law (Equ. 8 with the paper's deceleration
 rule and the extension slots: drift, dwell-time stiction, frictional lag, viscous
 friction, shape exponent), the external moments on chamber and shaft, the stick
-moment (Equ. 6, corrected) and the derivatives used by the RK4 step. Flat-array
-interface: the parameter vector ``p`` of :mod:`.layout`.
+moment (Equ. 6, corrected) and the derivatives used by the RK4 step, with the
+rates of the effects' own state variables (:func:`effect_rates`) and their values at
+the start of a sliding phase (:func:`breakaway_state`). Flat-array interface: the
+parameter vector ``p`` and the integrated state ``y`` (a tuple, indices ``Y_*``) of
+:mod:`.layout`.
 """
 
 from __future__ import annotations
