@@ -90,11 +90,11 @@ def test_stick_moment_equ6_equals_equ1_with_equal_accelerations() -> None:
         ) / (RIG.I1 + RIG.I2)
         scale = RIG.C1 * 0.02 + RIG.C2 * 0.5
         assert m6 == pytest.approx(m6_text, abs=1e-12 * scale)
-        assert d[5] == pytest.approx(m6, abs=1e-12 * scale)
+        assert d[kn.D_M] == pytest.approx(m6, abs=1e-12 * scale)
         # Equ. 1 and Equ. 2 with w1' = w2' reproduce the same moment
-        assert d[1] == d[3]
-        m_equ1 = RIG.I1 * d[1] + RIG.K1 * w + RIG.C1 * phi1
-        m_equ2 = -(RIG.I2 * d[3] + RIG.K2 * (w - w0) + RIG.C2 * (phi2 - phi0))
+        assert d[kn.Y_W1] == d[kn.Y_W2]
+        m_equ1 = RIG.I1 * d[kn.Y_W1] + RIG.K1 * w + RIG.C1 * phi1
+        m_equ2 = -(RIG.I2 * d[kn.Y_W2] + RIG.K2 * (w - w0) + RIG.C2 * (phi2 - phi0))
         assert m_equ1 == pytest.approx(m6, abs=1e-9 * scale)
         assert m_equ2 == pytest.approx(m6, abs=1e-9 * scale)
 
@@ -105,10 +105,10 @@ def test_sliding_equations_equ1_to_3() -> None:
     d = derivatives(RIG, law, DRIVE, st)
     v = 3.5
     m = RIG.F_N * RIG.R * ((0.03) * math.exp(-2 * v) + 0.10)
-    assert d[5] == pytest.approx(m, rel=1e-13)
-    assert RIG.I1 * d[1] + RIG.K1 * st.w1 + RIG.C1 * st.phi1 == pytest.approx(m, rel=1e-12)
+    assert d[kn.D_M] == pytest.approx(m, rel=1e-13)
+    assert RIG.I1 * d[kn.Y_W1] + RIG.K1 * st.w1 + RIG.C1 * st.phi1 == pytest.approx(m, rel=1e-12)
     w0, phi0 = DRIVE.speed(0.5)[0], DRIVE.angle(0.5)[0]
-    lhs2 = RIG.I2 * d[3] + RIG.K2 * (st.w2 - w0) + RIG.C2 * (st.phi2 - phi0)
+    lhs2 = RIG.I2 * d[kn.Y_W2] + RIG.K2 * (st.w2 - w0) + RIG.C2 * (st.phi2 - phi0)
     assert lhs2 == pytest.approx(-m, rel=1e-12)
 
 

@@ -246,12 +246,13 @@ class Extensions:
 class RigState:
     """Complete simulation state, enough to continue a run seamlessly.
 
-    t [s], phi1 [rad], w1 [rad/s], phi2 [rad], w2 [rad/s]; ``stuck`` sticking flag;
-    ``slip_dir`` sgn(v) of the current sliding phase; ``peak_passed`` the deceleration
-    rule flag; ``v_max`` max |v| of the current sliding phase [rad/s]; ``stick_time``
-    duration of the current stick [s]; ``lag`` lagged friction coefficient [-]
-    (frictional-lag extension); ``sensor_lag`` torque-sensor filter state [N m]
-    (NaN until the first sample).
+    One field per slot of the kernel's state table (:data:`kernel.STATE_SLOTS`, which
+    gives each field's slot, unit and kind): t [s], phi1 [rad], w1 [rad/s], phi2 [rad],
+    w2 [rad/s]; ``stuck`` sticking flag; ``slip_dir`` sgn(v) of the current sliding
+    phase; ``peak_passed`` the deceleration rule flag; ``v_max`` max |v| of the current
+    sliding phase [rad/s]; ``stick_time`` duration of the current stick [s]; ``lag``
+    lagged friction coefficient [-] (frictional-lag extension); ``sensor_lag``
+    torque-sensor filter state [N m] (NaN until the first sample).
     """
 
     t: float = 0.0
@@ -268,14 +269,16 @@ class RigState:
     sensor_lag: float = math.nan
 
     def __post_init__(self) -> None:
-        """Check that the dynamic state is finite (the sensor state may be NaN)."""
-        for name in ('t', 'phi1', 'w1', 'phi2', 'w2', 'v_max', 'stick_time', 'lag'):
-            if not math.isfinite(getattr(self, name)):
-                raise InvalidParameterError(
-                    f'RigState.{name} must be finite, got {getattr(self, name)!r}'
-                )
-        if self.slip_dir not in (1, -1):
-            raise InvalidParameterError(f'RigState.slip_dir must be +1 or -1, got {self.slip_dir}')
+        """Check the fields against the state table (finite where required, signs +-1)."""
+        for slot in kn.STATE_SLOTS:
+            val = getattr(self, slot.name)
+            if slot.kind == 'sign':
+                if val not in (1, -1):
+                    raise InvalidParameterError(
+                        f'RigState.{slot.name} must be +1 or -1, got {val!r}'
+                    )
+            elif slot.kind == 'value' and slot.finite and not math.isfinite(val):
+                raise InvalidParameterError(f'RigState.{slot.name} must be finite, got {val!r}')
 
     @classmethod
     def at_rest(cls, t: float = 0.0) -> RigState:
@@ -283,39 +286,22 @@ class RigState:
         return cls(t=t)
 
     def to_vector(self) -> np.ndarray:
-        """Kernel state vector (indices ``kernel.S_*``)."""
-        s = np.zeros(kn.NS)
-        s[kn.S_T] = self.t
-        s[kn.S_PHI1] = self.phi1
-        s[kn.S_W1] = self.w1
-        s[kn.S_PHI2] = self.phi2
-        s[kn.S_W2] = self.w2
-        s[kn.S_LAG] = self.lag
-        s[kn.S_STUCK] = 1.0 if self.stuck else 0.0
-        s[kn.S_DIR] = float(self.slip_dir)
-        s[kn.S_PEAK] = 1.0 if self.peak_passed else 0.0
-        s[kn.S_VMAX] = self.v_max
-        s[kn.S_TSTICK] = self.stick_time
-        s[kn.S_SENSOR] = self.sensor_lag
-        return s
+        """Kernel state vector (length ``kernel.NS``, slot ``i`` = ``kernel.STATE_SLOTS[i]``)."""
+        return np.array([float(getattr(self, slot.name)) for slot in kn.STATE_SLOTS])
 
     @classmethod
     def from_vector(cls, s: np.ndarray) -> RigState:
-        """Inverse of :meth:`to_vector`."""
-        return cls(
-            t=float(s[kn.S_T]),
-            phi1=float(s[kn.S_PHI1]),
-            w1=float(s[kn.S_W1]),
-            phi2=float(s[kn.S_PHI2]),
-            w2=float(s[kn.S_W2]),
-            stuck=bool(s[kn.S_STUCK] > 0.5),
-            slip_dir=1 if s[kn.S_DIR] >= 0.0 else -1,
-            peak_passed=bool(s[kn.S_PEAK] > 0.5),
-            v_max=float(s[kn.S_VMAX]),
-            stick_time=float(s[kn.S_TSTICK]),
-            lag=float(s[kn.S_LAG]),
-            sensor_lag=float(s[kn.S_SENSOR]),
-        )
+        """Inverse of :meth:`to_vector` (flags read ``> 0.5``, signs ``>= 0`` as +1)."""
+        values: dict[str, float | bool | int] = {}
+        for i, slot in enumerate(kn.STATE_SLOTS):
+            x = float(s[i])
+            if slot.kind == 'flag':
+                values[slot.name] = x > 0.5
+            elif slot.kind == 'sign':
+                values[slot.name] = 1 if x >= 0.0 else -1
+            else:
+                values[slot.name] = x
+        return cls(**values)  # type: ignore[arg-type]
 
 
 def pack_params(
@@ -375,25 +361,16 @@ def derivatives(
     drive: DriveProfile,
     state: RigState,
     extensions: Extensions | None = None,
-) -> tuple[float, float, float, float, float, float]:
+) -> tuple[float, ...]:
     """Equations of motion (Equ. 1-3, 6, 8) at ``state``.
 
-    Returns ``(phi1', w1', phi2', w2', lag', M)`` in rad/s, rad/s^2, rad/s, rad/s^2,
-    1/s, N m (M = friction moment on the chamber).
+    Returns the derivative of each integrated state at its index ``kernel.Y_*``
+    (``phi1', w1', phi2', w2', lag'`` in rad/s, rad/s^2, rad/s, rad/s^2, 1/s, then any
+    effect state's rate), then the friction moment M on the chamber [N m] at
+    ``kernel.D_M``.
     """
     p = pack_params(rig, friction, drive, extensions)
-    return tuple(  # type: ignore[return-value]
-        float(x)
-        for x in kn.derivatives(
-            p,
-            state.t,
-            state.phi1,
-            state.w1,
-            state.phi2,
-            state.w2,
-            state.lag,
-            state.stuck,
-            float(state.slip_dir),
-            state.peak_passed,
-        )
-    )
+    s = state.to_vector()
+    y = tuple(float(s[i]) for i in kn.Y_SLOTS)
+    d = kn.derivatives(p, state.t, y, state.stuck, float(state.slip_dir), state.peak_passed)
+    return tuple(float(x) for x in d)

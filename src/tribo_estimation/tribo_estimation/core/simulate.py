@@ -145,7 +145,7 @@ def simulate(
     ev_kind = np.empty(cap, dtype=np.int64)
     n_events = int(kn.integrate_logged(p, s, n, dt, n_sub, out, ev_time, ev_kind))
     n_log = min(n_events, cap)
-    if not np.all(np.isfinite(out[: kn.N_CH, :])) or not np.all(np.isfinite(s[kn.S_DYNAMIC])):
+    if not np.all(np.isfinite(out[: kn.N_CH, :])) or not np.all(np.isfinite(s[list(kn.S_FINITE)])):
         raise SimulationError(
             'simulation diverged (non-finite state); check the rig parameters and step'
         )

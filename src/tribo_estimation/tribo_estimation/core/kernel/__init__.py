@@ -25,9 +25,13 @@ moments ``Q1`` (chamber) and ``Q2`` (shaft): ``M_stick = (I1*Q2 - I2*Q1)/(I1 + I
 A package with one job per module (``from tribo_estimation.core import kernel as kn``
 gives every name):
 
-- :mod:`.layout`: the flat vectors' indices and sizes (``P_*``/``NP``, ``S_*``/``NS``,
-  ``Y_*``/``NY``, ``OUT_*``/``N_CH``) and how an effect adds a state variable,
-- :mod:`.equations`: drive, friction law and right-hand side (Equ. 1-3, 6, 8),
+- :mod:`.layout`: the flat vectors' indices and sizes (``P_*``/``NP``, ``OUT_*``/``N_CH``)
+  and the state table ``STATE_SLOTS`` from which ``S_*``/``NS`` and ``Y_*``/``NY``
+  derive (and how an effect adds a state variable),
+- :mod:`.equations`: drive, friction law and right-hand side (Equ. 1-3, 6, 8), the
+  effects' state rates (``effect_rates``) and their restart at breakaway,
+- :mod:`.state`: the integrated state ``y`` as a tuple of ``NY`` floats (the only
+  tuple builders: read/write ``s``, set one entry, the RK4 stage sums),
 - :mod:`.step`: the RK4 step and its step-size control,
 - :mod:`.events`: switching events and their location,
 - :mod:`.integrate`: the integrator (:func:`integrate`, :func:`integrate_logged`).
@@ -52,12 +56,14 @@ from __future__ import annotations
 
 from .equations import (
     bearing_moment,
+    breakaway_state,
     chamber_moment,
     derivatives,
     drive_angle,
     drive_angle_array,
     drive_speed,
     drive_speed_array,
+    effect_rates,
     friction_coefficient,
     friction_coefficient_array,
     friction_levels,
@@ -71,6 +77,7 @@ from .integrate import integrate, integrate_logged
 from .layout import (
     BEARING_REG_SPEED,
     D_M,
+    D_ZERO,
     N_CH,
     ND,
     NP,
@@ -111,7 +118,7 @@ from .layout import (
     P_W0,
     P_W0_RATE,
     S_DIR,
-    S_DYNAMIC,
+    S_FINITE,
     S_LAG,
     S_PEAK,
     S_PHI1,
@@ -123,17 +130,24 @@ from .layout import (
     S_VMAX,
     S_W1,
     S_W2,
+    STATE_SLOTS,
     Y_LAG,
     Y_PHI1,
     Y_PHI2,
+    Y_SLOTS,
     Y_W1,
     Y_W2,
+    Y_ZERO,
+    StateSlot,
+    state_index,
+    y_index,
 )
 from .step import STEP_RATE, slip_rate, substeps_for
 
 __all__ = [
     'BEARING_REG_SPEED',
     'D_M',
+    'D_ZERO',
     'EVENT_TOL',
     'EV_BREAKAWAY',
     'EV_NONE',
@@ -178,9 +192,10 @@ __all__ = [
     'P_VISC',
     'P_W0',
     'P_W0_RATE',
+    'STATE_SLOTS',
     'STEP_RATE',
     'S_DIR',
-    'S_DYNAMIC',
+    'S_FINITE',
     'S_LAG',
     'S_PEAK',
     'S_PHI1',
@@ -195,15 +210,20 @@ __all__ = [
     'Y_LAG',
     'Y_PHI1',
     'Y_PHI2',
+    'Y_SLOTS',
     'Y_W1',
     'Y_W2',
+    'Y_ZERO',
+    'StateSlot',
     'bearing_moment',
+    'breakaway_state',
     'chamber_moment',
     'derivatives',
     'drive_angle',
     'drive_angle_array',
     'drive_speed',
     'drive_speed_array',
+    'effect_rates',
     'friction_coefficient',
     'friction_coefficient_array',
     'friction_levels',
@@ -212,7 +232,9 @@ __all__ = [
     'shaft_moment',
     'slip_friction_moment',
     'slip_rate',
+    'state_index',
     'static_coefficient',
     'stick_moment',
     'substeps_for',
+    'y_index',
 ]

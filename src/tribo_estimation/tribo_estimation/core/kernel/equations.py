@@ -3,8 +3,11 @@
 The drive (w0(t), phi0(t)), the friction law (Equ. 8 with the paper's deceleration
 rule and the extension slots: drift, dwell-time stiction, frictional lag, viscous
 friction, shape exponent), the external moments on chamber and shaft, the stick
-moment (Equ. 6, corrected) and the derivatives used by the RK4 step. Flat-array
-interface: the parameter vector ``p`` of :mod:`.layout`.
+moment (Equ. 6, corrected) and the derivatives used by the RK4 step, with the
+rates of the effects' own state variables (:func:`effect_rates`) and their values at
+the start of a sliding phase (:func:`breakaway_state`). Flat-array interface: the
+parameter vector ``p`` and the integrated state ``y`` (a tuple, indices ``Y_*``) of
+:mod:`.layout`.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from .layout import (
+    D_M,
+    D_ZERO,
     P_BEARING,
     P_BEARING_REG,
     P_C1,
@@ -43,7 +48,13 @@ from .layout import (
     P_VISC,
     P_W0,
     P_W0_RATE,
+    Y_LAG,
+    Y_PHI1,
+    Y_PHI2,
+    Y_W1,
+    Y_W2,
 )
+from .state import FloatTuple, with_entry
 
 FloatArray = NDArray[np.float64]
 
@@ -421,18 +432,97 @@ def slip_friction_moment(
     error_model='numpy',
     fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
 )
-def derivatives(
+def effect_rates(
     p: FloatArray,
     t: float,
-    phi1: float,
-    w1: float,
-    phi2: float,
-    w2: float,
-    lag: float,
+    y: FloatTuple,
     stuck: bool,
     direction: float,
     peak_passed: bool,
-) -> tuple[float, float, float, float, float, float]:
+    d: FloatTuple,
+) -> FloatTuple:
+    """Return ``d`` with the derivatives of the effects' own integrated states filled in.
+
+    The one place where an effect's state variable gets its rate: the frictional
+    lag ``lag' = (mu(|v|) - lag)/lag_tau`` while sliding (0 while sticking or with
+    the extension off). ``d`` arrives with every effect rate 0.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+    y : tuple of float
+        Integrated state (length ``NY``, indices ``Y_*``).
+    stuck : bool
+        Whether the discs stick.
+    direction : float
+        Slip direction (+1/-1).
+    peak_passed : bool
+        Whether |v| passed its maximum in this sliding phase.
+    d : tuple of float
+        Right-hand side with the mechanical entries set (length ``ND``).
+
+    Returns
+    -------
+    tuple of float
+        ``d`` with the entries ``Y_LAG`` (and any further effect state) set [unit/s].
+    """
+    if stuck:
+        return d
+    dlag = 0.0
+    tau = p[P_LAG_TAU]
+    if tau > 0.0:
+        v_abs = abs(y[Y_W2] - y[Y_W1])
+        dlag = (friction_coefficient(p, t, v_abs, peak_passed) - y[Y_LAG]) / tau
+    return with_entry(d, Y_LAG, dlag)
+
+
+@njit(
+    cache=True,
+    inline='always',
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+)
+def breakaway_state(p: FloatArray, t: float, y: FloatTuple, mu_s: float) -> FloatTuple:
+    """Return ``y`` with the effects' states re-initialised at a breakaway.
+
+    The frictional lag starts the sliding phase at the static coefficient ``mu_s``.
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Time of the breakaway [s].
+    y : tuple of float
+        Integrated state at the breakaway (length ``NY``, indices ``Y_*``).
+    mu_s : float
+        Static friction coefficient at the breakaway [-].
+
+    Returns
+    -------
+    tuple of float
+        The state the sliding phase starts from.
+    """
+    return with_entry(y, Y_LAG, mu_s)
+
+
+@njit(
+    cache=True,
+    inline='always',
+    error_model='numpy',
+    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+)
+def derivatives(
+    p: FloatArray,
+    t: float,
+    y: FloatTuple,
+    stuck: bool,
+    direction: float,
+    peak_passed: bool,
+) -> FloatTuple:
     """Return the right-hand side of Equ. 1-3 (sliding) or of the stuck system (Equ. 6).
 
     Parameters
@@ -441,8 +531,9 @@ def derivatives(
         Parameter vector (length ``NP``, indices ``P_*``).
     t : float
         Test time [s].
-    phi1, w1, phi2, w2, lag : float
-        Integrated state (indices ``Y_*``) [rad, rad/s, rad, rad/s, -].
+    y : tuple of float
+        Integrated state (length ``NY``, indices ``Y_*``: phi1 [rad], w1 [rad/s],
+        phi2 [rad], w2 [rad/s], lag [-], ...).
     stuck : bool
         Whether the discs stick.
     direction : float
@@ -453,42 +544,47 @@ def derivatives(
     Returns
     -------
     tuple of float
-        ``(phi1', w1', phi2', w2', lag', M)`` (indices ``Y_*``, then ``D_M``) [rad/s,
-        rad/s^2, rad/s, rad/s^2, 1/s, N m].
+        Length ``ND``: the derivative of each entry of ``y`` at the same index
+        (phi1' [rad/s], w1' [rad/s^2], phi2' [rad/s], w2' [rad/s^2], lag' [1/s], ...;
+        the effects' rates from :func:`effect_rates`), then the friction moment M [N m]
+        at ``D_M``.
     """
     i1 = p[P_I1]
     i2 = p[P_I2]
+    phi1 = y[Y_PHI1]
+    w1 = y[Y_W1]
     q1 = chamber_moment(p, phi1, w1)
-    if stuck:
-        q2 = shaft_moment(p, t, phi2, w1)
-        wd = (q1 + q2) / (i1 + i2)
+    if stuck:  # w2 = w1: one body of inertia I1 + I2 (Equ. 6)
+        w2 = w1
+        q2 = shaft_moment(p, t, y[Y_PHI2], w1)
+        a1 = (q1 + q2) / (i1 + i2)
+        a2 = a1
         m = (i1 * q2 - i2 * q1) / (i1 + i2)
-        return w1, wd, w1, wd, 0.0, m
-    q2 = shaft_moment(p, t, phi2, w2)
-    v = w2 - w1
-    m = slip_friction_moment(p, t, v, direction, peak_passed, lag)
-    dlag = 0.0
-    tau = p[P_LAG_TAU]
-    if tau > 0.0:
-        dlag = (friction_coefficient(p, t, abs(v), peak_passed) - lag) / tau
-    return w1, (q1 + m) / i1, w2, (q2 - m) / i2, dlag, m
+    else:
+        w2 = y[Y_W2]
+        q2 = shaft_moment(p, t, y[Y_PHI2], w2)
+        m = slip_friction_moment(p, t, w2 - w1, direction, peak_passed, y[Y_LAG])
+        a1 = (q1 + m) / i1
+        a2 = (q2 - m) / i2
+    d = with_entry(D_ZERO, Y_PHI1, w1)
+    d = with_entry(d, Y_W1, a1)
+    d = with_entry(d, Y_PHI2, w2)
+    d = with_entry(d, Y_W2, a2)
+    d = with_entry(d, D_M, m)
+    return effect_rates(p, t, y, stuck, direction, peak_passed, d)
 
 
 @njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
 def _derivatives_call(
     p: FloatArray,
     t: float,
-    phi1: float,
-    w1: float,
-    phi2: float,
-    w2: float,
-    lag: float,
+    y: FloatTuple,
     stuck: bool,
     direction: float,
     peak_passed: bool,
-) -> tuple[float, float, float, float, float, float]:
+) -> FloatTuple:
     """Call :func:`derivatives` without inlining (rare call sites; low compile time)."""
-    return derivatives(p, t, phi1, w1, phi2, w2, lag, stuck, direction, peak_passed)
+    return derivatives(p, t, y, stuck, direction, peak_passed)
 
 
 @njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})

@@ -14,7 +14,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from .equations import _derivatives_call, static_coefficient, stick_moment
-from .layout import P_FN, P_R
+from .layout import P_FN, P_R, Y_PHI1, Y_PHI2, Y_W1, Y_W2
+from .state import FloatTuple
 from .step import _rk4
 
 FloatArray = NDArray[np.float64]
@@ -38,7 +39,7 @@ def _event_value(
     p: FloatArray,
     which: int,
     t: float,
-    y: tuple[float, float, float, float, float],
+    y: FloatTuple,
     stuck: bool,
     direction: float,
     peak: bool,
@@ -46,12 +47,12 @@ def _event_value(
 ) -> float:
     """Return the event function; its sign change from >0 to <=0 marks the event."""
     if which == EV_SLIP_END:
-        return direction * (y[3] - y[1])
+        return direction * (y[Y_W2] - y[Y_W1])
     if which == EV_PEAK:
-        d = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
-        return direction * (d[3] - d[1])
+        d = _derivatives_call(p, t, y, stuck, direction, peak)
+        return direction * (d[Y_W2] - d[Y_W1])
     # breakaway: F_N*R*mu_s - |M_stick|
-    ms = stick_moment(p, t, y[0], y[1], y[2])
+    ms = stick_moment(p, t, y[Y_PHI1], y[Y_W1], y[Y_PHI2])
     return float(p[P_FN] * p[P_R] * static_coefficient(p, t, t_stick) - abs(ms))
 
 
@@ -60,8 +61,8 @@ def _locate(
     p: FloatArray,
     which: int,
     t: float,
-    y: tuple[float, float, float, float, float],
-    k1: tuple[float, float, float, float, float, float],
+    y: FloatTuple,
+    k1: FloatTuple,
     h: float,
     g_a: float,
     g_b: float,
@@ -91,7 +92,7 @@ def _locate(
         c = b - fb * (b - a) / (fb - fa)
         if not (c > a and c < b):
             c = 0.5 * (a + b)
-        yc = _rk4(p, t, y[0], y[1], y[2], y[3], y[4], k1, c, stuck, direction, peak)
+        yc = _rk4(p, t, y, k1, c, stuck, direction, peak)
         fc = _event_value(p, which, t + c, yc, stuck, direction, peak, t_stick + c)
         if fc <= 0.0:
             b = c

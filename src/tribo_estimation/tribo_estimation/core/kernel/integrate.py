@@ -12,7 +12,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from .equations import _derivatives_call, derivatives, static_coefficient, stick_moment
+from .equations import (
+    _derivatives_call,
+    breakaway_state,
+    derivatives,
+    static_coefficient,
+    stick_moment,
+)
 from .events import EV_BREAKAWAY, EV_NONE, EV_PEAK, EV_SLIP_END, _locate
 from .layout import (
     D_M,
@@ -29,24 +35,35 @@ from .layout import (
     P_I2,
     P_R,
     S_DIR,
-    S_LAG,
     S_PEAK,
-    S_PHI1,
-    S_PHI2,
     S_STUCK,
     S_T,
     S_TSTICK,
     S_VMAX,
-    S_W1,
-    S_W2,
+    Y_PHI1,
+    Y_PHI2,
     Y_W1,
+    Y_W2,
 )
+from .state import FloatTuple, from_state, to_state, with_entry
 from .step import STEP_RATE, _rk4, slip_rate
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _MAX_ZERO_EVENTS = 8
+
+
+@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+def _stick_together(p: FloatArray, y: FloatTuple) -> FloatTuple:
+    """Return ``y`` with both discs at their common, momentum-conserving speed [rad/s].
+
+    ``w = (I1*w1 + I2*w2)/(I1 + I2)`` (the discs join at a slip end or a sticking start).
+    """
+    i1 = p[P_I1]
+    i2 = p[P_I2]
+    w = (i1 * y[Y_W1] + i2 * y[Y_W2]) / (i1 + i2)
+    return with_entry(with_entry(y, Y_W1, w), Y_W2, w)
 
 
 @njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
@@ -112,7 +129,7 @@ def integrate_logged(
     """
     t_base = s[S_T]
     t = t_base
-    y = (s[S_PHI1], s[S_W1], s[S_PHI2], s[S_W2], s[S_LAG])
+    y = from_state(s)
     stuck = s[S_STUCK] > 0.5
     direction = 1.0 if s[S_DIR] >= 0.0 else -1.0
     peak = s[S_PEAK] > 0.5
@@ -122,17 +139,16 @@ def integrate_logged(
     h = dt / n_sub
     n_events = 0
     if stuck:
-        w = (p[P_I1] * y[1] + p[P_I2] * y[3]) / (p[P_I1] + p[P_I2])
-        y = (y[0], w, y[2], w, y[4])
-    k1 = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
+        y = _stick_together(p, y)
+    k1 = _derivatives_call(p, t, y, stuck, direction, peak)
     for i in range(n_out):
-        out[OUT_TORSION, i] = p[P_C1] * y[0]
+        out[OUT_TORSION, i] = p[P_C1] * y[Y_PHI1]
         out[OUT_ACCEL, i] = k1[Y_W1]
-        out[OUT_SPEED, i] = y[3]
+        out[OUT_SPEED, i] = y[Y_W2]
         out[OUT_FRICTION, i] = k1[D_M]
-        out[OUT_SLIP, i] = y[3] - y[1]
+        out[OUT_SLIP, i] = y[Y_W2] - y[Y_W1]
         out[OUT_STICK, i] = 1.0 if stuck else 0.0
-        out[OUT_W1, i] = y[1]
+        out[OUT_W1, i] = y[Y_W1]
         for j in range(n_sub):
             t_end = t_base + (i * n_sub + j + 1) * h
             n_zero = 0
@@ -145,36 +161,34 @@ def integrate_logged(
                 if not stuck:
                     # local step control where the falling friction curve makes the
                     # slip dynamics fast (negative damping right after breakaway)
-                    lam = slip_rate(p, t, abs(y[3] - y[1]), peak)
+                    lam = slip_rate(p, t, abs(y[Y_W2] - y[Y_W1]), peak)
                     if lam * hh > STEP_RATE:
                         hh = STEP_RATE / lam
                         t_step = t + hh
-                y1 = _rk4(p, t, y[0], y[1], y[2], y[3], y[4], k1, hh, stuck, direction, peak)
-                k1n = derivatives(
-                    p, t_step, y1[0], y1[1], y1[2], y1[3], y1[4], stuck, direction, peak
-                )
+                y1 = _rk4(p, t, y, k1, hh, stuck, direction, peak)
+                k1n = derivatives(p, t_step, y1, stuck, direction, peak)
                 ev = EV_NONE
                 tau = hh
                 if stuck:
-                    ms = k1n[5]
+                    ms = k1n[D_M]
                     g_b = fnr * static_coefficient(p, t_step, t_stick + hh) - abs(ms)
                     if g_b < 0.0:
-                        g_a = fnr * static_coefficient(p, t, t_stick) - abs(k1[5])
+                        g_a = fnr * static_coefficient(p, t, t_stick) - abs(k1[D_M])
                         tau = _locate(
                             p, EV_BREAKAWAY, t, y, k1, hh, g_a, g_b, stuck, direction, peak, t_stick
                         )
                         ev = EV_BREAKAWAY
                 else:
-                    g_b = direction * (y1[3] - y1[1])
+                    g_b = direction * (y1[Y_W2] - y1[Y_W1])
                     if g_b < 0.0:
-                        g_a = direction * (y[3] - y[1])
+                        g_a = direction * (y[Y_W2] - y[Y_W1])
                         tau = _locate(
                             p, EV_SLIP_END, t, y, k1, hh, g_a, g_b, stuck, direction, peak, t_stick
                         )
                         ev = EV_SLIP_END
                     if not peak:
-                        gp_b = direction * (k1n[3] - k1n[1])
-                        gp_a = direction * (k1[3] - k1[1])
+                        gp_b = direction * (k1n[Y_W2] - k1n[Y_W1])
+                        gp_a = direction * (k1[Y_W2] - k1[Y_W1])
                         if gp_b <= 0.0 and gp_a > 0.0:
                             tp = _locate(
                                 p,
@@ -199,7 +213,7 @@ def integrate_logged(
                     if stuck:
                         t_stick += hh
                     else:
-                        va = abs(y[3] - y[1])
+                        va = abs(y[Y_W2] - y[Y_W1])
                         if va > vmax:
                             vmax = va
                     t = t_step
@@ -218,7 +232,7 @@ def integrate_logged(
                             break
                         continue
                 else:
-                    y = _rk4(p, t, y[0], y[1], y[2], y[3], y[4], k1, tau, stuck, direction, peak)
+                    y = _rk4(p, t, y, k1, tau, stuck, direction, peak)
                     t = t + tau
                     if stuck:
                         t_stick += tau
@@ -229,11 +243,8 @@ def integrate_logged(
                 if ev == EV_PEAK:
                     peak = True
                 elif ev == EV_SLIP_END:
-                    i1 = p[P_I1]
-                    i2 = p[P_I2]
-                    w = (i1 * y[1] + i2 * y[3]) / (i1 + i2)
-                    y = (y[0], w, y[2], w, y[4])
-                    ms = stick_moment(p, t, y[0], w, y[2])
+                    y = _stick_together(p, y)
+                    ms = stick_moment(p, t, y[Y_PHI1], y[Y_W1], y[Y_PHI2])
                     if abs(ms) <= fnr * static_coefficient(p, t, 0.0):
                         stuck = True
                         t_stick = 0.0
@@ -244,20 +255,16 @@ def integrate_logged(
                     peak = False
                     vmax = 0.0
                 else:  # breakaway
-                    ms = stick_moment(p, t, y[0], y[1], y[2])
+                    ms = stick_moment(p, t, y[Y_PHI1], y[Y_W1], y[Y_PHI2])
                     mus = static_coefficient(p, t, t_stick)
                     stuck = False
                     direction = 1.0 if ms >= 0.0 else -1.0
                     peak = False
                     vmax = 0.0
-                    y = (y[0], y[1], y[2], y[3], mus)
-                k1 = _derivatives_call(p, t, y[0], y[1], y[2], y[3], y[4], stuck, direction, peak)
+                    y = breakaway_state(p, t, y, mus)
+                k1 = _derivatives_call(p, t, y, stuck, direction, peak)
     s[S_T] = t
-    s[S_PHI1] = y[0]
-    s[S_W1] = y[1]
-    s[S_PHI2] = y[2]
-    s[S_W2] = y[3]
-    s[S_LAG] = y[4]
+    to_state(y, s)
     s[S_STUCK] = 1.0 if stuck else 0.0
     s[S_DIR] = direction
     s[S_PEAK] = 1.0 if peak else 0.0

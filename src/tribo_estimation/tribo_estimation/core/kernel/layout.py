@@ -11,26 +11,46 @@ anywhere else.
   fills it from ``RigParams``, ``FrictionLaw``, ``DriveProfile`` and ``Extensions``.
 - State vector ``s`` (length :data:`NS`, indices ``S_*``): what is carried from one
   call of the integrator to the next (:class:`tribo_estimation.core.model.RigState`).
-- Integrated state ``y`` (a tuple of :data:`NY` floats, indices ``Y_*``): the part of
-  ``s`` the RK4 step advances; the right-hand side returns :data:`ND` floats
-  (indices ``D_*``: the derivatives of ``y`` in the same order, then the friction
-  moment).
+  Defined by ONE table, :data:`STATE_SLOTS` (per slot: ``RigState`` field name, unit,
+  kind, finite or not, integrated or not); ``S_*``, ``NS``, :data:`S_FINITE`, ``Y_*``,
+  ``NY``, ``ND`` and ``RigState``'s conversion and checks all derive from it.
+- Integrated state ``y`` (a tuple of :data:`NY` floats, indices ``Y_*``): the slots of
+  ``s`` marked integrated, in table order (:data:`Y_SLOTS`); the RK4 step advances
+  it. The right-hand side returns :data:`ND` floats (the derivative of each entry of
+  ``y`` at the same index, then the friction moment at :data:`D_M`). The kernel
+  builds these tuples only in :mod:`.state`, for any ``NY``.
 - Output channels (:data:`N_CH` rows, indices ``OUT_*``) written per sample.
 
-Adding a state variable for an effect (e.g. a second lag): append its slot here
-(``S_NEW = NS`` and ``NS`` + 1; if it is integrated, ``Y_NEW`` = ``NY`` and ``NY`` + 1,
-``D_M`` moves one on), give it its derivative in
-:func:`tribo_estimation.core.kernel.equations.derivatives` (0 while it is inactive)
-and its field in ``RigState`` (``to_vector``/``from_vector``). ``model``, ``simulate``,
-``shooting`` and the fits size their arrays with ``NS``/``N_CH`` and address slots
-by name, so they follow without change. The RK4 step and the event search
-(:mod:`.step`, :mod:`.events`) carry ``y`` as a fixed-length tuple (numba
-compiles it to registers): their ``y0..y4`` argument lists grow by one. A
-measurement-side state (a sensor filter) needs no kernel change: it lives in
-``S_SENSOR``-like slots that :mod:`tribo_estimation.core.measurement` updates.
+Adding a state variable for an effect (e.g. a second lag) -- nothing else changes:
+
+1. here: its entry in :data:`STATE_SLOTS` (anywhere; every index follows by name)
+   and its index names ``S_NEW = state_index('new')`` and, if integrated,
+   ``Y_NEW = y_index('new')``;
+2. :func:`tribo_estimation.core.kernel.equations.effect_rates`: its rate,
+   ``d = with_entry(d, Y_NEW, ...)`` (``d`` arrives with 0 there, so an inactive
+   effect adds nothing), and, if the state restarts when sliding starts, its value in
+   :func:`~tribo_estimation.core.kernel.equations.breakaway_state`;
+3. its typed field in ``RigState`` (name as in the table; the default is its value
+   at rest). ``to_vector``/``from_vector`` and the checks follow the table.
+
+The RK4 step, the event search and the integrator (:mod:`.step`, :mod:`.events`,
+:mod:`.integrate`) carry ``y`` whole and address it by ``Y_*`` names; ``model``,
+``simulate``, ``shooting`` and the fits size their arrays with ``NS``/``N_CH`` and
+address slots by name (states built from measurements, :mod:`..shooting`, start a
+new slot at 0). ``test_kernel_state.py`` adds such a state to a copy of the package
+in exactly these three places and checks the result. A measurement-side state (a
+sensor filter) needs no kernel change: a non-integrated slot with ``finite=False``
+(NaN = not started), like ``sensor_lag``, that :mod:`tribo_estimation.core.measurement`
+updates. A discrete state of the stick/slip logic (like ``stick_time``) is set by the
+event handling in :mod:`.integrate`.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from tribo_estimation.errors import InvalidParameterError
 
 # ---------------------------------------------------------------- parameter vector
 P_I1 = 0  # chamber inertia [kg m^2]
@@ -71,35 +91,147 @@ NP = 27
 BEARING_REG_SPEED = 0.01
 
 # ---------------------------------------------------------------- state vector
-S_T = 0  # time [s]
-S_PHI1 = 1  # chamber angle [rad]
-S_W1 = 2  # chamber speed [rad/s]
-S_PHI2 = 3  # shaft angle [rad]
-S_W2 = 4  # shaft speed [rad/s]
-S_LAG = 5  # lagged friction coefficient (frictional-lag extension) [-]
-S_STUCK = 6  # 1.0 while sticking, else 0.0
-S_DIR = 7  # slip direction sgn(v) of the current sliding phase (+1/-1)
-S_PEAK = 8  # 1.0 once |v| passed its maximum in this sliding phase (deceleration rule)
-S_VMAX = 9  # max |v| in the current sliding phase [rad/s]
-S_TSTICK = 10  # duration of the current stick phase [s]
-S_SENSOR = 11  # state of the torque-sensor lag filter [N m] (NaN = not started)
-NS = 12
+#: How a state slot reads as a :class:`tribo_estimation.core.model.RigState` field:
+#: ``'value'`` a float; ``'flag'`` a bool stored as 1.0/0.0 (> 0.5 reads True);
+#: ``'sign'`` an int +1/-1 stored as +1.0/-1.0 (>= 0 reads +1).
+SlotKind = Literal['value', 'flag', 'sign']
 
-#: Slots of ``s`` that belong to the dynamics (finite in every valid state); the
-#: measurement-side slots after them may hold NaN ("not started").
-S_DYNAMIC = slice(0, S_SENSOR)
+
+@dataclass(frozen=True)
+class StateSlot:
+    """One slot of the state vector ``s``: the one entry that defines a state variable.
+
+    Attributes
+    ----------
+    name : str
+        Field name of the slot in :class:`tribo_estimation.core.model.RigState`.
+    unit : str
+        SI unit of the value (``'-'`` dimensionless, ``''`` for flags and signs).
+    kind : SlotKind
+        How the float in ``s`` converts to the field (``'value'``, ``'flag'``, ``'sign'``).
+    finite : bool
+        True if the value must be finite in every valid state; False for
+        measurement-side slots that hold NaN until started.
+    integrated : bool
+        True if the RK4 step advances it (it is then an entry of ``y``, with its
+        derivative at the same index of the right-hand side's result).
+    description : str
+        What the slot holds.
+    """
+
+    name: str
+    unit: str
+    kind: SlotKind
+    finite: bool
+    integrated: bool
+    description: str
+
+
+#: The state table: slot ``i`` of ``s`` is ``STATE_SLOTS[i]``. Every index (``S_*``,
+#: ``Y_*``), size (``NS``, ``NY``, ``ND``) and conversion (``RigState.to_vector``,
+#: ``from_vector``, its checks) derives from it.
+STATE_SLOTS: tuple[StateSlot, ...] = (
+    StateSlot('t', 's', 'value', True, False, 'test time'),
+    StateSlot('phi1', 'rad', 'value', True, True, 'chamber angle'),
+    StateSlot('w1', 'rad/s', 'value', True, True, 'chamber speed'),
+    StateSlot('phi2', 'rad', 'value', True, True, 'shaft angle'),
+    StateSlot('w2', 'rad/s', 'value', True, True, 'shaft speed'),
+    StateSlot('lag', '-', 'value', True, True, 'lagged friction coefficient (frictional lag)'),
+    StateSlot('stuck', '', 'flag', True, False, 'True while the discs stick'),
+    StateSlot('slip_dir', '', 'sign', True, False, 'sgn(v) of the current sliding phase'),
+    StateSlot('peak_passed', '', 'flag', True, False, '|v| passed its peak (deceleration rule)'),
+    StateSlot('v_max', 'rad/s', 'value', True, False, 'max |v| in the current sliding phase'),
+    StateSlot('stick_time', 's', 'value', True, False, 'duration of the current stick phase'),
+    StateSlot('sensor_lag', 'N m', 'value', False, False, 'torque-sensor lag filter state'),
+)
+
+
+def state_index(name: str) -> int:
+    """Return the index in ``s`` of the state slot ``name`` (a ``RigState`` field name).
+
+    Parameters
+    ----------
+    name : str
+        Slot name (``StateSlot.name``).
+
+    Returns
+    -------
+    int
+        Index ``S_*`` in the state vector.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the table has no slot of that name.
+    """
+    for i, slot in enumerate(STATE_SLOTS):
+        if slot.name == name:
+            return i
+    raise InvalidParameterError(f'kernel state table has no slot {name!r}')
+
+
+NS = len(STATE_SLOTS)
+S_T = state_index('t')  # time [s]
+S_PHI1 = state_index('phi1')  # chamber angle [rad]
+S_W1 = state_index('w1')  # chamber speed [rad/s]
+S_PHI2 = state_index('phi2')  # shaft angle [rad]
+S_W2 = state_index('w2')  # shaft speed [rad/s]
+S_LAG = state_index('lag')  # lagged friction coefficient (frictional-lag extension) [-]
+S_STUCK = state_index('stuck')  # 1.0 while sticking, else 0.0
+S_DIR = state_index('slip_dir')  # slip direction sgn(v) of the current sliding phase (+1/-1)
+S_PEAK = state_index('peak_passed')  # 1.0 once |v| passed its maximum (deceleration rule)
+S_VMAX = state_index('v_max')  # max |v| in the current sliding phase [rad/s]
+S_TSTICK = state_index('stick_time')  # duration of the current stick phase [s]
+S_SENSOR = state_index('sensor_lag')  # torque-sensor lag filter state [N m] (NaN = not started)
+
+#: Slots of ``s`` that must be finite in every valid state (``StateSlot.finite``); the
+#: others (measurement side) may hold NaN ("not started").
+S_FINITE: tuple[int, ...] = tuple(i for i, slot in enumerate(STATE_SLOTS) if slot.finite)
 
 # ---------------------------------------------------------------- integrated state
-Y_PHI1 = 0  # chamber angle [rad]          (s[S_PHI1])
-Y_W1 = 1  # chamber speed [rad/s]          (s[S_W1])
-Y_PHI2 = 2  # shaft angle [rad]            (s[S_PHI2])
-Y_W2 = 3  # shaft speed [rad/s]            (s[S_W2])
-Y_LAG = 4  # lagged friction coefficient [-] (s[S_LAG])
-NY = 5
+#: ``Y_SLOTS[j]`` is the index in ``s`` of entry ``j`` of the integrated state ``y``
+#: (the integrated slots in table order).
+Y_SLOTS: tuple[int, ...] = tuple(i for i, slot in enumerate(STATE_SLOTS) if slot.integrated)
+NY = len(Y_SLOTS)
+
+
+def y_index(name: str) -> int:
+    """Return the index in ``y`` of the integrated state slot ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Slot name (``StateSlot.name``) of an integrated slot.
+
+    Returns
+    -------
+    int
+        Index ``Y_*`` in the integrated state (and in the right-hand side's result).
+
+    Raises
+    ------
+    InvalidParameterError
+        If the slot does not exist or is not integrated.
+    """
+    s = state_index(name)
+    if s not in Y_SLOTS:
+        raise InvalidParameterError(f'kernel state slot {name!r} is not integrated')
+    return Y_SLOTS.index(s)
+
+
+Y_PHI1 = y_index('phi1')  # chamber angle [rad]
+Y_W1 = y_index('w1')  # chamber speed [rad/s]
+Y_PHI2 = y_index('phi2')  # shaft angle [rad]
+Y_W2 = y_index('w2')  # shaft speed [rad/s]
+Y_LAG = y_index('lag')  # lagged friction coefficient [-]
 #: Index of the friction moment M [N m] in the right-hand side's result (after the NY
 #: derivatives).
 D_M = NY
 ND = NY + 1
+#: The zero integrated state and the zero right-hand side (tuples the kernel fills by
+#: index; numba compiles them to constants).
+Y_ZERO: tuple[float, ...] = (0.0,) * NY
+D_ZERO: tuple[float, ...] = (0.0,) * ND
 
 # ---------------------------------------------------------------- output channels
 OUT_TORSION = 0  # C1*phi1 [N m]

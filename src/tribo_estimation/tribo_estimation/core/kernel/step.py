@@ -31,6 +31,7 @@ from .layout import (
     P_SHAPE,
     P_VISC,
 )
+from .state import FloatTuple, axpy, rk4_combine
 
 FloatArray = NDArray[np.float64]
 
@@ -90,63 +91,19 @@ def slip_rate(p: FloatArray, t: float, v_abs: float, peak_passed: bool) -> float
 def _rk4(
     p: FloatArray,
     t: float,
-    y0: float,
-    y1: float,
-    y2: float,
-    y3: float,
-    y4: float,
-    k1: tuple[float, float, float, float, float, float],
+    y: FloatTuple,
+    k1: FloatTuple,
     h: float,
     stuck: bool,
     direction: float,
     peak: bool,
-) -> tuple[float, float, float, float, float]:
+) -> FloatTuple:
     """Take one classical RK4 step of length h from (t, y) with the first stage k1 given."""
     hh = 0.5 * h
-    k2 = derivatives(
-        p,
-        t + hh,
-        y0 + hh * k1[0],
-        y1 + hh * k1[1],
-        y2 + hh * k1[2],
-        y3 + hh * k1[3],
-        y4 + hh * k1[4],
-        stuck,
-        direction,
-        peak,
-    )
-    k3 = derivatives(
-        p,
-        t + hh,
-        y0 + hh * k2[0],
-        y1 + hh * k2[1],
-        y2 + hh * k2[2],
-        y3 + hh * k2[3],
-        y4 + hh * k2[4],
-        stuck,
-        direction,
-        peak,
-    )
-    k4 = derivatives(
-        p,
-        t + h,
-        y0 + h * k3[0],
-        y1 + h * k3[1],
-        y2 + h * k3[2],
-        y3 + h * k3[3],
-        y4 + h * k3[4],
-        stuck,
-        direction,
-        peak,
-    )
-    h6 = h / 6.0
-    return (
-        y0 + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-        y1 + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        y2 + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
-        y3 + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
-        y4 + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
-    )
+    k2 = derivatives(p, t + hh, axpy(y, hh, k1), stuck, direction, peak)
+    k3 = derivatives(p, t + hh, axpy(y, hh, k2), stuck, direction, peak)
+    k4 = derivatives(p, t + h, axpy(y, h, k3), stuck, direction, peak)
+    return rk4_combine(y, h / 6.0, k1, k2, k3, k4)
 
 
 def substeps_for(p: FloatArray, dt: float) -> int:
