@@ -15,30 +15,15 @@ whenever any of its sources changed since the last warmup.
 
 from __future__ import annotations
 
-import hashlib
 import sys
 import time
-from pathlib import Path
 
 
 def drop_stale_numba_caches() -> bool:
     """Delete the package's numba caches if any source changed (True if deleted)."""
-    import tribo_estimation
+    from tribo_estimation.core.kernel.cachecheck import purge_stale_caches
 
-    pkg = Path(tribo_estimation.__file__).resolve().parent
-    h = hashlib.sha256()
-    for src in sorted(pkg.rglob('*.py')):
-        h.update(str(src.relative_to(pkg)).encode())
-        h.update(src.read_bytes())
-    stamp = pkg / '__pycache__' / 'numba_sources.sha256'
-    digest = h.hexdigest()
-    if stamp.is_file() and stamp.read_text(encoding='ascii') == digest:
-        return False
-    for cache in (*pkg.rglob('*.nbi'), *pkg.rglob('*.nbc')):
-        cache.unlink(missing_ok=True)
-    stamp.parent.mkdir(exist_ok=True)
-    stamp.write_text(digest, encoding='ascii')
-    return True
+    return purge_stale_caches(every_source=True)
 
 
 def main() -> int:

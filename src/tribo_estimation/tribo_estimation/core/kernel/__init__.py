@@ -54,6 +54,8 @@ at the exact instants ``t_base + i*dt``.
 
 from __future__ import annotations
 
+# importing .cachecheck first drops stale numba caches before any compiled function loads
+from .cachecheck import purge_stale_caches
 from .equations import (
     bearing_moment,
     breakaway_state,
@@ -229,6 +231,7 @@ __all__ = [
     'friction_levels',
     'integrate',
     'integrate_logged',
+    'purge_stale_caches',
     'shaft_moment',
     'slip_friction_moment',
     'slip_rate',

@@ -1,0 +1,77 @@
+"""Drop numba's on-disk caches of the package when the kernel's layout changed.
+
+numba's cache (``cache=True``) keys a compiled function on its own source file only.
+The kernel's layout constants (:mod:`.layout`: indices and sizes of the parameter,
+state and output vectors) and its tuple builders (:mod:`.state`) are compiled *into*
+every function that uses them, in other files: after an edit of ``layout.py`` (a new
+state slot, a new parameter) those functions would load stale machine code with the
+old indices. So the package's caches are deleted when the two files' hash differs
+from the one stamped at the last check. Runs once per process, before any compiled
+function is loaded; a read-only install is left alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+#: Files whose content is compiled into functions defined elsewhere.
+_SHARED = ('layout.py', 'state.py')
+_STAMP = 'layout.sha256'
+_STAMP_ALL = 'sources.sha256'
+
+
+def _digest(files: list[Path], base: Path) -> str:
+    h = hashlib.sha256()
+    for src in files:
+        h.update(str(src.relative_to(base)).encode())
+        h.update(src.read_bytes())
+    return h.hexdigest()
+
+
+def purge_stale_caches(kernel_dir: Path | None = None, *, every_source: bool = False) -> bool:
+    """Delete the package's numba cache files if the kernel layout changed.
+
+    Parameters
+    ----------
+    kernel_dir : Path, optional
+        The kernel package's folder (default: this one); the package whose caches
+        are deleted is two levels up (``tribo_estimation/``).
+    every_source : bool
+        Hash every ``.py`` file of the package instead of the layout files (the
+        set-up's warm-up: any change of a source drops the caches; own stamp).
+
+    Returns
+    -------
+    bool
+        True if cache files were deleted (the layout changed since the last check).
+    """
+    here = kernel_dir if kernel_dir is not None else Path(__file__).resolve().parent
+    package = here.parents[1]  # tribo_estimation/
+    stamp = here / '__pycache__' / (_STAMP_ALL if every_source else _STAMP)
+    try:
+        files = sorted(package.rglob('*.py')) if every_source else [here / n for n in _SHARED]
+        digest = _digest(files, package)
+        if stamp.is_file() and stamp.read_text().strip() == digest:
+            return False
+        roots = [package]
+        extra = os.environ.get('NUMBA_CACHE_DIR')
+        if extra:
+            roots.append(Path(extra))
+        purged = False
+        for root in roots:
+            for pattern in ('*.nbi', '*.nbc'):
+                for f in root.rglob(pattern):
+                    if root is package or 'tribo_estimation' in f.parts:
+                        f.unlink(missing_ok=True)
+                        purged = True
+        stamp.parent.mkdir(exist_ok=True)
+        stamp.write_text(digest + '\n')
+        return purged
+    except OSError:  # a read-only install: its caches were built from these files
+        return False
+
+
+# at import, i.e. first in the kernel package, before any compiled function is loaded
+purge_stale_caches()
