@@ -234,3 +234,41 @@ def test_single_sample_chunks_with_known_rate() -> None:
     assert [round(d.time[-1] * FS) for d in due] == [99, 149]
     with pytest.raises(InvalidDataError, match='sample_rate'):
         mon.add([1.0], [0.0], [0.0], [0.0], sample_rate=0.0)
+
+
+@pytest.mark.parametrize('sizes', [(81, 100), (137,), (64, 500, 33)])
+def test_windows_do_not_depend_on_how_the_stream_is_chunked(sizes: tuple[int, ...]) -> None:
+    """A window may end inside a chunk: its first samples must still be buffered.
+
+    (Chunks of 100 samples at 10 kHz end exactly on the 6 s window boundaries;
+    any other chunking once dropped the window's first chunk and so the window.)
+    """
+    from tribo_estimation.core.discrepancy.monitor import WindowMonitor
+
+    cfg = load_rig_config(CONFIG / 'rig.yaml')
+    n = round(DURATION * FS)
+    t = np.arange(n) / FS
+    rng = np.random.default_rng(5)
+    cols = [rng.normal(size=n) for _ in range(3)]
+
+    def windows(chunking: tuple[int, ...]) -> list[tuple[float, float, int]]:
+        mon = WindowMonitor(cfg.rig, cfg.drive, k=cfg.friction.k)
+        out = []
+        a, k = 0, 0
+        while a < n:
+            b = min(n, a + chunking[k % len(chunking)])
+            for w in mon.add(t[a:b], *(c[a:b] for c in cols), sample_rate=FS):
+                out.append((float(w.time[0]), float(w.time[-1]), int(w.time.size)))
+                # the window's samples are the stream's (exact copies)
+                j = round(w.time[0] * FS)
+                assert np.array_equal(w.torsion_moment, cols[0][j : j + w.time.size])
+            a, k = b, k + 1
+        return out
+
+    # windows end at 6 s and 8 s (the last sample), whatever the chunking
+    expected = [(0.0, 6.0 - 1 / FS, 60_000), (2.0, 8.0 - 1 / FS, 60_000)]
+    got = windows(sizes)
+    assert len(got) == len(expected)
+    for g, e in zip(got, expected, strict=True):
+        assert g[0] == pytest.approx(e[0], abs=1e-9) and g[1] == pytest.approx(e[1], abs=1e-9)
+        assert g[2] == e[2]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Sequence
 from typing import Unpack
 
@@ -34,14 +35,15 @@ from tribo_common.node_main import NodeOptions, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import history_qos
 from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
-from tribo_estimation.core.align import AlignedChunk, ChannelAligner
+from tribo_estimation.core.align import AlignedChunk, AlignEvent
 from tribo_estimation.core.discrepancy.monitor import (
     MonitorConfig,
     WindowData,
     WindowMonitor,
     WindowResult,
 )
-from tribo_estimation.core.model import DriveProfile, RigParams
+from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
+from tribo_estimation.core.plausibility import CheckedStream, Scales
 from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import MODEL_MONITOR_PARAMS
 from tribo_msgs.msg import ModelDiscrepancy
@@ -51,6 +53,9 @@ OUTPUT_TOPIC = topics.MODEL_DISCREPANCY.name
 
 #: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
 TOPICS: dict[str, str] = RIG_INPUTS
+
+#: Input pause after which the samples held by the input checks are released [s].
+IDLE_S = 0.5
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = MODEL_MONITOR_PARAMS
@@ -80,7 +85,13 @@ class ModelMonitorNode(Node):
         except EstimationError as exc:
             raise ParameterError(str(exc)) from exc
         self._monitor = WindowMonitor(rig, drive, k=v.number('k'), config=cfg)
-        self._aligner = ChannelAligner()
+        scales = None
+        if v.flag('check_input'):
+            law = FrictionLaw(v.number('mu0'), v.number('mu_inf'), v.number('k'))
+            scales = Scales.of(rig, law, v.number('nominal_speed'))
+        self._input = CheckedStream(scales, 'rig topics')
+        self._last_input = time.monotonic()
+        self._idle_timer = self.create_timer(0.5 * IDLE_S, self._on_idle)
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)
         self._pending: tuple[WindowData, float] | None = None
@@ -99,14 +110,33 @@ class ModelMonitorNode(Node):
 
     # ------------------------------------------------------------------ input
     def _on_block(self, b: Block) -> None:
-        """Align one block; hand the newest due window to the worker."""
+        """Align and check one block; hand the newest due window to the worker."""
+        self._last_input = time.monotonic()
         try:
-            events = self._aligner.push(
+            events = self._input.push(
                 b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
             )
         except EstimationError as exc:
-            self.get_logger().error(f'{b.channel}: block dropped: {exc}')
+            # a failed input check repeats on every block: log it every 5 s
+            self.get_logger().error(f'{b.channel}: block dropped: {exc}', throttle_duration_sec=5.0)
             return
+        self._feed(events)
+
+    def _on_idle(self) -> None:
+        """Release the samples the input checks hold once the input paused for IDLE_S."""
+        if not self._input.holding or time.monotonic() - self._last_input < IDLE_S:
+            return
+        try:
+            events = self._input.release()
+        except EstimationError as exc:
+            self.get_logger().error(f'input check: {exc}', throttle_duration_sec=5.0)
+            return
+        self._feed(events)
+
+    def _feed(self, events: list[AlignEvent]) -> None:
+        """Pass checked events to the window monitor; queue the due window."""
+        for note in self._input.take_warnings():
+            self.get_logger().warning(f'plausibility: {note}')
         for ev in events:
             if not isinstance(ev, AlignedChunk):
                 self.get_logger().warning(f'{ev}: the monitor window starts again')

@@ -33,19 +33,22 @@ def _estimating(name: str) -> ParamSpec:
 #: Rig parameters of the friction estimator and the model monitor.
 ESTIMATOR_RIG_PARAMS: tuple[ParamSpec, ...] = tuple(_estimating(n) for n in ESTIMATOR_RIG_KEYS)
 
+#: The input checks of the estimator nodes (as the offline commands run them).
+CHECK_INPUT = ParamSpec(
+    'check_input',
+    '',
+    True,
+    description='check units and time base of the first 2 s and repair spikes '
+    '(as the offline tribo friction does)',
+    type='bool',
+)
+
 #: Parameters of ``friction_estimator``.
 FRICTION_ESTIMATOR_PARAMS: tuple[ParamSpec, ...] = (
     *ESTIMATOR_RIG_PARAMS,
     ParamSpec('block_length', 's', 1.0, 0.01, 600.0, 'block length of the fit (paper: 1 s)'),
     ParamSpec('fit_k', '', False, description='also fit k (Equ. 8) per block', type='bool'),
-    ParamSpec(
-        'check_input',
-        '',
-        True,
-        description='check units and time base of the first 2 s and repair spikes '
-        '(as the offline tribo friction does)',
-        type='bool',
-    ),
+    CHECK_INPUT,
 )
 
 #: Parameters of ``model_monitor``.
@@ -109,6 +112,7 @@ MODEL_MONITOR_PARAMS: tuple[ParamSpec, ...] = (
         description='candidate effects that may be tried (names of the discrepancy library)',
         type='str_list',
     ),
+    CHECK_INPUT,
 )
 
 __all__ = ['ESTIMATOR_RIG_PARAMS', 'FRICTION_ESTIMATOR_PARAMS', 'MODEL_MONITOR_PARAMS']

@@ -16,10 +16,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..align import AlignedChunk, AlignEvent, ChannelAligner, GapEvent, RestartEvent
+from ..align import AlignedChunk, AlignEvent, GapEvent, RestartEvent
 from ..model import DriveProfile, FrictionLaw, RigParams
 from ..observer import FrictionObserver
-from ..plausibility import ChunkChecker, Scales, SpikeLog
+from ..plausibility import CheckedStream, Scales, SpikeLog
 from ..signal import CHAMBER_HALF, chamber_speed
 from .evaluate import evaluate_block
 from .results import BlockConfig, BlockDetail, BlockResult, FloatArray, PendingBlock
@@ -245,24 +245,8 @@ class StreamingPipeline:
         source : str
             Name of the input in the messages of the checks.
         """
-        self.aligner = ChannelAligner()
-        repairs = SpikeLog() if scales is not None else None
-        self.checker = (
-            ChunkChecker(scales, source, repairs)
-            if scales is not None and repairs is not None
-            else None
-        )
-        self.estimator = BlockEstimator(rig, friction, cfg, repairs=repairs)
-
-    def _stage(self, events: list[AlignEvent]) -> list[AlignEvent]:
-        if self.checker is None:
-            return events
-        if self.checker.failure is not None:
-            raise self.checker.failure
-        out: list[AlignEvent] = []
-        for ev in events:
-            out.extend(self.checker.push(ev))
-        return out
+        self.input = CheckedStream(scales, source)
+        self.estimator = BlockEstimator(rig, friction, cfg, repairs=self.input.repairs)
 
     def push(
         self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
@@ -294,8 +278,7 @@ class StreamingPipeline:
             The plausibility check of the first samples failed (a unit or time-base
             error); raised again on every later call.
         """
-        events = self._stage(self.aligner.push(channel, first_index, sample_rate, stamp, data))
-        return self._consume(events)
+        return self._consume(self.input.push(channel, first_index, sample_rate, stamp, data))
 
     def _consume(
         self, events: list[AlignEvent]
@@ -303,8 +286,7 @@ class StreamingPipeline:
         moments: list[MomentChunk] = []
         blocks: list[PendingBlock] = []
         notes: list[str] = []
-        if self.checker is not None:
-            notes.extend(f'plausibility: {w}' for w in self.checker.take_warnings())
+        notes.extend(f'plausibility: {w}' for w in self.input.take_warnings())
         for ev in events:
             blocks.extend(self.estimator.push(ev))
             if isinstance(ev, AlignedChunk):
@@ -326,7 +308,7 @@ class StreamingPipeline:
     @property
     def holding(self) -> bool:
         """Whether the plausibility stage holds samples back (see :meth:`release`)."""
-        return self.checker is not None and self.checker.holding
+        return self.input.holding
 
     def release(self) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
         """Pass on what the plausibility stage holds, for a stream that went quiet.
@@ -347,9 +329,7 @@ class StreamingPipeline:
         InvalidDataError
             The check of the held samples failed.
         """
-        if self.checker is None:
-            return [], [], []
-        return self._consume(self.checker.flush())
+        return self._consume(self.input.release())
 
     def flush(self) -> list[PendingBlock]:
         """End of input: remaining aligned data and the partial block.
@@ -359,11 +339,8 @@ class StreamingPipeline:
         list of PendingBlock
             Blocks ready to fit.
         """
-        events = self._stage(self.aligner.flush())
-        if self.checker is not None:
-            events.extend(self.checker.flush())
         blocks: list[PendingBlock] = []
-        for ev in events:
+        for ev in self.input.flush():
             blocks.extend(self.estimator.push(ev))
         blocks.extend(self.estimator.flush())
         return blocks

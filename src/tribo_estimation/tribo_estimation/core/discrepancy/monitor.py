@@ -390,26 +390,28 @@ class WindowMonitor:
         self._n += t.size
         cfg = self.config
         n_win = round(cfg.window * self._fs)
-        # trim what no future window needs
-        while self._chunks and self._n - self._chunks[0][0].size >= n_win:
-            self._n -= self._chunks.pop(0)[0].size
-        t_first = self._chunks[0][0][0]
-        t_last = t[-1]
         if self._next_end is None:
-            self._next_end = t_first + (n_win - 1) / self._fs
-        if t_last + 0.5 / self._fs < self._next_end or self._n < n_win:
-            return []
-        # the latest complete window ending at a hop boundary
-        hops = math.floor((t_last - self._next_end) / cfg.hop + 1e-9)
-        end = self._next_end + hops * cfg.hop
-        self._next_end = end + cfg.hop
-        tt = np.concatenate([c[0] for c in self._chunks])
-        j1 = int(np.searchsorted(tt, end + 0.5 / self._fs))
-        j0 = j1 - n_win
-        if j0 < 0:
-            return []
-        arrs = [np.concatenate([c[i] for c in self._chunks])[j0:j1] for i in range(1, 4)]
-        return [WindowData(tt[j0:j1].copy(), *(a.copy() for a in arrs))]
+            self._next_end = self._chunks[0][0][0] + (n_win - 1) / self._fs
+        out: list[WindowData] = []
+        t_last = t[-1]
+        if t_last + 0.5 / self._fs >= self._next_end and self._n >= n_win:
+            # the latest complete window ending at a hop boundary
+            hops = math.floor((t_last - self._next_end) / cfg.hop + 1e-9)
+            end = self._next_end + hops * cfg.hop
+            self._next_end = end + cfg.hop
+            tt = np.concatenate([c[0] for c in self._chunks])
+            j1 = int(np.searchsorted(tt, end + 0.5 / self._fs))
+            j0 = j1 - n_win
+            if j0 >= 0:
+                arrs = [np.concatenate([c[i] for c in self._chunks])[j0:j1] for i in range(1, 4)]
+                out.append(WindowData(tt[j0:j1].copy(), *(a.copy() for a in arrs)))
+        # trim what no future window needs: chunks that end before the next window
+        # starts (a window may end inside the newest chunk: trimming by the newest
+        # sample would drop the start of the window due now)
+        first_needed = self._next_end - (n_win - 0.5) / self._fs
+        while self._chunks and self._chunks[0][0][-1] < first_needed:
+            self._n -= self._chunks.pop(0)[0].size
+        return out
 
     def push(
         self,

@@ -61,7 +61,7 @@ from tribo_estimation.core.plausibility.spikes import (
     repair_summary,
     running_median,
 )
-from tribo_estimation.core.plausibility.stream import ChunkChecker, checked_chunks
+from tribo_estimation.core.plausibility.stream import CheckedStream, ChunkChecker, checked_chunks
 from tribo_estimation.core.signal import mad_sigma
 
 __all__ = [
@@ -78,6 +78,7 @@ __all__ = [
     'SPIKE_RANGE',
     'SPIKE_SIGMA',
     'UNIT_RATIO',
+    'CheckedStream',
     'ChunkChecker',
     'Scales',
     'SpikeLog',

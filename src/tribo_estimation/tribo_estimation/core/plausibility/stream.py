@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
-from tribo_estimation.core.align import AlignedChunk, AlignEvent
+from tribo_estimation.core.align import AlignedChunk, AlignEvent, ChannelAligner
 from tribo_estimation.core.plausibility.checks import check_channels, check_time_base
 from tribo_estimation.core.plausibility.scales import Scales
 from tribo_estimation.core.plausibility.spikes import (
@@ -220,6 +220,121 @@ class ChunkChecker:
         """
         out, self.warnings = self.warnings, []
         return out
+
+
+class CheckedStream:
+    """Live input of the estimators: channel aligner, then the input checks.
+
+    Per-channel sample blocks in (:class:`~tribo_estimation.core.align.ChannelAligner`),
+    aligned events out that passed :class:`ChunkChecker` (unit and time-base check of
+    the first ``check_samples``, spike repair logged in :attr:`repairs`); with
+    ``scales`` None the aligner's events pass unchecked. One stage for every node
+    that reads the rig channels, so they see the same samples as the offline
+    commands.
+    """
+
+    def __init__(self, scales: Scales | None, source: str, check_samples: int = 20_000):
+        """Set up the aligner and, with ``scales``, the checks.
+
+        Parameters
+        ----------
+        scales : Scales or None
+            Physical scales of the channels (None: no checks).
+        source : str
+            Name of the input in messages.
+        check_samples : int
+            Samples held for the one-time check.
+        """
+        self.aligner = ChannelAligner()
+        #: Samples replaced by the spike repair (None without checks).
+        self.repairs: SpikeLog | None = SpikeLog() if scales is not None else None
+        self.checker = (
+            ChunkChecker(scales, source, self.repairs, check_samples)
+            if scales is not None and self.repairs is not None
+            else None
+        )
+
+    def _stage(self, events: list[AlignEvent]) -> list[AlignEvent]:
+        if self.checker is None:
+            return events
+        if self.checker.failure is not None:
+            raise self.checker.failure
+        out: list[AlignEvent] = []
+        for ev in events:
+            out.extend(self.checker.push(ev))
+        return out
+
+    def push(
+        self, channel: str, first_index: int, sample_rate: float, stamp: float, data: FloatArray
+    ) -> list[AlignEvent]:
+        """Add one block of one channel; return the events ready (checked, repaired).
+
+        Parameters
+        ----------
+        channel : str
+            Channel name (:data:`~tribo_estimation.core.align.CHANNELS`).
+        first_index : int
+            Sample counter of the first sample.
+        sample_rate : float
+            Sample rate [Hz].
+        stamp : float
+            Time of the first sample [s].
+        data : FloatArray
+            Samples [SI unit of the channel].
+
+        Returns
+        -------
+        list of AlignEvent
+            Events in order.
+
+        Raises
+        ------
+        InvalidDataError
+            The check of the first samples failed (a unit or time-base error), raised
+            again on every later call; or the aligner refused the block.
+        """
+        return self._stage(self.aligner.push(channel, first_index, sample_rate, stamp, data))
+
+    @property
+    def holding(self) -> bool:
+        """Whether the checks hold samples back (see :meth:`release`)."""
+        return self.checker is not None and self.checker.holding
+
+    def release(self) -> list[AlignEvent]:
+        """Pass on what the checks hold, for a stream that went quiet.
+
+        The checks hold the first samples until they are checked and the last few
+        samples of every chunk until the next one (a spike at a chunk edge is judged
+        with both sides); a node calls this after an input pause so its last block or
+        window completes.
+
+        Returns
+        -------
+        list of AlignEvent
+            The held events.
+        """
+        return self.checker.flush() if self.checker is not None else []
+
+    def flush(self) -> list[AlignEvent]:
+        """End of input: everything the aligner and the checks hold.
+
+        Returns
+        -------
+        list of AlignEvent
+            The remaining events.
+        """
+        events = self._stage(self.aligner.flush())
+        return events + self.release()
+
+    def take_warnings(self) -> list[str]:
+        """Return the checks' warnings collected so far and forget them.
+
+        Returns
+        -------
+        list of str
+            Warnings (each names the channel).
+        """
+        return self.checker.take_warnings() if self.checker is not None else []
 
 
 def checked_chunks(
