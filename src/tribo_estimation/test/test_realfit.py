@@ -8,6 +8,7 @@ that of config/rig.yaml (0.05 N m, 2 rad/s^2, 0.005 rad/s), seeded.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -194,3 +195,27 @@ def test_block_fit_on_epoch_stamps_equals_relative_time() -> None:
         assert b.mu0 == pytest.approx(a.mu0, rel=1e-6, nan_ok=True)
         assert b.mu_inf == pytest.approx(a.mu_inf, rel=1e-6, nan_ok=True)
     assert all(b.ok for b in epoch[1:])
+
+
+@pytest.mark.parametrize(('offset', 'gain'), [(1.0, 0.0), (-1.0, 0.0), (0.0, 0.10)])
+def test_tachometer_offset_and_gain_taken_from_the_stick_lines(offset: float, gain: float) -> None:
+    """A speed channel off by 1 rad/s (or 10 %) once biased mu0 by 2.5 % (0.7 %)."""
+    r = _rec('midtest')
+    speed = (r.speed * (1.0 + gain) + offset).astype(np.float64)
+    rr = replace(r, speed=speed)
+    res = _blocks(rr, nominal=W30)
+    for b in res[1:]:
+        assert b.ok, b.quality
+        # within the targets of the clean record: mu0 1 %, mu_inf 0.5 %, drive 1 %
+        assert b.mu0 == pytest.approx(0.13, rel=0.01)
+        assert b.mu_inf == pytest.approx(0.10, rel=0.005)
+        assert b.w0 == pytest.approx(W30, rel=0.01)
+        # the channel's error at the sticks is reported (within 0.05 rad/s)
+        assert b.speed_offset == pytest.approx(offset + gain * W30, abs=0.05)
+
+
+def test_clean_speed_channel_is_left_alone() -> None:
+    res = _blocks(_rec('midtest'), nominal=W30)
+    for b in res:
+        # below the 1 % tolerance: the channel's own level is used
+        assert abs(b.speed_offset) < 0.01 * W30, b.speed_offset

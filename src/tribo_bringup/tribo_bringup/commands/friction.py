@@ -202,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
     """Estimate, write blocks.csv and the figures."""
     from tribo_bringup.outputs import PARTIAL_DIR, atomic_output_dir, keep_as_partial
     from tribo_estimation.core.blockfit import BlockConfig, BlockCsvWriter, BlockEstimator
+    from tribo_estimation.core.blockfit.evaluate import SPEED_CHANNEL_TOL
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.drive import MISMATCH_LIMIT
     from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
@@ -287,6 +288,22 @@ def run(args: argparse.Namespace) -> int:
             f'{100 * MISMATCH_LIMIT:.0f} % (worst: block {worst.index}, {worst.w0:.4g} rad/s, '
             f'{100 * worst.drive_mismatch:+.1f} %); the measured drive speed is used '
             '(blocks.csv columns w0, drive_mismatch)',
+            file=sys.stderr,
+        )
+    corrected = [
+        r
+        for r in results
+        if math.isfinite(r.speed_offset)
+        and math.isfinite(r.w0)
+        and abs(r.speed_offset) > SPEED_CHANNEL_TOL * abs(r.w0)
+    ]
+    if corrected:
+        med = float(np.median([r.speed_offset for r in corrected]))
+        print(
+            f'friction: warning: the speed channel reads {med:+.3g} rad/s off the drive speed '
+            f'the stick lines show, in {len(corrected)} block(s) (a tachometer offset or gain '
+            'error); the drive level of those blocks is taken from the stick lines '
+            '(blocks.csv column speed_offset)',
             file=sys.stderr,
         )
     if not args.quiet:

@@ -39,7 +39,8 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 #: Columns of the ``blocks.csv`` file: :data:`CSV_COLUMNS` plus the drive speed the
 #: fit used (``w0`` [rad/s], measured) and its relative deviation from the
-#: configured nominal speed (``drive_mismatch`` [-]) before ``quality``, and after it
+#: configured nominal speed (``drive_mismatch`` [-]), the speed channel's offset from the
+#: stick lines' drive speed (``speed_offset`` [rad/s]) before ``quality``, and after it
 #: the repairs of each block (``spikes``: samples replaced before the fit and left
 #: out of it, ``bursts``: runs of 3 or more of them; :mod:`..plausibility`). Older
 #: files without these are read too.
@@ -47,6 +48,7 @@ FILE_COLUMNS: tuple[str, ...] = (
     *CSV_COLUMNS[:-1],
     'w0',
     'drive_mismatch',
+    'speed_offset',
     'quality',
     'spikes',
     'bursts',
@@ -91,6 +93,7 @@ class BlockCsvWriter:
                 _fmt(r.rms_residual),
                 _fmt(r.w0),
                 _fmt(r.drive_mismatch),
+                _fmt(r.speed_offset),
                 r.quality_str,
                 str(r.spikes),
                 str(r.bursts),

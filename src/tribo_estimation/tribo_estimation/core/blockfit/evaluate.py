@@ -32,6 +32,7 @@ from ..sticks import (
     classify_motion,
     detect_sticks,
     estimate_torsion_lag,
+    stick_line_speeds,
     torsion_lag_compensated,
 )
 from .fit import fit_block
@@ -169,6 +170,63 @@ def drive_over_cycles(
     return replace(drive, knot_speed=drive.knot_speed + shift)
 
 
+#: A speed channel whose level differs from the stick lines' drive speed by more than
+#: this fraction (and 4 standard errors) is off (offset or gain error): the drive
+#: profile is levelled with the stick lines instead [-].
+SPEED_CHANNEL_TOL = 0.01
+
+
+def drive_from_stick_lines(
+    drive: DriveEstimate,
+    time: FloatArray,
+    torsion: FloatArray,
+    accel: FloatArray,
+    rig: RigParams,
+    phases: list[StickPhase],
+) -> tuple[DriveEstimate, float]:
+    """Check the drive profile's level against the stick lines; correct a clear offset.
+
+    The profile comes from the speed channel; the stick lines give the drive speed
+    without it (:func:`..sticks.stick_line_speeds`, Equ. 1 + 2 while sticking). Their
+    difference at the sticks, ``d = mean(w0_channel(t_k) - w0_line_k)`` (weighted by
+    the sticks' samples), is the channel's offset (or gain error) there. Above
+    :data:`SPEED_CHANNEL_TOL` of the drive speed and 4 standard errors the profile
+    is shifted by ``-d`` (a wrong tachometer level biases mu0 by about as much as
+    the speed is off: 2.5 % for 1 rad/s at 30 rpm).
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        Drive profile from the speed channel (block-local time [s]).
+    time : FloatArray
+        Block-local sample times [s].
+    torsion : FloatArray
+        Torsion moment [N m] (amplifier lag compensated).
+    accel : FloatArray
+        Chamber acceleration [rad/s^2].
+    rig : RigParams
+        Rig parameters (Tab. 1).
+    phases : list of StickPhase
+        Stick phases of the block.
+
+    Returns
+    -------
+    tuple of (DriveEstimate, float)
+        The profile (shifted if the channel is off) and ``d`` [rad/s] (NaN with
+        fewer than 3 usable sticks).
+    """
+    t_k, w_k, n_k = stick_line_speeds(time, torsion, accel, rig, phases)
+    if t_k.size < 3:
+        return drive, math.nan
+    diff = drive.speed(t_k) - w_k
+    d = float(np.sum(n_k * diff) / np.sum(n_k))
+    se = float(np.sqrt(np.sum(n_k * (diff - d) ** 2) / np.sum(n_k) / (t_k.size - 1)))
+    level = float(np.sum(n_k * w_k) / np.sum(n_k))
+    if abs(d) > max(SPEED_CHANNEL_TOL * abs(level), 4.0 * se):
+        return replace(drive, knot_speed=drive.knot_speed - d), d
+    return drive, d
+
+
 def _check_speed_units(cfg: BlockConfig, speed: FloatArray) -> None:
     """Raise :class:`UnitError` when the shaft speed [rad/s] looks like rpm."""
     w_mean = float(np.mean(speed))
@@ -275,6 +333,7 @@ class _Outcome:
     w0: float
     mismatch: float
     data: BlockData | None
+    speed_offset: float = math.nan
 
 
 def _detail(
@@ -320,6 +379,7 @@ def _detail(
         n_samples=n,
         n_iter=out.n_iter if out else 0,
         drive_mismatch=o.mismatch,
+        speed_offset=o.speed_offset,
         spikes=n_rep,
         bursts=n_bursts,
     )
@@ -351,6 +411,7 @@ def evaluate_block(
     ac = blk.accel[a:b]
     sp = blk.speed[a:b]
     n = b - a
+    channel_off = [math.nan]  # speed channel - stick-line drive speed [rad/s]
 
     def done(
         fit: FitOutcome | None,
@@ -361,7 +422,9 @@ def evaluate_block(
         mismatch: float = nan,
         data: BlockData | None = None,
     ) -> BlockDetail:
-        o = _Outcome(frozenset(flags), fit, stick, motion, n_sticks, w0, mismatch, data)
+        o = _Outcome(
+            frozenset(flags), fit, stick, motion, n_sticks, w0, mismatch, data, channel_off[0]
+        )
         return _detail(blk, friction, cfg, a, b, o)
 
     if n < max(20, cfg.min_fraction * n_block):
@@ -404,6 +467,7 @@ def evaluate_block(
         phases = []
     stick = _stick_mask(phases, n, blk.fs)
     drive = drive_over_cycles(drive, time, sp, phases)
+    drive, channel_off[0] = drive_from_stick_lines(drive, time, tq, ac, rig, phases)
     w0 = drive.mean_speed(float(time[0]), float(time[-1]))
     mismatch = (
         (w0 - cfg.nominal_speed) / cfg.nominal_speed if cfg.nominal_speed is not None else nan

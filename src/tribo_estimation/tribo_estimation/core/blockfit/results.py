@@ -178,6 +178,10 @@ class BlockResult:
     drive_mismatch
         relative deviation of ``w0`` from the configured nominal
         speed [-] (NaN: none configured); beyond 5 % the command warns.
+    speed_offset
+        speed channel minus the drive speed of the stick lines at the sticks [rad/s]
+        (a tachometer offset or gain error; above 1 % the drive level is taken from
+        the stick lines; NaN with fewer than 3 sticks).
     n_samples
         valid samples used [-].
     n_iter
@@ -211,6 +215,7 @@ class BlockResult:
     n_samples: int = 0
     n_iter: int = 0
     drive_mismatch: float = math.nan
+    speed_offset: float = math.nan
     spikes: int = 0
     bursts: int = 0
 

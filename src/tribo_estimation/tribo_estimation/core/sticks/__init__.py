@@ -81,6 +81,7 @@ from .detect import (
     find_sticks,
     slip_speed,
     speed_mismatch,
+    stick_line_speeds,
     stick_residual,
 )
 from .lag import (
@@ -110,6 +111,7 @@ __all__ = [
     'find_sticks',
     'slip_speed',
     'speed_mismatch',
+    'stick_line_speeds',
     'stick_residual',
     'torsion_lag_compensated',
 ]
