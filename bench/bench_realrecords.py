@@ -134,6 +134,8 @@ def conditions(quick: bool) -> list[Condition]:
     out.append(Condition('speed offset +1 30', 30, startup=True, speed_offset=1.0))
     out.append(Condition('speed offset -1 60', 60, speed_offset=-1.0, speed_lag=0.005))
     out.append(Condition('speed gain +10% 25', 25, speed_gain=0.10))
+    # known limit: a torsion zero offset is a friction level to every fit (it biases mu0
+    # and mu_inf by offset/(F_N*R)); it needs a tare (tribo decay's torque_offset)
     out.append(Condition('torsion offset 1Nm 30', 30, torsion_offset=1.0))
     out.append(Condition('accel offset 0.5 30', 30, accel_offset=0.5))
     out.append(Condition('spikes 20/s 25', 25, spikes=20.0))
