@@ -56,6 +56,9 @@ class PtyPort:
             attrs = termios.tcgetattr(slave)
             attrs[4] = attrs[5] = termios.B50  # sentinel: replaced when a driver configures it
             termios.tcsetattr(slave, termios.TCSANOW, attrs)
+            # non-blocking master: a write never blocks while holding the lock (a driver
+            # that stopped reading would otherwise hang write() and so unplug()/close())
+            os.set_blocking(master, False)
             self.master, self._slave = master, slave
             self._open_noticed = False
             tmp = self.path.with_suffix('.tmp')
