@@ -34,7 +34,9 @@ gives every name):
   tuple builders: read/write ``s``, set one entry, the RK4 stage sums),
 - :mod:`.step`: the RK4 step and its step-size control,
 - :mod:`.events`: switching events and their location,
-- :mod:`.integrate`: the integrator (:func:`integrate`, :func:`integrate_logged`).
+- :mod:`.integrate`: the integrator (:func:`integrate`, :func:`integrate_logged`),
+- :mod:`.cachecheck`: drops the package's numba caches when ``layout.py``/``state.py``
+  changed (their constants are compiled into functions of other files).
 
 Flat-array interface (no Python objects, callable from other ``@njit`` code):
 
