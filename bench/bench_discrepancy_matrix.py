@@ -271,14 +271,15 @@ def main() -> int:
     ap.add_argument('--only', default='', help='comma-separated hidden effects to run')
     args = ap.parse_args()
     args.quick = not args.full
-    todo = cases(args.quick)
+    # each case keeps its seed (its place in the whole list) when --only picks a few
+    todo = [(1000 + i, *c) for i, c in enumerate(cases(args.quick))]
     if args.only:
         keep = set(args.only.split(','))
-        todo = [c for c in todo if c[0] in keep]
+        todo = [c for c in todo if c[1] in keep]
     rows: list[CaseRow] = []
     t_all = time.perf_counter()
-    for i, (h, scale, cond) in enumerate(todo):
-        r = run_case(h, scale, cond, args.duration, seed=1000 + i)
+    for seed, h, scale, cond in todo:
+        r = run_case(h, scale, cond, args.duration, seed=seed)
         rows.append(r)
         print(
             f'{h:<20s} x{scale:<4g} {cond:<8s} -> {r["outcome"]:<20s} ident={r["ident"]!s:<5s} '

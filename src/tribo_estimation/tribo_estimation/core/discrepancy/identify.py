@@ -549,6 +549,69 @@ def identifiability(
     return Identifiability(True, f'{"; ".join(parts)} (1 SE); {corr_txt}')
 
 
+def fit_stability(
+    candidate: str,
+    param_names: Sequence[str],
+    gn: GaussNewton,
+    first: Mapping[str, float],
+    *,
+    max_se: float = 3.0,
+    max_rel: float = 0.1,
+) -> Identifiability | None:
+    """Judge whether a converged fit agrees with the selection round's first fit.
+
+    The selection scores every candidate with a fit of a limited budget and then
+    polishes the accepted one to convergence (:func:`.select.run_discrepancy`). When
+    a candidate parameter moved between the two by more than ``max_se`` standard
+    errors of the converged fit (``gn``, :func:`gauss_newton` at it) and by more than
+    ``max_rel`` (-) of its value, the cost has no single well-defined minimum the fit
+    settles in (or it crawls along a valley): the fit is unstable, and an unstable
+    fit does not identify the effect. The relative floor keeps a linearised standard
+    error that understates the scatter (a stick-slip record's cost is not quadratic
+    far below the noise) from calling a small refinement unstable.
+
+    Parameters
+    ----------
+    candidate : str
+        Candidate name.
+    param_names : Sequence[str]
+        Its parameters in ``gn``.
+    gn : GaussNewton
+        Linearisation at the converged fit.
+    first : Mapping[str, float]
+        The first fit's values (SI).
+    max_se : float
+        Largest move in standard errors [-].
+    max_rel : float
+        Largest relative move [-].
+
+    Returns
+    -------
+    Identifiability or None
+        A "not identifiable" verdict with its reason and suggestion, or None when the
+        two fits agree.
+    """
+    idx = {n: i for i, n in enumerate(gn.names)}
+    for pn in param_names:
+        if pn not in idx or pn not in first:
+            continue
+        v, se = gn.values[idx[pn]], gn.se[idx[pn]]
+        v0 = float(first[pn])
+        move = abs(v - v0)
+        n_se = move / se if se > 0 else math.inf
+        if n_se > max_se and move > max_rel * max(abs(v), abs(v0)):
+            suggest = suggestion(candidate)
+            return Identifiability(
+                False,
+                f'unstable fit: {pn} = {v0:.4g} in the selection round but {v:.4g} +- '
+                f'{se:.2g} converged ({n_se:.0f} SE, {100 * move / max(abs(v), abs(v0)):.0f} % '
+                f'apart): this record does not pin {candidate} down ({suggest} would '
+                'decide it)',
+                suggest,
+            )
+    return None
+
+
 def per_record(spec: ParamSpec, i: int) -> ParamSpec:
     """``spec`` renamed for record ``i`` of a joint fit (``mu0`` -> ``mu0@i``)."""
     return replace(spec, name=f'{spec.name}@{i}')
@@ -564,6 +627,7 @@ __all__ = [
     'ProblemResiduals',
     'RecordFacts',
     'ResidualModel',
+    'fit_stability',
     'gauss_newton',
     'identifiability',
     'per_record',

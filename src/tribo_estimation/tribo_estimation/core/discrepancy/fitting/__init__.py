@@ -55,7 +55,10 @@ from .records import (
     SimulatedRecord,
 )
 from .segments import (
+    CUT_STICK,
     SLIDE_WIN,
+    UNKNOWN_DWELL,
+    begins_at_drive_start,
     make_segments,
     sliding_segments,
     sliding_start_states,
@@ -65,6 +68,7 @@ from .segments import (
 __all__ = [
     'CHANNELS',
     'CHANNEL_UNITS',
+    'CUT_STICK',
     'EXT_FIELDS',
     'FALSE_STICK_MIN',
     'FALSE_STICK_SIGMA',
@@ -77,6 +81,7 @@ __all__ = [
     'SLIDE_WIN',
     'SPEED_LAG',
     'SPEED_OFFSET',
+    'UNKNOWN_DWELL',
     'FitOutcome',
     'Problem',
     'Record',
@@ -84,6 +89,7 @@ __all__ = [
     'SimulatedRecord',
     'SpeedSensor',
     'TorsionLag',
+    'begins_at_drive_start',
     'false_stick_phases',
     'identify_speed_sensor',
     'identify_torsion_lag',

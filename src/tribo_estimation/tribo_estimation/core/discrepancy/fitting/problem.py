@@ -26,7 +26,6 @@ from tribo_estimation.core.drive import (
     DriveEstimate,
     estimate_drive,
     refine_with_angles,
-    tolerance,
 )
 from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.measurement import apply_measurement_transforms, true_torsion_at_starts
@@ -62,7 +61,7 @@ from .records import (
     Segments,
     SimulatedRecord,
 )
-from .segments import make_segments, sliding_start_states
+from .segments import begins_at_drive_start, make_segments, sliding_start_states
 
 #: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
 #: profile's corners (:meth:`Problem._set_instrument`).
@@ -111,7 +110,17 @@ class Problem:
         self.drive_estimate: DriveEstimate = estimate_drive(
             record.time, record.speed, drive.nominal_speed
         )
-        self.segments = segments if segments is not None else make_segments(record, rig)
+        self.segments = (
+            segments
+            if segments is not None
+            else make_segments(
+                record,
+                rig,
+                dwell_from_start=begins_at_drive_start(
+                    record, drive.ramp_time, self.drive_estimate.level
+                ),
+            )
+        )
         self.n_evals = 0
         seg = self.segments
         i = seg.start
@@ -120,14 +129,11 @@ class Problem:
         self._drive_speed0 = self.drive_estimate
         # a record that begins at the drive's start (RIG.yaml ramp from t = 0, and the
         # measured speed there at rest within the profile tolerance): w0 = 0 at t0
-        n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
-        at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(
-            self.drive_estimate.level, 0.0
-        )
         self._start_speed: float | None = (
-            0.0 if drive.ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+            0.0
+            if begins_at_drive_start(record, drive.ramp_time, self.drive_estimate.level)
             else None
-        )  # fmt: skip
+        )
         sp = record.speed
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
         self._knots = DriveKnots.from_estimate(self.drive_estimate)

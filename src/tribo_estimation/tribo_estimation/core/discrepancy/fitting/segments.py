@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.drive import tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
 from tribo_estimation.core.sticks import detect_sticks
@@ -23,6 +24,42 @@ from .records import Record, Segments
 
 #: Local-fit window at sliding segment starts [samples] (odd).
 SLIDE_WIN = 51
+#: A stick phase that begins within this time of the record's first sample began
+#: before the record (the record cuts it) [s].
+CUT_STICK = 2e-3
+#: Reason listed in ``Segments.rejected`` for a stick phase the record start cuts.
+UNKNOWN_DWELL = (
+    'stick began before the record start: its dwell (stick time) is unknown, so the '
+    'breakaway that ends it cannot be simulated (not fitted)'
+)
+
+
+def begins_at_drive_start(record: Record, ramp_time: float, level: float) -> bool:
+    """Return whether the record begins at the drive's start from rest.
+
+    RIG.yaml's start-up ramp (``ramp_time`` > 0) begins at t = 0 = the record's first
+    sample and the shaft speed there is at rest (mean of the first 10 ms within
+    :func:`tribo_estimation.core.drive.tolerance` of 0). A stick phase at such a
+    record's start began with the record: its dwell clock starts at the first sample
+    (the convention of the reference generator and the kernel's rest state).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    ramp_time : float
+        RIG.yaml start-up ramp [s] (0: none).
+    level : float
+        Drive speed level [rad/s] (scales the at-rest tolerance).
+
+    Returns
+    -------
+    bool
+        True when the record begins at the drive's start from rest.
+    """
+    n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
+    at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(level, 0.0)
+    return ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
 
 
 def stick_runs(
@@ -88,6 +125,7 @@ def make_segments(
     block_time: float = 0.25,
     start_delay: float = 3e-3,
     runs: tuple[IntArray, IntArray, FloatArray] | None = None,
+    dwell_from_start: bool = False,
 ) -> Segments:
     """Cut the record into segments that start ``start_delay`` s into a stick phase.
 
@@ -95,6 +133,14 @@ def make_segments(
     later); segments are numbered into time blocks of about ``block_time`` s.
     A record with fewer than 3 stick phases (slip-slip, steady sliding) gets
     sliding segments instead (:func:`sliding_segments`).
+
+    A stick phase that the record's start cuts (it begins within
+    :data:`CUT_STICK` of the first sample) began at an unknown time: its dwell
+    (the stick time the kernel's breakaway test of dwell-time stiction reads,
+    ``mu_s(t_stick)``) is unknown, so no segment starts in it and its samples are
+    not fitted (listed in ``rejected``) -- unless ``dwell_from_start``: the record
+    begins at the drive's start from rest (:func:`begins_at_drive_start`), where
+    the stick began with the record.
 
     Parameters
     ----------
@@ -111,6 +157,9 @@ def make_segments(
     runs : tuple of (IntArray, IntArray, FloatArray), optional
         First, stop sample and start time [s] of each stick phase (default:
         :func:`stick_runs`).
+    dwell_from_start : bool
+        The record begins at the drive's start from rest: a stick phase at its
+        start began there (its dwell is known).
 
     Returns
     -------
@@ -128,15 +177,26 @@ def make_segments(
     slip = np.abs(false_stick_phases(record, rig, s_start, s_stop))
     spread = 1.4826 * float(np.median(slip)) if slip.size else 0.0
     limit = max(FALSE_STICK_SIGMA * spread, FALSE_STICK_MIN)
-    rejected = tuple(
+    rejected = [
         (float(record.time[int(a)]), f'no stick: shaft and chamber speeds differ by {v:.3g} rad/s')
         for a, v in zip(s_start, slip, strict=True)
         if v > limit
-    )
+    ]
+    # a stick phase cut by the record start has no known dwell (unless the record
+    # begins at the drive's start from rest)
+    t_first = float(record.time[0])
+    cut = np.asarray(onset, dtype=np.float64) - t_first < CUT_STICK
+    if dwell_from_start:
+        cut[:] = False
+    rejected += [
+        (float(record.time[int(a)]), UNKNOWN_DWELL)
+        for k, a in enumerate(s_start)
+        if cut[k] and slip[k] <= limit
+    ]
     cand = [
         (int(a) + min(delay, (int(b) - int(a)) // 2), k)
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-        if slip[k] <= limit
+        if slip[k] <= limit and not cut[k]
     ]
     if len(cand) < 3:
         # a stick phase (the start-up from rest) has no sliding state: sliding
@@ -168,7 +228,7 @@ def make_segments(
         block.astype(np.int64),
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
-        rejected=rejected,
+        rejected=tuple(sorted(rejected)),
     )
 
 

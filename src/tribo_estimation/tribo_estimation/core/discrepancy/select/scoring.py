@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from .. import candidates as cand_lib
 from ..candidates import ParamSpec
-from ..fitting import CHANNELS, MU0, MU_INF, Problem, SimulatedRecord
+from ..fitting import CHANNELS, MU0, MU_INF, FitOutcome, Problem, SimulatedRecord
 from ..localise import torque_residual
 from ..stats import FloatArray, rms
 from .results import ModelScore, Progress, SelectionSettings
@@ -141,6 +141,46 @@ def worst_block_loss(before: Sequence[float], after: Sequence[float]) -> float:
     return float(np.max((a[ok] - b[ok]) / b[ok]))
 
 
+#: Parabola steps that refine the minimum of a profile (:meth:`Selector.fit_best`).
+_PROFILE_REFINE = 4
+
+
+def _profile_vertex(
+    screened: Sequence[tuple[float, float, Mapping[str, float]]], spec: ParamSpec
+) -> float | None:
+    """Return the minimum of a parabola in log(value) through a profile's best point.
+
+    Parameters
+    ----------
+    screened : Sequence[tuple[float, float, Mapping[str, float]]]
+        (profiled value [SI], cost [-], fitted values) of every screened start.
+    spec : ParamSpec
+        The profiled (log-scaled) parameter.
+
+    Returns
+    -------
+    float or None
+        The vertex [SI] when the best value has a neighbour on each side and the
+        parabola through the three opens upwards; else None.
+    """
+    pts = sorted({(v, c) for v, c, _ in screened if v > 0 and math.isfinite(c)})
+    if len(pts) < 3:
+        return None
+    k = min(range(len(pts)), key=lambda i: pts[i][1])
+    if k == 0 or k == len(pts) - 1:
+        return None
+    (x0, c0), (x1, c1), (x2, c2) = ((math.log(v), c) for v, c in pts[k - 1 : k + 2])
+    # the parabola's vertex through three points (divided differences)
+    d01 = (c1 - c0) / (x1 - x0)
+    d12 = (c2 - c1) / (x2 - x1)
+    curv = (d12 - d01) / (x2 - x0)
+    if not curv > 0.0:
+        return None
+    xv = 0.5 * (x0 + x1) - d01 / (2.0 * curv)
+    xv = min(max(xv, x0), x2)
+    return min(max(math.exp(xv), spec.lower), spec.upper)
+
+
 class Selector:
     """State of one selection run: the problem, its cross-validation folds, settings.
 
@@ -171,8 +211,18 @@ class Selector:
         specs: Sequence[ParamSpec],
         starts: Sequence[Mapping[str, float]],
         seg_mask: npt.NDArray[np.bool_] | None = None,
+        *,
+        profile: str = '',
     ) -> dict[str, float]:
         """Screen all starts with a short fit, refine the best one.
+
+        With ``profile`` (a log-scaled parameter of ``specs``, see
+        :attr:`..candidates.Candidate.profile`) the screening holds it fixed at each
+        start's value: the screened costs are a profile of the cost over it, whose
+        minimum a parabola in log(value) through the best start and its neighbours
+        locates (screened too; up to four times, each parabola through the best three, until
+        it moves less than 2 %) before the
+        refinement frees it.
 
         Parameters
         ----------
@@ -182,23 +232,77 @@ class Selector:
             Start values (SI), each with every parameter the simulation needs.
         seg_mask : numpy.ndarray of bool or None
             Segments fitted (None: all).
+        profile : str
+            Name of the profiled parameter ('' = none).
 
         Returns
         -------
         dict[str, float]
             The refined values.
         """
+        return self.fit_best_outcome(specs, starts, seg_mask, profile=profile).values
+
+    def fit_best_outcome(
+        self,
+        specs: Sequence[ParamSpec],
+        starts: Sequence[Mapping[str, float]],
+        seg_mask: npt.NDArray[np.bool_] | None = None,
+        *,
+        profile: str = '',
+        max_nfev: int | None = None,
+    ) -> FitOutcome:
+        """:meth:`fit_best` returning the refinement's whole :class:`.fitting.FitOutcome`.
+
+        Parameters
+        ----------
+        specs : Sequence[ParamSpec]
+            Fitted parameters.
+        starts : Sequence[Mapping[str, float]]
+            Start values (SI), each with every parameter the simulation needs.
+        seg_mask : numpy.ndarray of bool or None
+            Segments fitted (None: all).
+        profile : str
+            Name of the profiled parameter ('' = none).
+        max_nfev : int or None
+            Most simulations of the refinement (None: the settings' ``max_nfev``).
+
+        Returns
+        -------
+        FitOutcome
+            The refined fit (values, cost, convergence, standard errors).
+        """
         best_vals: dict[str, float] = dict(starts[0])
         best_cost = math.inf
         if len(starts) > 1:
-            # screen on one fold (half the data) to save time, refine on all
-            screen = self.fold_masks[0] if seg_mask is None else seg_mask
+            held = [p for p in specs if p.name == profile]
+            free = [p for p in specs if p.name != profile]
+            # screen on one fold (half the data) to save time, refine on all; a
+            # profile on all (a shape parameter may show in a few time blocks only:
+            # dwell-time stiction's tau where a speed step changes the stick durations)
+            screen = self.fold_masks[0] if seg_mask is None and not held else seg_mask
+            screened: list[tuple[float, float, dict[str, float]]] = []
+            # a profile point must converge to be compared: twice the screening budget
+            # (the levels start from the baseline's, which absorbed part of the effect)
+            budget = self.st.screen_nfev * (2 if held else 1)
             for s in starts:
-                fo = self.pb.fit(specs, s, seg_mask=screen, max_nfev=self.st.screen_nfev)
+                fo = self.pb.fit(free, s, seg_mask=screen, max_nfev=budget)
+                if held:
+                    screened.append((float(s[profile]), fo.cost, fo.values))
                 if fo.cost < best_cost:
                     best_cost, best_vals = fo.cost, fo.values
-        fo = self.pb.fit(specs, best_vals, seg_mask=seg_mask, max_nfev=self.st.max_nfev)
-        return fo.values
+            for _ in range(_PROFILE_REFINE if held else 0):
+                vertex = _profile_vertex(screened, held[0])
+                if vertex is None or any(abs(math.log(vertex / v)) < 0.02 for v, *_ in screened):
+                    break
+                s = dict(best_vals)
+                s[profile] = vertex
+                fo = self.pb.fit(free, s, seg_mask=screen, max_nfev=budget)
+                screened.append((vertex, fo.cost, fo.values))
+                if fo.cost < best_cost:
+                    best_cost, best_vals = fo.cost, fo.values
+        return self.pb.fit(
+            specs, best_vals, seg_mask=seg_mask, max_nfev=max_nfev or self.st.max_nfev
+        )
 
     def score(self, effects: tuple[str, ...], values: Mapping[str, float]) -> ModelScore:
         """Score a model: whole-record cost/rms/BIC and the held-out cost/rms.
