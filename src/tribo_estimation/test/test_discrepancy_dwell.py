@@ -7,7 +7,8 @@ durations, which decides dwell-time stiction; the fitted gain and time constant 
 be within 20 % of the truth. The helpers behind it are checked on analytic cases: a
 stick phase the record start cuts (unknown dwell) is not fitted, the profile's
 parabola finds the minimum of a parabola, and a fit that moves far while polishing is
-called unstable.
+called unstable. The model-error term of the standard errors (the leverage-corrected
+block sandwich) is the block jackknife of a linear fit.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from tribo_estimation.core.discrepancy.fitting import (
     make_segments,
     stick_runs,
 )
-from tribo_estimation.core.discrepancy.identify import GaussNewton, fit_stability
+from tribo_estimation.core.discrepancy.identify import GaussNewton, _block_robust_sd, fit_stability
 from tribo_estimation.core.discrepancy.select import SelectionSettings, run_discrepancy
 from tribo_estimation.core.discrepancy.select.scoring import _profile_vertex
 from tribo_estimation.core.model import DriveProfile, Extensions
@@ -114,3 +115,25 @@ def test_unstable_fit_is_not_identified() -> None:
     gn_wide = GaussNewton(names, gn.values, (1e-4, 1e-4, 2e-2, 5e-3), np.eye(4), ())
     assert fit_stability('dwell_time_stiction', names[2:], gn_wide,
                          {'stiction_gain': 0.03, 'stiction_tau': 0.0065}) is None  # fmt: skip
+
+
+def test_block_robust_term_is_the_block_jackknife_of_a_linear_fit() -> None:
+    """For a linear least-squares fit the leverage-corrected block sandwich equals the
+    leave-one-block-out jackknife exactly, sqrt((G-1)/G * sum_b (theta_b - theta)^2)
+    (rel. 1e-9), seeded data with a trend parameter that the end blocks dominate."""
+    rng = np.random.default_rng(12)
+    t = np.linspace(0.0, 3.0, 600)
+    blocks = np.minimum((t / 0.25).astype(np.int64), 11)
+    x = np.vstack([np.ones_like(t), t])  # parameters: level, trend (rows of J = -X)
+    y = 0.3 + 0.05 * t + rng.normal(0.0, 0.1, t.size) + 0.05 * np.sin(7.0 * t)
+    theta = np.linalg.lstsq(x.T, y, rcond=None)[0]
+    r0 = y - theta @ x
+    jac = -x
+    a_inv = np.linalg.inv(jac @ jac.T)
+    sd = _block_robust_sd(jac, r0, a_inv, blocks)
+    g_n = int(blocks.max()) + 1
+    loo = np.array(
+        [np.linalg.lstsq(x[:, blocks != b].T, y[blocks != b], rcond=None)[0] for b in range(g_n)]
+    )
+    jack = np.sqrt((g_n - 1) / g_n * np.sum((loo - theta) ** 2, axis=0))
+    np.testing.assert_allclose(sd, jack, rtol=1e-9)

@@ -269,10 +269,16 @@ def gauss_newton(
     ``robust``: the model-error term. A model mismatch leaves residuals correlated
     over far longer than ``corr_time`` (a whole stick-slip cycle, a drift), which the
     noise count above does not see: the block-robust (sandwich) covariance
-    ``A^-1 (sum_b g_b g_b^T) A^-1 * G/(G-1)``, ``A = J^T J``, ``g_b = J_b^T r_b`` the
-    score of time block b of G (``problem.residual_blocks``), estimates the scatter
-    of the parameters from how the residual's projection varies between the blocks,
-    whatever its correlation within a block. Each standard error is the larger of
+    ``A^-1 (sum_b g_b g_b^T) A^-1 * (G-1)/G``, ``A = J^T J``, of the leverage-corrected
+    block scores ``g_b = (I - A_b A^-1)^-1 J_b^T r_b`` (``A_b = J_b J_b^T``) of the G
+    time blocks (``problem.residual_blocks``), estimates the scatter of the parameters
+    from how the residual's projection varies between the blocks, whatever its
+    correlation within a block. The leverage correction is the block jackknife of the
+    linearised fit (each block's score as if the fit had not seen it): with about a
+    dozen blocks the plain sandwich ``G/(G-1)`` understates the scatter, most for a
+    parameter a few blocks dominate (a drift: the record's ends; over 20 seeds of a
+    torque-offset drift 0.4x of config/rig.yaml the plain term left the errors at 1.5
+    stated SE rms, the corrected one at 1.3). Each standard error is the larger of
     the two (``model_error`` names the parameters where the block term is larger);
     the correlations are those of the noise term (the structure of J).
 
@@ -381,11 +387,19 @@ def _block_robust_sd(
     if g_n < 3:
         return out
     meat = np.zeros((k, k))
+    eye = np.eye(k)
     for b in ids:
         m = blocks == b
         g = jac[:, m] @ r0[m]
+        # the block's own leverage: its residual is the fit's, which it pulled
+        # towards itself; (I - A_b A^-1)^-1 g_b is its score had it been left out
+        a_b = jac[:, m] @ jac[:, m].T
+        try:
+            g = np.linalg.solve(eye - a_b @ a_inv, g)
+        except np.linalg.LinAlgError:
+            pass  # a block that alone determines a parameter: its plain score
         meat += np.outer(g, g)
-    cov = a_inv @ meat @ a_inv * (g_n / (g_n - 1.0))
+    cov = a_inv @ meat @ a_inv * ((g_n - 1.0) / g_n)
     return np.asarray(np.sqrt(np.abs(np.diag(cov))), dtype=np.float64)
 
 
