@@ -27,6 +27,7 @@ from tribo_estimation.core.discrepancy.fitting import (
     begins_at_drive_start,
     make_segments,
     stick_runs,
+    stuck_before_onset,
 )
 from tribo_estimation.core.discrepancy.identify import GaussNewton, _block_robust_sd, fit_stability
 from tribo_estimation.core.discrepancy.select import SelectionSettings, run_discrepancy
@@ -137,3 +138,29 @@ def test_block_robust_term_is_the_block_jackknife_of_a_linear_fit() -> None:
     )
     jack = np.sqrt((g_n - 1) / g_n * np.sum((loo - theta) ** 2, axis=0))
     np.testing.assert_allclose(sd, jack, rtol=1e-9)
+
+
+def test_stick_dated_late_by_the_detector_is_not_a_segment_start() -> None:
+    """A (noise-free) speed-step record in which the stick detector dates the stick that
+    begins 5.8 ms before the drive ramp (15 -> 35 rpm at 2.0 s) to the ramp's start:
+    the shaft and chamber speeds agree that far before the detected onset (within
+    0.5 ms of the reference's event log), so no segment starts there (its dwell is
+    unknown); the other sticks' onsets are right (< 0.5 ms early)."""
+    tc, ac, sc = rig_channels(1e-3)
+    prof = SpeedProfile.steps([rpm(15), rpm(35)], [2.0])
+    r = make_record(RecordSpec(CFG.rig, CFG.friction, prof,
+                               extensions=Extensions(stiction_gain=GAIN, stiction_tau=TAU),
+                               torsion=tc, accel=ac, speed=sc, seed=1010, duration=0.3,
+                               start_offset=1.85))  # fmt: skip
+    rec = Record(r.time - r.time[0], r.torsion_moment, r.angular_acceleration, r.speed)
+    a, b, onset = stick_runs(rec, CFG.rig)
+    true_onsets = np.array([s for s, _ in r.sticks]) - float(r.time[0])
+    late = np.array([float(np.min(np.abs(true_onsets - o))) for o in onset])
+    early = stuck_before_onset(rec, CFG.rig, a, b)
+    k = int(np.argmax(late))
+    assert late[k] > 5e-3  # s: the detector's late onset at the ramp start
+    assert early[k] == pytest.approx(late[k], abs=5e-4)
+    assert np.all(np.delete(early, k) < 5e-4)
+    segs = make_segments(rec, CFG.rig)
+    assert int(a[k]) not in {int(x) for x in np.asarray(segs.run_start)}
+    assert any('before its detected onset' in why for _, why in segs.rejected)

@@ -56,6 +56,7 @@ from .records import (
 )
 from .segments import (
     CUT_STICK,
+    EARLY_STICK,
     SLIDE_WIN,
     UNKNOWN_DWELL,
     begins_at_drive_start,
@@ -63,12 +64,14 @@ from .segments import (
     sliding_segments,
     sliding_start_states,
     stick_runs,
+    stuck_before_onset,
 )
 
 __all__ = [
     'CHANNELS',
     'CHANNEL_UNITS',
     'CUT_STICK',
+    'EARLY_STICK',
     'EXT_FIELDS',
     'FALSE_STICK_MIN',
     'FALSE_STICK_SIGMA',
@@ -99,6 +102,7 @@ __all__ = [
     'speed_sensor_output',
     'speed_slope',
     'stick_runs',
+    'stuck_before_onset',
     'stuck_speed_through_lag',
     'torsion_compensated_record',
 ]

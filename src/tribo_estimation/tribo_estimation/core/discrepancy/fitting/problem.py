@@ -171,8 +171,8 @@ class Problem:
         self._smooth_accel = moving_average(record.angular_acceleration, width)
         self._smooth_torque = moving_average(record.torsion_moment, width)
         guard = CHAMBER_HALF + 1
-        ra = seg.run_start if seg.run_start is not None else seg.start
-        rb = seg.run_stop if seg.run_stop is not None else seg.start + 1
+        phases = seg.stick_phases()
+        ra, rb = phases if phases is not None else (seg.start, seg.start + 1)
         idx = [
             np.arange(int(a) + guard, int(b) - guard, 4, dtype=np.int64)
             for a, b in zip(ra, rb, strict=True)
@@ -463,6 +463,51 @@ class Problem:
         self._placed = self._placed or place
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def drive_state(self) -> tuple[DriveEstimate, DriveKnots]:
+        """Return the current drive profile (for :meth:`restore_drive_state`).
+
+        Returns
+        -------
+        tuple of (DriveEstimate, DriveKnots)
+            The profile and its kernel knots.
+        """
+        return self.drive_estimate, self._knots
+
+    def restore_drive_state(self, state: tuple[DriveEstimate, DriveKnots]) -> None:
+        """Restore a drive profile saved by :meth:`drive_state`.
+
+        Parameters
+        ----------
+        state : tuple of (DriveEstimate, DriveKnots)
+            The saved profile and knots.
+        """
+        self.drive_estimate, self._knots = state
+
+    def replace_drive(self, values: Mapping[str, float]) -> None:
+        """Search the drive profile's corners again, locally, with the model ``values``.
+
+        The corners are placed once, with the baseline (:meth:`_set_instrument`); a
+        model whose terms change the drive angles at the stick samples (a drive
+        ripple, a torque-offset drift) only re-fits the knot speeds at every
+        simulation, so corners placed under the baseline's unmodelled ripple stay
+        where its angles put them (a speed step's corner 2.7 ms off). Called once for
+        an accepted model; the caller keeps the result only if it fits better.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Model values (see :meth:`model_objects`).
+        """
+        if self.segments.sliding:
+            return
+        _, ext = self.model_objects(values)
+        tau = float(values.get('speed_lag_tau', 0.0))
+        offset = float(values.get('speed_offset', 0.0))
+        ripple = (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase)
+        torque = (ext.torque_offset, ext.torque_offset_drift)
+        self._set_instrument(tau, offset, ripple, torque)
+        self._fit_drive(tau, offset, ripple, torque, place=True)
 
     def _sliding_drive(self) -> DriveEstimate:
         """Return the drive profile of a record without stick-slip.

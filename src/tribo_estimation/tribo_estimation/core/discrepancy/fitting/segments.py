@@ -34,6 +34,68 @@ UNKNOWN_DWELL = (
 )
 
 
+#: A stick phase whose discs already move together this long before its detected
+#: onset [s] began earlier than detected: its dwell is unknown.
+EARLY_STICK = 2e-3
+
+
+def stuck_before_onset(
+    record: Record, rig: RigParams, s_start: IntArray, s_stop: IntArray
+) -> FloatArray:
+    """Return how long before each detected stick phase the discs already moved together.
+
+    While the discs stick the shaft speed (the speed channel through the speed-sensor
+    model of :func:`.instrument.identify_speed_sensor`) equals the chamber speed
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4). Going back from a phase's first sample to the end
+    of the phase before (or the record start), the samples where the two agree within
+    ``max(5 robust SD, FALSE_STICK_MIN)`` (the SD over the phases' interiors) are the
+    part of the stick the detector left out: the stick detector dates a phase that
+    begins just before a drive ramp to the ramp's start (bench 'step' record, seed
+    1010: 5.8 ms late), and the dwell clock of dwell-time stiction (``t_stick``,
+    Equ. 6 with ``mu_s(t_stick)``) would start late by as much. A correct onset gives
+    ~0.1 ms (the slip's last samples).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    s_start, s_stop : IntArray
+        First and stop sample of each detected stick phase (in time order).
+
+    Returns
+    -------
+    FloatArray
+        Time before each phase's first sample in which the discs already stuck [s].
+    """
+    from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, mad_sigma
+
+    from .instrument import FALSE_STICK_MIN, identify_speed_sensor, speed_slope
+
+    out = np.zeros(s_start.size)
+    if s_start.size == 0:
+        return out
+    sensor = identify_speed_sensor(record, rig, (s_start, s_stop))
+    tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
+    off = sensor.offset if math.isfinite(sensor.offset) else 0.0
+    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    slip = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
+    guard = CHAMBER_HALF + 3
+    inner = [slip[a + guard : b - guard] for a, b in zip(s_start, s_stop, strict=True)]
+    inner = [x for x in inner if x.size]
+    sd = mad_sigma(np.concatenate(inner)) if inner else 0.0
+    limit = max(5.0 * sd, FALSE_STICK_MIN)
+    prev_stop = 0
+    for k, (a, b) in enumerate(zip(s_start.tolist(), s_stop.tolist(), strict=True)):
+        i = a
+        while i > prev_stop and abs(float(slip[i - 1])) <= limit:
+            i -= 1
+        out[k] = (a - i) / record.fs
+        prev_stop = max(prev_stop, b)
+    return out
+
+
 def begins_at_drive_start(record: Record, ramp_time: float, level: float) -> bool:
     """Return whether the record begins at the drive's start from rest.
 
@@ -193,10 +255,24 @@ def make_segments(
         for k, a in enumerate(s_start)
         if cut[k] and slip[k] <= limit
     ]
+    # a stick phase that began well before its detected onset has no known dwell
+    # either: no segment starts in it, its samples stay in the segment before, whose
+    # simulation dates the stick's onset itself
+    early = stuck_before_onset(record, rig, s_start, s_stop)
+    late = (early > EARLY_STICK) & ~cut & (slip <= limit)
+    rejected += [
+        (
+            float(record.time[int(a)]),
+            f'stick began {1e3 * early[k]:.3g} ms before its detected onset (the shaft and '
+            'chamber speeds agree there): its dwell is unknown (fitted in the segment before)',
+        )
+        for k, a in enumerate(s_start)
+        if late[k]
+    ]
     cand = [
         (int(a) + min(delay, (int(b) - int(a)) // 2), k)
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-        if slip[k] <= limit and not cut[k]
+        if slip[k] <= limit and not cut[k] and not late[k]
     ]
     if len(cand) < 3:
         # a stick phase (the start-up from rest) has no sliding state: sliding
@@ -229,6 +305,11 @@ def make_segments(
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
         rejected=tuple(sorted(rejected)),
+        unknown_dwell=tuple(
+            (int(a), int(b))
+            for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
+            if (cut[k] or late[k]) and slip[k] <= limit
+        ),
     )
 
 

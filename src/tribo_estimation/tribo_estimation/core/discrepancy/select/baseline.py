@@ -160,13 +160,7 @@ def fit_baseline(
     # the instrument model (speed-sensor lag and offset) is identified from the stick
     # phases before any fit (friction-free) and held fixed by every model
     seg = pb.segments
-    sensor = identify_speed_sensor(
-        record,
-        rig,
-        (seg.run_start, seg.run_stop)
-        if seg.run_start is not None and seg.run_stop is not None
-        else None,
-    )
+    sensor = identify_speed_sensor(record, rig, seg.stick_phases())
     used = sensor.values()
     speed_lag: dict[str, object] = {
         'value': sensor.tau,

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time as _time
 
+import numpy as np
+
 from tribo_estimation.core.model import DriveProfile, RigParams
 
 from .. import candidates as cand_lib
@@ -180,6 +182,21 @@ def run_discrepancy(
         model = sel.score(best.model.effects, pol.values)
         if model.cost > best.model.cost:
             model = best.model
+        # the drive's corners were placed with the baseline: placed again with the
+        # accepted model (kept if the re-polished fit is better)
+        saved = pb.drive_state()
+        pb.replace_drive(model.params)
+        if not np.array_equal(pb.drive_estimate.knot_time, saved[0].knot_time):
+            pol2 = pb.fit(specs_of(best.model.effects), model.params, max_nfev=st.max_nfev)
+            model2 = sel.score(best.model.effects, pol2.values)
+            if model2.cost < model.cost:
+                say(
+                    f'drive corners placed again with {c.name}: rms {model.rms:.4g} -> '
+                    f'{model2.rms:.4g} N m'
+                )
+                model = model2
+            else:
+                pb.restore_drive_state(saved)
         # the verdict of the effect is re-checked on the converged fit (the round's
         # verdict came from the round's fit), and a fit that moved far while polishing
         # (many standard errors) is unstable: not identified
