@@ -94,7 +94,7 @@ def test_profile_vertex_of_a_parabola() -> None:
         return (math.log(v) - math.log(TAU)) ** 2
 
     grid = [0.001, 0.003, 0.008, 0.03]
-    pts = [(v, cost(v), {}) for v in grid]
+    pts: list[tuple[float, float, dict[str, float]]] = [(v, cost(v), {}) for v in grid]
     v = _profile_vertex(pts, spec)
     assert v is not None and v == pytest.approx(TAU, rel=1e-9)
     assert _profile_vertex([(x, -cost(x), {}) for x in grid], spec) is None
@@ -130,7 +130,7 @@ def test_block_robust_term_is_the_block_jackknife_of_a_linear_fit() -> None:
     theta = np.linalg.lstsq(x.T, y, rcond=None)[0]
     r0 = y - theta @ x
     jac = -x
-    a_inv = np.linalg.inv(jac @ jac.T)
+    a_inv = np.asarray(np.linalg.inv(jac @ jac.T), dtype=np.float64)
     sd = _block_robust_sd(jac, r0, a_inv, blocks)
     g_n = int(blocks.max()) + 1
     loo = np.array(
