@@ -264,7 +264,7 @@ def main() -> int:
     """Run the matrix and print it; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument(
-        '--quick', action='store_true', help='fewer conditions (43 records, ~7 min; the default)'
+        '--quick', action='store_true', help='fewer conditions (47 records, ~6 min; the default)'
     )
     ap.add_argument('--full', action='store_true', help='every condition (133 records, ~20 min)')
     ap.add_argument('--duration', type=float, default=3.0, help='record length [s]')
