@@ -142,7 +142,16 @@ def worst_block_loss(before: Sequence[float], after: Sequence[float]) -> float:
 
 
 #: Parabola steps that refine the minimum of a profile (:meth:`Selector.fit_best`).
-_PROFILE_REFINE = 4
+_PROFILE_REFINE = 6
+#: Half-width of the local bracket around a profile's best point [-, in log(value)].
+_BRACKET = 0.1
+#: Profile points closer than this [-, in log(value)] are the same point.
+_SAME_POINT = 0.02
+
+
+def _near(value: float, screened: Sequence[tuple[float, float, Mapping[str, float]]]) -> bool:
+    """Whether ``value`` is within :data:`_SAME_POINT` (log) of a screened profile point."""
+    return any(abs(math.log(value / v)) < _SAME_POINT for v, *_ in screened if v > 0)
 
 
 def _profile_vertex(
@@ -220,9 +229,9 @@ class Selector:
         :attr:`..candidates.Candidate.profile`) the screening holds it fixed at each
         start's value: the screened costs are a profile of the cost over it, whose
         minimum a parabola in log(value) through the best start and its neighbours
-        locates (screened too; up to four times, each parabola through the best three, until
-        it moves less than 2 %) before the
-        refinement frees it.
+        locates (screened too; each parabola through the best point and its neighbours,
+        until it moves less than 2 %, then once more after bracketing the best point
+        by +-10 %) before the refinement frees it.
 
         Parameters
         ----------
@@ -290,16 +299,26 @@ class Selector:
                     screened.append((float(s[profile]), fo.cost, fo.values))
                 if fo.cost < best_cost:
                     best_cost, best_vals = fo.cost, fo.values
+            bracketed = False
             for _ in range(_PROFILE_REFINE if held else 0):
                 vertex = _profile_vertex(screened, held[0])
-                if vertex is None or any(abs(math.log(vertex / v)) < 0.02 for v, *_ in screened):
+                probes = [] if vertex is None or _near(vertex, screened) else [vertex]
+                if not probes and not bracketed:
+                    # the start grid is coarse (its parabola is lopsided): bracket the
+                    # best point by +-10 % once, and take the parabola again
+                    v_best = min(screened, key=lambda e: e[1])[0]
+                    probes = [v_best * math.exp(f) for f in (-_BRACKET, _BRACKET)]
+                    probes = [v for v in probes if not _near(v, screened)]
+                    bracketed = True
+                if not probes:
                     break
-                s = dict(best_vals)
-                s[profile] = vertex
-                fo = self.pb.fit(free, s, seg_mask=screen, max_nfev=budget)
-                screened.append((vertex, fo.cost, fo.values))
-                if fo.cost < best_cost:
-                    best_cost, best_vals = fo.cost, fo.values
+                for v in probes:
+                    s = dict(best_vals)
+                    s[profile] = min(max(v, held[0].lower), held[0].upper)
+                    fo = self.pb.fit(free, s, seg_mask=screen, max_nfev=budget)
+                    screened.append((s[profile], fo.cost, fo.values))
+                    if fo.cost < best_cost:
+                        best_cost, best_vals = fo.cost, fo.values
         return self.pb.fit(
             specs, best_vals, seg_mask=seg_mask, max_nfev=max_nfev or self.st.max_nfev
         )
