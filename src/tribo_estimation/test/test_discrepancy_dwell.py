@@ -56,7 +56,7 @@ def test_dwell_time_stiction_on_a_speed_step_within_20_percent() -> None:
     """The speed step decides dwell-time stiction: named, identifiable on its converged
     fit, gain and tau within 20 % (tolerance of the issue; the bench's 'step' record,
     seed 1010: before the profile screening the fit crawled along the mu0-gain-tau
-    valley and stopped at gain 0.0152, tau 6.7 ms, 24 % and 34 % off; now ~7 %)."""
+    valley and stopped at gain 0.0152, tau 6.7 ms, 24 % and 34 % off; now ~2 %)."""
     rec = _step_record(seed=1010, duration=3.0)
     st = SelectionSettings(candidates=('dwell_time_stiction',), max_effects=1, propose_terms=False)
     res = run_discrepancy(rec, CFG.rig, DriveProfile(rpm(15), 0.0), k=CFG.friction.k, settings=st)
