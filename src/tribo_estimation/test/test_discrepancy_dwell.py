@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -31,7 +32,7 @@ from tribo_estimation.core.discrepancy.fitting import (
 )
 from tribo_estimation.core.discrepancy.identify import GaussNewton, _block_robust_sd, fit_stability
 from tribo_estimation.core.discrepancy.select import SelectionSettings, run_discrepancy
-from tribo_estimation.core.discrepancy.select.scoring import _profile_vertex
+from tribo_estimation.core.discrepancy.select.scoring import Selector, _profile_vertex
 from tribo_estimation.core.model import DriveProfile, Extensions
 from tribo_estimation.core.reference import SpeedProfile
 from tribo_estimation.core.reference_records import RecordSpec, make_record, rig_channels, rpm
@@ -164,3 +165,25 @@ def test_stick_dated_late_by_the_detector_is_not_a_segment_start() -> None:
     segs = make_segments(rec, CFG.rig)
     assert int(a[k]) not in {int(x) for x in np.asarray(segs.run_start)}
     assert any('before its detected onset' in why for _, why in segs.rejected)
+
+
+def test_profile_standard_error_from_its_curvature() -> None:
+    """A profile cost = c0 + q*(ln tau - ln 5 ms)^2 along which the gain moves by
+    dg/d(ln tau) = -0.01: SE(ln tau) = sqrt(c0*c/(m*q)) (m residual elements, c the
+    samples per correlation time) and SE(gain) = 0.01*SE(ln tau), to 1e-9."""
+    n, fs, c0, q = 20_000, 10_000.0, 0.006, 0.05
+    pb = SimpleNamespace(
+        weights={'torsion_moment': 1.0, 'chamber_speed': 1.0, 'speed': 1.0},
+        segments=SimpleNamespace(sample_mask=lambda size: np.ones(n, dtype=bool)),
+        record=SimpleNamespace(time=np.zeros(n), fs=fs),
+    )
+    sel = SimpleNamespace(pb=pb, st=SelectionSettings(corr_time=1e-3))
+    grid = [0.003, 0.0045, 0.005, 0.0055, 0.008]
+    screened = [
+        (v, c0 + q * math.log(v / TAU) ** 2, {'stiction_gain': 0.02 - 0.01 * math.log(v / TAU)})
+        for v in grid
+    ]
+    se = Selector._profile_se(sel, screened, c0, 'stiction_tau')
+    se_x = math.sqrt(c0 * 10.0 / (3 * n * q))
+    assert se['stiction_tau'] == pytest.approx(TAU * se_x, rel=1e-9)
+    assert se['stiction_gain'] == pytest.approx(0.01 * se_x, rel=1e-9)

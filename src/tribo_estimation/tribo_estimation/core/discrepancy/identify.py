@@ -236,7 +236,9 @@ class GaussNewton:
     rows/columns in the order of ``names``; ``dead`` the parameters the
     simulated channels do not depend on at all (zero Jacobian column);
     ``model_error`` the parameters whose standard error is set by the scatter
-    between time blocks (model error) rather than by the noise.
+    between time blocks (model error) rather than by the noise; ``profiled`` those
+    whose standard error comes from the curvature of their cost profile
+    (:meth:`with_profile_se`).
     """
 
     names: tuple[str, ...]
@@ -245,6 +247,30 @@ class GaussNewton:
     corr: FloatArray
     dead: tuple[str, ...]
     model_error: tuple[str, ...] = ()
+    profiled: tuple[str, ...] = ()
+
+    def with_profile_se(self, profile_se: Mapping[str, float]) -> GaussNewton:
+        """Return a copy whose standard errors are at least the profile's.
+
+        Parameters
+        ----------
+        profile_se : Mapping[str, float]
+            Standard error [SI] of a parameter from the curvature of its cost profile
+            (:meth:`.select.scoring.Selector.fit_best`), by name.
+
+        Returns
+        -------
+        GaussNewton
+            The copy; ``profiled`` names the parameters whose profile error is larger.
+        """
+        se = list(self.se)
+        raised = []
+        for i, n in enumerate(self.names):
+            p = profile_se.get(n)
+            if p is not None and math.isfinite(p) and p > se[i]:
+                se[i] = float(p)
+                raised.append(n)
+        return replace(self, se=tuple(se), profiled=(*self.profiled, *raised))
 
 
 def gauss_newton(
@@ -551,7 +577,7 @@ def identifiability(
     for pn in param_names:
         v, se = gn.values[idx[pn]], gn.se[idx[pn]]
         rel = se / abs(v) if v != 0 else math.inf
-        src = ', model error' if pn in gn.model_error else ''
+        src = ', profile' if pn in gn.profiled else ', model error' if pn in gn.model_error else ''
         parts.append(f'{pn} = {v:.4g} +- {se:.2g} ({100 * rel:.0f} %{src})')
         if not rel <= max_rel_se:
             return Identifiability(

@@ -305,6 +305,7 @@ def judge_candidates(
     *,
     corr_time: float = 1e-3,
     gains: Mapping[str, float] | None = None,
+    profile_se: Mapping[str, float] | None = None,
 ) -> dict[str, Identifiability]:
     """Give every candidate's identifiability verdict (:func:`..identify.identifiability`).
 
@@ -325,6 +326,9 @@ def judge_candidates(
     gains : Mapping[str, float] or None
         Candidate name -> its cross-validated relative cost reduction [-]; a decisive
         fit overrules the stick-duration proxy.
+    profile_se : Mapping[str, float] or None
+        Parameter name -> standard error [SI] from its cost profile (a floor of the
+        linearised one, :meth:`..identify.GaussNewton.with_profile_se`).
 
     Returns
     -------
@@ -340,6 +344,7 @@ def judge_candidates(
             vals,
             corr_time=corr_time,
             gain=None if gains is None else gains.get(name),
+            profile_se=profile_se,
         )[0]
         for name, vals in fits.items()
     }
@@ -353,6 +358,7 @@ def _judge(
     *,
     corr_time: float,
     gain: float | None,
+    profile_se: Mapping[str, float] | None = None,
 ) -> tuple[Identifiability, GaussNewton]:
     """Return one candidate's verdict and the linearisation of its fit."""
     durations, speeds, length = facts
@@ -361,6 +367,8 @@ def _judge(
     specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
     specs += list(c.params)
     gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
+    if profile_se:
+        gn = gn.with_profile_se(profile_se)
     verdict = identifiability(
         name, c.param_names, gn, durations, drive_speeds=speeds, duration=length, gain=gain
     )
@@ -376,6 +384,7 @@ def judge_converged(
     *,
     corr_time: float = 1e-3,
     gain: float | None = None,
+    profile_se: Mapping[str, float] | None = None,
 ) -> Identifiability:
     """Re-check an accepted candidate's verdict on its converged (polished) fit.
 
@@ -399,6 +408,8 @@ def judge_converged(
         Residual correlation time [s] of the standard errors.
     gain : float or None
         The candidate's cross-validated relative cost reduction [-].
+    profile_se : Mapping[str, float] or None
+        Parameter name -> standard error [SI] from its cost profile.
 
     Returns
     -------
@@ -407,7 +418,13 @@ def judge_converged(
     """
     c = cand_lib.get(name)
     verdict, gn = _judge(
-        pb, record_facts(pb, base_sim), name, converged, corr_time=corr_time, gain=gain
+        pb,
+        record_facts(pb, base_sim),
+        name,
+        converged,
+        corr_time=corr_time,
+        gain=gain,
+        profile_se=profile_se,
     )
     unstable = fit_stability(name, c.param_names, gn, first)
     return unstable if unstable is not None and verdict.ok else verdict

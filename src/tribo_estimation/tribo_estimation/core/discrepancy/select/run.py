@@ -98,6 +98,7 @@ def run_discrepancy(
     inconsistent: list[str] = []
     for rnd in range(st.max_effects):
         scores: list[CandidateScore] = []
+        profile_se: dict[str, float] = {}
         for c in pool:
             if c.name in current.effects:
                 continue
@@ -108,6 +109,8 @@ def run_discrepancy(
                 s.update(pt)
                 starts.append(s)
             vals = sel.fit_best(specs_of(effects), starts, profile=c.profile)
+            if c.profile:  # standard errors from its profile (its parameters only)
+                profile_se.update({n: v for n, v in sel.profile_se.items() if n in c.param_names})
             ms = sel.score(effects, vals)
             gain = (current.cv_cost - ms.cv_cost) / current.cv_cost if current.cv_cost > 0 else 0.0
             loss = worst_block_loss(current.block_cost, ms.block_cost)
@@ -125,6 +128,7 @@ def run_discrepancy(
                 base_sim,
                 {s.effect: s.model.params for s in scores},
                 gains={s.effect: s.gain for s in scores},
+                profile_se=profile_se,
             )
             for n, v in verdicts.items():
                 say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
@@ -201,8 +205,9 @@ def run_discrepancy(
         # verdict came from the round's fit), and a fit that moved far while polishing
         # (many standard errors) is unstable: not identified
         final_verdict = judge_converged(
-            pb, base_sim, c.name, best.model.params, model.params, gain=best.gain
-        )
+            pb, base_sim, c.name, best.model.params, model.params, gain=best.gain,
+            profile_se=profile_se,
+        )  # fmt: skip
         verdicts[c.name] = final_verdict
         if not final_verdict.ok:
             blocked.append(c.name)
