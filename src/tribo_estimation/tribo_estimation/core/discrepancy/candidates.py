@@ -119,7 +119,12 @@ class Candidate:
     ``equation`` the effect's term in the equations (Markdown text for the table of
     ``docs/physics.md`` section 8, :func:`candidate_table`); ``suggest`` the
     experiment that decides the effect when a record cannot
-    (:func:`~tribo_estimation.core.discrepancy.identify.suggestion`).
+    (:func:`~tribo_estimation.core.discrepancy.identify.suggestion`); ``profile`` a
+    log-scaled shape parameter (a time constant) that the selection's start screening
+    holds fixed at each start value (a profile of the cost over it, refined by a
+    parabola in log): free, it forms a curved valley with the levels along which the
+    least-squares fit crawls (dwell-time stiction: mu0, gain and tau trade along the
+    breakaway threshold ``mu_s(t_stick)``; '' = none).
     """
 
     name: str
@@ -131,9 +136,10 @@ class Candidate:
     measurement: MeasurementTransform | None = None
     equation: str = ''
     suggest: str = SUGGEST_MORE
+    profile: str = ''
 
     def __post_init__(self) -> None:
-        """Check the localiser and that parameter names are unique."""
+        """Check the localiser, the profiled parameter and that parameter names are unique."""
         if self.localiser not in LOCALISERS:
             raise InvalidParameterError(
                 f'candidate {self.name}: unknown localiser {self.localiser!r}'
@@ -141,6 +147,11 @@ class Candidate:
         names = [p.name for p in self.params]
         if len(set(names)) != len(names):
             raise InvalidParameterError(f'candidate {self.name}: duplicate parameter names {names}')
+        if self.profile and not any(p.name == self.profile and p.log for p in self.params):
+            raise InvalidParameterError(
+                f'candidate {self.name}: profile {self.profile!r} is not one of its '
+                f'log-scaled parameters {names}'
+            )
 
     @property
     def param_names(self) -> tuple[str, ...]:

@@ -34,7 +34,7 @@ from tribo_estimation.errors import InvalidParameterError
 
 from . import candidates as cand_lib
 from .candidates import ParamSpec
-from .fitting import MU0, MU_INF, Problem, Record, make_segments
+from .fitting import MU0, MU_INF, Problem, Record, begins_at_drive_start, make_segments
 from .identify import (
     Identifiability,
     gauss_newton,
@@ -316,7 +316,9 @@ def run_joint_discrepancy(
     for i, (rec, drv) in enumerate(zip(records, drives, strict=True)):
         say(f'record {i}: baseline')
         rec, tq_lag = instrument_record(rec, rig, st, say)
-        pb = Problem(rec, rig, drv, k=k, segments=make_segments(rec, rig, block_time=st.block_time))
+        from_start = begins_at_drive_start(rec, drv.ramp_time, drv.nominal_speed)
+        segs = make_segments(rec, rig, block_time=st.block_time, dwell_from_start=from_start)
+        pb = Problem(rec, rig, drv, k=k, segments=segs)
         vals, sim, instr = fit_baseline(pb, st, say)
         instr['torsion_lag_tau'] = tq_lag.report()
         problems.append(pb)

@@ -30,7 +30,8 @@ record; never named). Every round's candidate carries its ``block_loss`` (-).
 ``rejected_segments`` lists the parts of the record no segment starts in or that are
 not fitted, ``[{"time": s, "reason": str}]`` (a detected stick phase in which the
 shaft and chamber speeds disagree, the stick from rest before the first sliding
-segment of a slip-slip record).
+segment of a slip-slip record, a stick phase cut by the record start: its dwell is
+unknown).
 """
 
 from __future__ import annotations

@@ -12,12 +12,17 @@ from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, StartContext, regi
 
 
 def _starts(ctx: StartContext) -> list[dict[str, float]]:
-    """Stiction time constants around the observed stick durations."""
+    """Stiction time constants around the observed stick durations.
+
+    A wide grid (0.1-10 x the baseline's median stick): the baseline's sticks are not
+    the record's (its breakaway threshold lacks the effect), and the screening holds
+    tau fixed at each (``profile``), so the grid is the profile of the cost over tau.
+    """
     d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
     if d.size == 0:
         return []
     med = float(np.median(d))
-    return [{'stiction_tau': med * f} for f in (0.3, 1.0, 3.0)]
+    return [{'stiction_tau': med * f} for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
 
 
 CANDIDATE = register(
@@ -36,5 +41,6 @@ CANDIDATE = register(
             'duration of the current stick [s]; enters the breakaway test (Equ. 6 vs F_N*R*mu_s)'
         ),
         suggest=SUGGEST_SPEED,
+        profile='stiction_tau',
     )
 )

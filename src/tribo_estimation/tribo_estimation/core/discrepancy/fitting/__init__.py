@@ -55,16 +55,23 @@ from .records import (
     SimulatedRecord,
 )
 from .segments import (
+    CUT_STICK,
+    EARLY_STICK,
     SLIDE_WIN,
+    UNKNOWN_DWELL,
+    begins_at_drive_start,
     make_segments,
     sliding_segments,
     sliding_start_states,
     stick_runs,
+    stuck_before_onset,
 )
 
 __all__ = [
     'CHANNELS',
     'CHANNEL_UNITS',
+    'CUT_STICK',
+    'EARLY_STICK',
     'EXT_FIELDS',
     'FALSE_STICK_MIN',
     'FALSE_STICK_SIGMA',
@@ -77,6 +84,7 @@ __all__ = [
     'SLIDE_WIN',
     'SPEED_LAG',
     'SPEED_OFFSET',
+    'UNKNOWN_DWELL',
     'FitOutcome',
     'Problem',
     'Record',
@@ -84,6 +92,7 @@ __all__ = [
     'SimulatedRecord',
     'SpeedSensor',
     'TorsionLag',
+    'begins_at_drive_start',
     'false_stick_phases',
     'identify_speed_sensor',
     'identify_torsion_lag',
@@ -93,6 +102,7 @@ __all__ = [
     'speed_sensor_output',
     'speed_slope',
     'stick_runs',
+    'stuck_before_onset',
     'stuck_speed_through_lag',
     'torsion_compensated_record',
 ]

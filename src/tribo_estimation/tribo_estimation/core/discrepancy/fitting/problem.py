@@ -26,7 +26,6 @@ from tribo_estimation.core.drive import (
     DriveEstimate,
     estimate_drive,
     refine_with_angles,
-    tolerance,
 )
 from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.measurement import apply_measurement_transforms, true_torsion_at_starts
@@ -62,7 +61,7 @@ from .records import (
     Segments,
     SimulatedRecord,
 )
-from .segments import make_segments, sliding_start_states
+from .segments import begins_at_drive_start, make_segments, sliding_start_states
 
 #: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
 #: profile's corners (:meth:`Problem._set_instrument`).
@@ -111,7 +110,17 @@ class Problem:
         self.drive_estimate: DriveEstimate = estimate_drive(
             record.time, record.speed, drive.nominal_speed
         )
-        self.segments = segments if segments is not None else make_segments(record, rig)
+        self.segments = (
+            segments
+            if segments is not None
+            else make_segments(
+                record,
+                rig,
+                dwell_from_start=begins_at_drive_start(
+                    record, drive.ramp_time, self.drive_estimate.level
+                ),
+            )
+        )
         self.n_evals = 0
         seg = self.segments
         i = seg.start
@@ -120,14 +129,11 @@ class Problem:
         self._drive_speed0 = self.drive_estimate
         # a record that begins at the drive's start (RIG.yaml ramp from t = 0, and the
         # measured speed there at rest within the profile tolerance): w0 = 0 at t0
-        n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
-        at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(
-            self.drive_estimate.level, 0.0
-        )
         self._start_speed: float | None = (
-            0.0 if drive.ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+            0.0
+            if begins_at_drive_start(record, drive.ramp_time, self.drive_estimate.level)
             else None
-        )  # fmt: skip
+        )
         sp = record.speed
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
@@ -165,8 +171,8 @@ class Problem:
         self._smooth_accel = moving_average(record.angular_acceleration, width)
         self._smooth_torque = moving_average(record.torsion_moment, width)
         guard = CHAMBER_HALF + 1
-        ra = seg.run_start if seg.run_start is not None else seg.start
-        rb = seg.run_stop if seg.run_stop is not None else seg.start + 1
+        phases = seg.stick_phases()
+        ra, rb = phases if phases is not None else (seg.start, seg.start + 1)
         idx = [
             np.arange(int(a) + guard, int(b) - guard, 4, dtype=np.int64)
             for a, b in zip(ra, rb, strict=True)
@@ -457,6 +463,51 @@ class Problem:
         self._placed = self._placed or place
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def drive_state(self) -> tuple[DriveEstimate, DriveKnots]:
+        """Return the current drive profile (for :meth:`restore_drive_state`).
+
+        Returns
+        -------
+        tuple of (DriveEstimate, DriveKnots)
+            The profile and its kernel knots.
+        """
+        return self.drive_estimate, self._knots
+
+    def restore_drive_state(self, state: tuple[DriveEstimate, DriveKnots]) -> None:
+        """Restore a drive profile saved by :meth:`drive_state`.
+
+        Parameters
+        ----------
+        state : tuple of (DriveEstimate, DriveKnots)
+            The saved profile and knots.
+        """
+        self.drive_estimate, self._knots = state
+
+    def replace_drive(self, values: Mapping[str, float]) -> None:
+        """Search the drive profile's corners again, locally, with the model ``values``.
+
+        The corners are placed once, with the baseline (:meth:`_set_instrument`); a
+        model whose terms change the drive angles at the stick samples (a drive
+        ripple, a torque-offset drift) only re-fits the knot speeds at every
+        simulation, so corners placed under the baseline's unmodelled ripple stay
+        where its angles put them (a speed step's corner 2.7 ms off). Called once for
+        an accepted model; the caller keeps the result only if it fits better.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Model values (see :meth:`model_objects`).
+        """
+        if self.segments.sliding:
+            return
+        _, ext = self.model_objects(values)
+        tau = float(values.get('speed_lag_tau', 0.0))
+        offset = float(values.get('speed_offset', 0.0))
+        ripple = (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase)
+        torque = (ext.torque_offset, ext.torque_offset_drift)
+        self._set_instrument(tau, offset, ripple, torque)
+        self._fit_drive(tau, offset, ripple, torque, place=True)
 
     def _sliding_drive(self) -> DriveEstimate:
         """Return the drive profile of a record without stick-slip.

@@ -154,6 +154,11 @@ class Segments:
     rejected : tuple of (float, str)
         Detected stick phases not used as segment starts: start time [s] and
         reason (their samples stay in the fit, inside the segment before).
+    unknown_dwell : tuple of (int, int)
+        First and stop sample of the stick phases that start no segment because
+        their dwell is unknown (cut by the record start, or begun well before the
+        detected onset): the discs stick there all the same, so they inform the
+        instrument model and the drive profile (:meth:`stick_phases`).
     """
 
     start: IntArray
@@ -164,6 +169,28 @@ class Segments:
     run_stop: IntArray | None = None
     sliding: bool = False
     rejected: tuple[tuple[float, str], ...] = ()
+    unknown_dwell: tuple[tuple[int, int], ...] = ()
+
+    def stick_phases(self) -> tuple[IntArray, IntArray] | None:
+        """Return the stick phases that show the stuck discs, in time order.
+
+        Those holding a segment start and those of unknown dwell; the instrument
+        model and the drive profile are fitted on them.
+
+        Returns
+        -------
+        tuple of (IntArray, IntArray) or None
+            First and stop sample of each phase (unique); None without stick phases.
+        """
+        if self.run_start is None or self.run_stop is None:
+            return None
+        pairs = {(int(a), int(b)) for a, b in zip(self.run_start, self.run_stop, strict=True)}
+        pairs |= set(self.unknown_dwell)
+        ordered = sorted(pairs)
+        return (
+            np.asarray([a for a, _ in ordered], dtype=np.int64),
+            np.asarray([b for _, b in ordered], dtype=np.int64),
+        )
 
     @property
     def n(self) -> int:

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from tribo_estimation.core import kernel as kn
+from tribo_estimation.core.drive import tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
 from tribo_estimation.core.signal import chamber_speed
@@ -24,6 +25,104 @@ from .records import Record, Segments
 
 #: Local-fit window at sliding segment starts [samples] (odd).
 SLIDE_WIN = 51
+#: A stick phase that begins within this time of the record's first sample began
+#: before the record (the record cuts it) [s].
+CUT_STICK = 2e-3
+#: Reason listed in ``Segments.rejected`` for a stick phase the record start cuts.
+UNKNOWN_DWELL = (
+    'stick began before the record start: its dwell (stick time) is unknown, so the '
+    'breakaway that ends it cannot be simulated (not fitted)'
+)
+
+
+#: A stick phase whose discs already move together this long before its detected
+#: onset [s] began earlier than detected: its dwell is unknown.
+EARLY_STICK = 2e-3
+
+
+def stuck_before_onset(
+    record: Record, rig: RigParams, s_start: IntArray, s_stop: IntArray
+) -> FloatArray:
+    """Return how long before each detected stick phase the discs already moved together.
+
+    While the discs stick the shaft speed (the speed channel through the speed-sensor
+    model of :func:`.instrument.identify_speed_sensor`) equals the chamber speed
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4). Going back from a phase's first sample to the end
+    of the phase before (or the record start), the samples where the two agree within
+    ``max(5 robust SD, FALSE_STICK_MIN)`` (the SD over the phases' interiors) are the
+    part of the stick the detector left out: the stick detector dates a phase that
+    begins just before a drive ramp to the ramp's start (bench 'step' record, seed
+    1010: 5.8 ms late), and the dwell clock of dwell-time stiction (``t_stick``,
+    Equ. 6 with ``mu_s(t_stick)``) would start late by as much. A correct onset gives
+    ~0.1 ms (the slip's last samples).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    s_start, s_stop : IntArray
+        First and stop sample of each detected stick phase (in time order).
+
+    Returns
+    -------
+    FloatArray
+        Time before each phase's first sample in which the discs already stuck [s].
+    """
+    from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, mad_sigma
+
+    from .instrument import FALSE_STICK_MIN, identify_speed_sensor, speed_slope
+
+    out = np.zeros(s_start.size)
+    if s_start.size == 0:
+        return out
+    sensor = identify_speed_sensor(record, rig, (s_start, s_stop))
+    tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
+    off = sensor.offset if math.isfinite(sensor.offset) else 0.0
+    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    slip = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
+    guard = CHAMBER_HALF + 3
+    inner = [slip[a + guard : b - guard] for a, b in zip(s_start, s_stop, strict=True)]
+    inner = [x for x in inner if x.size]
+    sd = mad_sigma(np.concatenate(inner)) if inner else 0.0
+    limit = max(5.0 * sd, FALSE_STICK_MIN)
+    prev_stop = 0
+    for k, (a, b) in enumerate(zip(s_start.tolist(), s_stop.tolist(), strict=True)):
+        i = a
+        while i > prev_stop and abs(float(slip[i - 1])) <= limit:
+            i -= 1
+        out[k] = (a - i) / record.fs
+        prev_stop = max(prev_stop, b)
+    return out
+
+
+def begins_at_drive_start(record: Record, ramp_time: float, level: float) -> bool:
+    """Return whether the record begins at the drive's start from rest.
+
+    RIG.yaml's start-up ramp (``ramp_time`` > 0) begins at t = 0 = the record's first
+    sample and the shaft speed there is at rest (mean of the first 10 ms within
+    :func:`tribo_estimation.core.drive.tolerance` of 0). A stick phase at such a
+    record's start began with the record: its dwell clock starts at the first sample
+    (the convention of the reference generator and the kernel's rest state).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    ramp_time : float
+        RIG.yaml start-up ramp [s] (0: none).
+    level : float
+        Drive speed level [rad/s] (scales the at-rest tolerance).
+
+    Returns
+    -------
+    bool
+        True when the record begins at the drive's start from rest.
+    """
+    n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
+    at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(level, 0.0)
+    return ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
 
 
 def stick_runs(
@@ -89,6 +188,7 @@ def make_segments(
     block_time: float = 0.25,
     start_delay: float = 3e-3,
     runs: tuple[IntArray, IntArray, FloatArray] | None = None,
+    dwell_from_start: bool = False,
 ) -> Segments:
     """Cut the record into segments that start ``start_delay`` s into a stick phase.
 
@@ -96,6 +196,14 @@ def make_segments(
     later); segments are numbered into time blocks of about ``block_time`` s.
     A record with fewer than 3 stick phases (slip-slip, steady sliding) gets
     sliding segments instead (:func:`sliding_segments`).
+
+    A stick phase that the record's start cuts (it begins within
+    :data:`CUT_STICK` of the first sample) began at an unknown time: its dwell
+    (the stick time the kernel's breakaway test of dwell-time stiction reads,
+    ``mu_s(t_stick)``) is unknown, so no segment starts in it and its samples are
+    not fitted (listed in ``rejected``) -- unless ``dwell_from_start``: the record
+    begins at the drive's start from rest (:func:`begins_at_drive_start`), where
+    the stick began with the record.
 
     Parameters
     ----------
@@ -112,6 +220,9 @@ def make_segments(
     runs : tuple of (IntArray, IntArray, FloatArray), optional
         First, stop sample and start time [s] of each stick phase (default:
         :func:`stick_runs`).
+    dwell_from_start : bool
+        The record begins at the drive's start from rest: a stick phase at its
+        start began there (its dwell is known).
 
     Returns
     -------
@@ -129,15 +240,40 @@ def make_segments(
     slip = np.abs(false_stick_phases(record, rig, s_start, s_stop))
     spread = 1.4826 * float(np.median(slip)) if slip.size else 0.0
     limit = max(FALSE_STICK_SIGMA * spread, FALSE_STICK_MIN)
-    rejected = tuple(
+    rejected = [
         (float(record.time[int(a)]), f'no stick: shaft and chamber speeds differ by {v:.3g} rad/s')
         for a, v in zip(s_start, slip, strict=True)
         if v > limit
-    )
+    ]
+    # a stick phase cut by the record start has no known dwell (unless the record
+    # begins at the drive's start from rest)
+    t_first = float(record.time[0])
+    cut = np.asarray(onset, dtype=np.float64) - t_first < CUT_STICK
+    if dwell_from_start:
+        cut[:] = False
+    rejected += [
+        (float(record.time[int(a)]), UNKNOWN_DWELL)
+        for k, a in enumerate(s_start)
+        if cut[k] and slip[k] <= limit
+    ]
+    # a stick phase that began well before its detected onset has no known dwell
+    # either: no segment starts in it, its samples stay in the segment before, whose
+    # simulation dates the stick's onset itself
+    early = stuck_before_onset(record, rig, s_start, s_stop)
+    late = (early > EARLY_STICK) & ~cut & (slip <= limit)
+    rejected += [
+        (
+            float(record.time[int(a)]),
+            f'stick began {1e3 * early[k]:.3g} ms before its detected onset (the shaft and '
+            'chamber speeds agree there): its dwell is unknown (fitted in the segment before)',
+        )
+        for k, a in enumerate(s_start)
+        if late[k]
+    ]
     cand = [
         (int(a) + min(delay, (int(b) - int(a)) // 2), k)
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-        if slip[k] <= limit
+        if slip[k] <= limit and not cut[k] and not late[k]
     ]
     if len(cand) < 3:
         # a stick phase (the start-up from rest) has no sliding state: sliding
@@ -169,7 +305,12 @@ def make_segments(
         block.astype(np.int64),
         np.asarray(s_start, dtype=np.int64)[run_k],
         np.asarray(s_stop, dtype=np.int64)[run_k],
-        rejected=rejected,
+        rejected=tuple(sorted(rejected)),
+        unknown_dwell=tuple(
+            (int(a), int(b))
+            for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
+            if (cut[k] or late[k]) and slip[k] <= limit
+        ),
     )
 
 

@@ -33,7 +33,7 @@ from ..fitting import (
     identify_torsion_lag,
     torsion_compensated_record,
 )
-from ..identify import Identifiability, gauss_newton, identifiability
+from ..identify import GaussNewton, Identifiability, fit_stability, gauss_newton, identifiability
 from ..stats import FloatArray, noise_floor, stick_durations
 from .results import Progress, SelectionSettings
 from .scoring import Selector
@@ -160,13 +160,7 @@ def fit_baseline(
     # the instrument model (speed-sensor lag and offset) is identified from the stick
     # phases before any fit (friction-free) and held fixed by every model
     seg = pb.segments
-    sensor = identify_speed_sensor(
-        record,
-        rig,
-        (seg.run_start, seg.run_stop)
-        if seg.run_start is not None and seg.run_stop is not None
-        else None,
-    )
+    sensor = identify_speed_sensor(record, rig, seg.stick_phases())
     used = sensor.values()
     speed_lag: dict[str, object] = {
         'value': sensor.tau,
@@ -311,6 +305,7 @@ def judge_candidates(
     *,
     corr_time: float = 1e-3,
     gains: Mapping[str, float] | None = None,
+    profile_se: Mapping[str, float] | None = None,
 ) -> dict[str, Identifiability]:
     """Give every candidate's identifiability verdict (:func:`..identify.identifiability`).
 
@@ -331,30 +326,108 @@ def judge_candidates(
     gains : Mapping[str, float] or None
         Candidate name -> its cross-validated relative cost reduction [-]; a decisive
         fit overrules the stick-duration proxy.
+    profile_se : Mapping[str, float] or None
+        Parameter name -> standard error [SI] from its cost profile (a floor of the
+        linearised one, :meth:`..identify.GaussNewton.with_profile_se`).
 
     Returns
     -------
     dict[str, Identifiability]
         The verdict per candidate.
     """
-    durations, speeds, length = record_facts(pb, base_sim)
-    out: dict[str, Identifiability] = {}
-    for name, vals in fits.items():
-        c = cand_lib.get(name)
-        specs = [MU0, MU_INF]
-        specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
-        specs += list(c.params)
-        gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
-        out[name] = identifiability(
+    facts = record_facts(pb, base_sim)
+    return {
+        name: _judge(
+            pb,
+            facts,
             name,
-            c.param_names,
-            gn,
-            durations,
-            drive_speeds=speeds,
-            duration=length,
+            vals,
+            corr_time=corr_time,
             gain=None if gains is None else gains.get(name),
-        )
-    return out
+            profile_se=profile_se,
+        )[0]
+        for name, vals in fits.items()
+    }
+
+
+def _judge(
+    pb: Problem,
+    facts: tuple[FloatArray, FloatArray, float],
+    name: str,
+    vals: Mapping[str, float],
+    *,
+    corr_time: float,
+    gain: float | None,
+    profile_se: Mapping[str, float] | None = None,
+) -> tuple[Identifiability, GaussNewton]:
+    """Return one candidate's verdict and the linearisation of its fit."""
+    durations, speeds, length = facts
+    c = cand_lib.get(name)
+    specs = [MU0, MU_INF]
+    specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
+    specs += list(c.params)
+    gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
+    if profile_se:
+        gn = gn.with_profile_se(profile_se)
+    verdict = identifiability(
+        name, c.param_names, gn, durations, drive_speeds=speeds, duration=length, gain=gain
+    )
+    return verdict, gn
+
+
+def judge_converged(
+    pb: Problem,
+    base_sim: SimulatedRecord,
+    name: str,
+    first: Mapping[str, float],
+    converged: Mapping[str, float],
+    *,
+    corr_time: float = 1e-3,
+    gain: float | None = None,
+    profile_se: Mapping[str, float] | None = None,
+) -> Identifiability:
+    """Re-check an accepted candidate's verdict on its converged (polished) fit.
+
+    The verdict of :func:`judge_candidates` at the converged values, and "not
+    identifiable" when the converged fit disagrees with the selection round's fit
+    (``first``) by many standard errors (:func:`..identify.fit_stability`).
+
+    Parameters
+    ----------
+    pb : Problem
+        The record's fit problem.
+    base_sim : SimulatedRecord
+        The baseline simulation.
+    name : str
+        Candidate name.
+    first : Mapping[str, float]
+        The selection round's fitted values (SI).
+    converged : Mapping[str, float]
+        The polished fit's values (SI).
+    corr_time : float
+        Residual correlation time [s] of the standard errors.
+    gain : float or None
+        The candidate's cross-validated relative cost reduction [-].
+    profile_se : Mapping[str, float] or None
+        Parameter name -> standard error [SI] from its cost profile.
+
+    Returns
+    -------
+    Identifiability
+        The verdict on the converged fit.
+    """
+    c = cand_lib.get(name)
+    verdict, gn = _judge(
+        pb,
+        record_facts(pb, base_sim),
+        name,
+        converged,
+        corr_time=corr_time,
+        gain=gain,
+        profile_se=profile_se,
+    )
+    unstable = fit_stability(name, c.param_names, gn, first)
+    return unstable if unstable is not None and verdict.ok else verdict
 
 
 __all__ = [
@@ -364,6 +437,7 @@ __all__ = [
     'fit_baseline',
     'instrument_record',
     'judge_candidates',
+    'judge_converged',
     'record_facts',
     'start_context',
 ]

@@ -4,16 +4,25 @@ from __future__ import annotations
 
 import time as _time
 
+import numpy as np
+
 from tribo_estimation.core.model import DriveProfile, RigParams
 
 from .. import candidates as cand_lib
 from ..candidates import Candidate
-from ..fitting import Problem, Record, make_segments
+from ..fitting import Problem, Record, begins_at_drive_start, make_segments
 from ..identify import Identifiability
 from ..localise import localise, torque_residual
 from ..sparse import SparseTerm
 from ..stats import noise_floor
-from .baseline import drive_report, fit_baseline, instrument_record, judge_candidates, start_context
+from .baseline import (
+    drive_report,
+    fit_baseline,
+    instrument_record,
+    judge_candidates,
+    judge_converged,
+    start_context,
+)
 from .results import (
     AddedEffect,
     CandidateScore,
@@ -67,9 +76,9 @@ def run_discrepancy(
     say: Progress = progress or (lambda _msg: None)
     t_start = _time.perf_counter()
     record, tq_lag = instrument_record(record, rig, st, say)
-    pb = Problem(
-        record, rig, drive, k=k, segments=make_segments(record, rig, block_time=st.block_time)
-    )
+    from_start = begins_at_drive_start(record, drive.ramp_time, drive.nominal_speed)
+    segments = make_segments(record, rig, block_time=st.block_time, dwell_from_start=from_start)
+    pb = Problem(record, rig, drive, k=k, segments=segments)
     sel = Selector(pb, st, say)
     base_vals, base_sim, instrument = fit_baseline(pb, st, say)
     instrument['torsion_lag_tau'] = tq_lag.report()
@@ -89,6 +98,7 @@ def run_discrepancy(
     inconsistent: list[str] = []
     for rnd in range(st.max_effects):
         scores: list[CandidateScore] = []
+        profile_se: dict[str, float] = {}
         for c in pool:
             if c.name in current.effects:
                 continue
@@ -98,7 +108,9 @@ def run_discrepancy(
                 s = dict(current.params)
                 s.update(pt)
                 starts.append(s)
-            vals = sel.fit_best(specs_of(effects), starts)
+            vals = sel.fit_best(specs_of(effects), starts, profile=c.profile)
+            if c.profile:  # standard errors from its profile (its parameters only)
+                profile_se.update({n: v for n, v in sel.profile_se.items() if n in c.param_names})
             ms = sel.score(effects, vals)
             gain = (current.cv_cost - ms.cv_cost) / current.cv_cost if current.cv_cost > 0 else 0.0
             loss = worst_block_loss(current.block_cost, ms.block_cost)
@@ -116,6 +128,7 @@ def run_discrepancy(
                 base_sim,
                 {s.effect: s.model.params for s in scores},
                 gains={s.effect: s.gain for s in scores},
+                profile_se=profile_se,
             )
             for n, v in verdicts.items():
                 say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
@@ -173,6 +186,40 @@ def run_discrepancy(
         model = sel.score(best.model.effects, pol.values)
         if model.cost > best.model.cost:
             model = best.model
+        # the drive's corners were placed with the baseline: placed again with the
+        # accepted model (kept if the re-polished fit is better)
+        saved = pb.drive_state()
+        pb.replace_drive(model.params)
+        if not np.array_equal(pb.drive_estimate.knot_time, saved[0].knot_time):
+            pol2 = pb.fit(specs_of(best.model.effects), model.params, max_nfev=st.max_nfev)
+            model2 = sel.score(best.model.effects, pol2.values)
+            if model2.cost < model.cost:
+                say(
+                    f'drive corners placed again with {c.name}: rms {model.rms:.4g} -> '
+                    f'{model2.rms:.4g} N m'
+                )
+                model = model2
+            else:
+                pb.restore_drive_state(saved)
+        # the verdict of the effect is re-checked on the converged fit (the round's
+        # verdict came from the round's fit), and a fit that moved far while polishing
+        # (many standard errors) is unstable: not identified
+        final_verdict = judge_converged(
+            pb, base_sim, c.name, best.model.params, model.params, gain=best.gain,
+            profile_se=profile_se,
+        )  # fmt: skip
+        verdicts[c.name] = final_verdict
+        if not final_verdict.ok:
+            blocked.append(c.name)
+            say(
+                f'round {rnd + 1}: {c.name} is not identifiable on its converged fit: '
+                f'{final_verdict.reason}'
+            )
+            rounds[-1] = tuple(
+                CandidateScore(s.effect, s.model, s.gain, s.delta_bic, False, s.block_loss)
+                for s in rounds[-1]
+            )
+            break
         added.append(
             AddedEffect(
                 effect=c.name,
