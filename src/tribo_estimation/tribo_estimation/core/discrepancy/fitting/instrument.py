@@ -454,13 +454,38 @@ def false_stick_phases(
     """
     if a0.size == 0:
         return np.zeros(0)
+    slope, w1, sensor = sensor_view(record, rig, a0, b0)
+    spans = list(zip(a0.tolist(), b0.tolist(), strict=True))
+    mismatch = speed_mismatch(record.speed, slope, w1, spans, guard=CHAMBER_HALF + 3, sensor=sensor)
+    return np.asarray(mismatch, dtype=np.float64)
+
+
+def sensor_view(
+    record: Record, rig: RigParams, a0: IntArray, b0: IntArray
+) -> tuple[FloatArray, FloatArray, tuple[float, float]]:
+    """Return what the stick checks compare: speed slope, chamber speed, speed sensor.
+
+    The speed channel's slope y' (:func:`speed_slope`), the chamber speed
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4) and the speed sensor ``(tau [s], offset [rad/s])``
+    identified from the stick phases (:func:`identify_speed_sensor`; 0 where not
+    identified), so that ``y + tau*y' - offset - w1`` is the slip speed seen.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    rig : RigParams
+        Rig parameters (C1, Tab. 1).
+    a0, b0 : IntArray
+        First and stop sample of each detected stick phase.
+
+    Returns
+    -------
+    tuple
+        y' [rad/s^2], w1 [rad/s] per sample, and ``(tau, offset)``.
+    """
     sensor = identify_speed_sensor(record, rig, (a0, b0))
     tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
     off = sensor.offset if math.isfinite(sensor.offset) else 0.0
     w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    spans = list(zip(a0.tolist(), b0.tolist(), strict=True))
-    slope = speed_slope(record.speed, record.dt)
-    mismatch = speed_mismatch(
-        record.speed, slope, w1, spans, guard=CHAMBER_HALF + 3, sensor=(tau, off)
-    )
-    return np.asarray(mismatch, dtype=np.float64)
+    return speed_slope(record.speed, record.dt), w1, (tau, off)

@@ -70,18 +70,15 @@ def stuck_before_onset(
     FloatArray
         Time before each phase's first sample in which the discs already stuck [s].
     """
-    from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, mad_sigma
+    from tribo_estimation.core.signal import CHAMBER_HALF, mad_sigma
 
-    from .instrument import FALSE_STICK_MIN, identify_speed_sensor, speed_slope
+    from .instrument import FALSE_STICK_MIN, sensor_view
 
     out = np.zeros(s_start.size)
     if s_start.size == 0:
         return out
-    sensor = identify_speed_sensor(record, rig, (s_start, s_stop))
-    tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
-    off = sensor.offset if math.isfinite(sensor.offset) else 0.0
-    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    slip = record.speed + tau * speed_slope(record.speed, record.dt) - off - w1
+    slope, w1, (tau, off) = sensor_view(record, rig, s_start, s_stop)
+    slip = record.speed + tau * slope - off - w1
     guard = CHAMBER_HALF + 3
     inner = [slip[a + guard : b - guard] for a, b in zip(s_start, s_stop, strict=True)]
     inner = [x for x in inner if x.size]
