@@ -30,7 +30,8 @@ from tribo_estimation.core.discrepancy.fitting import (
     stick_runs,
     stuck_before_onset,
 )
-from tribo_estimation.core.discrepancy.identify import GaussNewton, _block_robust_sd, fit_stability
+from tribo_estimation.core.discrepancy.identify import GaussNewton, fit_stability
+from tribo_estimation.core.discrepancy.linearised import _block_robust_sd
 from tribo_estimation.core.discrepancy.select import SelectionSettings, run_discrepancy
 from tribo_estimation.core.discrepancy.select.scoring import Selector, _profile_vertex
 from tribo_estimation.core.model import DriveProfile, Extensions

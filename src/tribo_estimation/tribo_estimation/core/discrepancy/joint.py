@@ -35,13 +35,8 @@ from tribo_estimation.errors import InvalidParameterError
 from . import candidates as cand_lib
 from .candidates import ParamSpec
 from .fitting import MU0, MU_INF, Problem, Record, begins_at_drive_start, make_segments
-from .identify import (
-    Identifiability,
-    gauss_newton,
-    identifiability,
-    per_record,
-    problem_residual_blocks,
-)
+from .identify import Identifiability, gauss_newton, identifiability, per_record
+from .linearised import problem_residual_blocks
 from .localise import torque_residual
 from .select import (
     Progress,
@@ -126,7 +121,7 @@ class JointProblem:
         """Return the time block of every element of :meth:`residuals`.
 
         Blocks are numbered across the records (record i's after record i-1's), so the
-        block-robust standard error of :func:`.identify.gauss_newton` sees them all.
+        block-robust standard error of :func:`.linearised.gauss_newton` sees them all.
 
         Parameters
         ----------

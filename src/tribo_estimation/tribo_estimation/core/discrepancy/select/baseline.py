@@ -328,7 +328,7 @@ def judge_candidates(
         fit overrules the stick-duration proxy.
     profile_se : Mapping[str, float] or None
         Parameter name -> standard error [SI] from its cost profile (a floor of the
-        linearised one, :meth:`..identify.GaussNewton.with_profile_se`).
+        linearised one, :meth:`..linearised.GaussNewton.with_profile_se`).
 
     Returns
     -------

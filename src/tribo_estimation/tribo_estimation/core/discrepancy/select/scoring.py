@@ -353,7 +353,7 @@ class Selector:
         parameters re-fitted at each point) raises the residual sum of squares by
         ``n*q*dx^2`` (n compared samples); with the noise variance ``s2 = cost*n/m``
         per residual element (m elements) counted once per ``corr_time`` (as
-        :func:`..identify.gauss_newton`), ``SE(x)^2 = cost*c/(m*q)``. Unlike the
+        :func:`..linearised.gauss_newton`), ``SE(x)^2 = cost*c/(m*q)``. Unlike the
         linearisation it sees the cost's flatness along a curved valley (dwell-time
         stiction: the Jacobian's standard error of tau was 0.1 % where the fits scatter
         by 2-7 %). The other parameters move along the valley with x: each gets
