@@ -128,6 +128,8 @@ def test_release_completes_the_last_block_of_a_paused_stream() -> None:
             blocks.extend(pipe.push(name, i, fs, float(r.time[i]), data[name][i : i + CHUNK])[1])
     # the spike repair holds the tail of the last chunk: the third block is not complete
     assert [b.index for b in blocks] == [0, 1] and pipe.holding
+    # a node's timer releases only after an input pause (an hour here: not yet)
+    assert pipe.release(idle=3600.0) == ([], [], []) and pipe.holding
     moments, more, _ = pipe.release()
     assert [b.index for b in more] == [2] and not pipe.holding
     # every input sample has its observer sample once released

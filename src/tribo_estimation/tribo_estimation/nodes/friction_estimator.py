@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 import queue
 import threading
-import time
 from collections.abc import Sequence
 from typing import Unpack
 
@@ -39,16 +38,13 @@ from tribo_estimation.core.blockfit import (
     StreamingPipeline,
 )
 from tribo_estimation.core.model import FrictionLaw, RigParams
-from tribo_estimation.core.plausibility import Scales
+from tribo_estimation.core.plausibility import IDLE_RELEASE_S, Scales
 from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS
 from tribo_msgs.msg import FrictionEstimate, SampleBlock
 
 #: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
 TOPICS: dict[str, str] = RIG_INPUTS
-
-#: Input pause after which the samples held by the input checks are released [s].
-IDLE_S = 0.5
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = FRICTION_ESTIMATOR_PARAMS
@@ -89,8 +85,7 @@ class FrictionEstimatorNode(Node):
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name='friction_fit', daemon=True)
         self._worker.start()
-        self._last_input = time.monotonic()
-        self._idle_timer = self.create_timer(0.5 * IDLE_S, self._on_idle)
+        self._idle_timer = self.create_timer(0.5 * IDLE_RELEASE_S, self._on_idle)
         self.published = 0
         w0 = 'tachometer mean' if cfg.nominal_speed is None else f'{cfg.nominal_speed:g} rad/s'
         self.get_logger().info(
@@ -103,7 +98,6 @@ class FrictionEstimatorNode(Node):
         """Align one block and run the observer; queue the completed blocks for the fit."""
         try:
             with self._lock:
-                self._last_input = time.monotonic()
                 out = self._pipe.push(
                     b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
                 )
@@ -114,12 +108,10 @@ class FrictionEstimatorNode(Node):
         self._emit(*out)
 
     def _on_idle(self) -> None:
-        """Release the samples the input checks hold once the input has paused for IDLE_S."""
+        """Release the samples the input checks hold once the input has paused."""
         try:
             with self._lock:
-                if not self._pipe.holding or time.monotonic() - self._last_input < IDLE_S:
-                    return
-                out = self._pipe.release()
+                out = self._pipe.release(IDLE_RELEASE_S)
         except EstimationError as exc:
             self.get_logger().error(f'input check: {exc}', throttle_duration_sec=5.0)
             return

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections.abc import Sequence
 from typing import Unpack
 
@@ -43,7 +42,7 @@ from tribo_estimation.core.discrepancy.monitor import (
     WindowResult,
 )
 from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
-from tribo_estimation.core.plausibility import CheckedStream, Scales
+from tribo_estimation.core.plausibility import IDLE_RELEASE_S, CheckedStream, Scales
 from tribo_estimation.errors import EstimationError
 from tribo_estimation.nodes.specs import MODEL_MONITOR_PARAMS
 from tribo_msgs.msg import ModelDiscrepancy
@@ -53,9 +52,6 @@ OUTPUT_TOPIC = topics.MODEL_DISCREPANCY.name
 
 #: Input topics and their channel names (:data:`tribo_common.rig_streams.RIG_INPUTS`).
 TOPICS: dict[str, str] = RIG_INPUTS
-
-#: Input pause after which the samples held by the input checks are released [s].
-IDLE_S = 0.5
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = MODEL_MONITOR_PARAMS
@@ -90,8 +86,7 @@ class ModelMonitorNode(Node):
             law = FrictionLaw(v.number('mu0'), v.number('mu_inf'), v.number('k'))
             scales = Scales.of(rig, law, v.number('nominal_speed'))
         self._input = CheckedStream(scales, 'rig topics')
-        self._last_input = time.monotonic()
-        self._idle_timer = self.create_timer(0.5 * IDLE_S, self._on_idle)
+        self._idle_timer = self.create_timer(0.5 * IDLE_RELEASE_S, self._on_idle)
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)
         self._pending: tuple[WindowData, float] | None = None
@@ -111,7 +106,6 @@ class ModelMonitorNode(Node):
     # ------------------------------------------------------------------ input
     def _on_block(self, b: Block) -> None:
         """Align and check one block; hand the newest due window to the worker."""
-        self._last_input = time.monotonic()
         try:
             events = self._input.push(
                 b.channel, b.first_index, b.sample_rate, b.stamp_ns * 1e-9, b.data
@@ -123,11 +117,9 @@ class ModelMonitorNode(Node):
         self._feed(events)
 
     def _on_idle(self) -> None:
-        """Release the samples the input checks hold once the input paused for IDLE_S."""
-        if not self._input.holding or time.monotonic() - self._last_input < IDLE_S:
-            return
+        """Release the samples the input checks hold once the input has paused."""
         try:
-            events = self._input.release()
+            events = self._input.release(IDLE_RELEASE_S)
         except EstimationError as exc:
             self.get_logger().error(f'input check: {exc}', throttle_duration_sec=5.0)
             return

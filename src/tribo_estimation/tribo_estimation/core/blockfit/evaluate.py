@@ -32,7 +32,6 @@ from ..sticks import (
     classify_motion,
     detect_sticks,
     estimate_torsion_lag,
-    stick_line_speeds,
     torsion_lag_compensated,
 )
 from .fit import fit_block
@@ -177,47 +176,37 @@ SPEED_CHANNEL_TOL = 0.01
 
 
 def drive_from_stick_lines(
-    drive: DriveEstimate,
-    time: FloatArray,
-    torsion: FloatArray,
-    accel: FloatArray,
-    rig: RigParams,
-    phases: list[StickPhase],
+    drive: DriveEstimate, phases: list[StickPhase]
 ) -> tuple[DriveEstimate, float]:
     """Check the drive profile's level against the stick lines; correct a clear offset.
 
-    The profile comes from the speed channel; the stick lines give the drive speed
-    without it (:func:`..sticks.stick_line_speeds`, Equ. 1 + 2 while sticking). Their
-    difference at the sticks, ``d = mean(w0_channel(t_k) - w0_line_k)`` (weighted by
-    the sticks' samples), is the channel's offset (or gain error) there. Above
-    :data:`SPEED_CHANNEL_TOL` of the drive speed and 4 standard errors the profile
-    is shifted by ``-d`` (a wrong tachometer level biases mu0 by about as much as
-    the speed is off: 2.5 % for 1 rad/s at 30 rpm).
+    The profile comes from the speed channel; each stick line gives the drive speed
+    at its middle without it (:attr:`..sticks.StickPhase.drive_speed`, Equ. 1 + 2 while
+    sticking). Their difference at the sticks, ``d = mean(w0_channel(t_k) - w0_line_k)``
+    (weighted by the sticks' durations), is the channel's offset (or gain error)
+    there. Above :data:`SPEED_CHANNEL_TOL` of the drive speed and 4 standard errors the
+    profile is shifted by ``-d`` (a wrong tachometer level biases mu0 by about as much
+    as the speed is off: 2.5 % for 1 rad/s at 30 rpm).
 
     Parameters
     ----------
     drive : DriveEstimate
         Drive profile from the speed channel (block-local time [s]).
-    time : FloatArray
-        Block-local sample times [s].
-    torsion : FloatArray
-        Torsion moment [N m] (amplifier lag compensated).
-    accel : FloatArray
-        Chamber acceleration [rad/s^2].
-    rig : RigParams
-        Rig parameters (Tab. 1).
     phases : list of StickPhase
-        Stick phases of the block.
+        Stick phases of the block, with their line speeds.
 
     Returns
     -------
     tuple of (DriveEstimate, float)
         The profile (shifted if the channel is off) and ``d`` [rad/s] (NaN with
-        fewer than 3 usable sticks).
+        fewer than 3 stick lines).
     """
-    t_k, w_k, n_k = stick_line_speeds(time, torsion, accel, rig, phases)
-    if t_k.size < 3:
+    lines = [ph for ph in phases if math.isfinite(ph.drive_speed)]
+    if len(lines) < 3:
         return drive, math.nan
+    t_k = np.asarray([0.5 * (ph.start + ph.end) for ph in lines])
+    w_k = np.asarray([ph.drive_speed for ph in lines])
+    n_k = np.asarray([ph.duration for ph in lines])
     diff = drive.speed(t_k) - w_k
     d = float(np.sum(n_k * diff) / np.sum(n_k))
     se = float(np.sqrt(np.sum(n_k * (diff - d) ** 2) / np.sum(n_k) / (t_k.size - 1)))
@@ -411,7 +400,6 @@ def evaluate_block(
     ac = blk.accel[a:b]
     sp = blk.speed[a:b]
     n = b - a
-    channel_off = [math.nan]  # speed channel - stick-line drive speed [rad/s]
 
     def done(
         fit: FitOutcome | None,
@@ -421,9 +409,10 @@ def evaluate_block(
         w0: float = nan,
         mismatch: float = nan,
         data: BlockData | None = None,
+        speed_offset: float = nan,
     ) -> BlockDetail:
         o = _Outcome(
-            frozenset(flags), fit, stick, motion, n_sticks, w0, mismatch, data, channel_off[0]
+            frozenset(flags), fit, stick, motion, n_sticks, w0, mismatch, data, speed_offset
         )
         return _detail(blk, friction, cfg, a, b, o)
 
@@ -467,7 +456,8 @@ def evaluate_block(
         phases = []
     stick = _stick_mask(phases, n, blk.fs)
     drive = drive_over_cycles(drive, time, sp, phases)
-    drive, channel_off[0] = drive_from_stick_lines(drive, time, tq, ac, rig, phases)
+    # speed channel - stick-line drive speed [rad/s]
+    drive, speed_off = drive_from_stick_lines(drive, phases)
     w0 = drive.mean_speed(float(time[0]), float(time[-1]))
     mismatch = (
         (w0 - cfg.nominal_speed) / cfg.nominal_speed if cfg.nominal_speed is not None else nan
@@ -485,13 +475,15 @@ def evaluate_block(
     if abs(w0) < 1e-3 or float(np.mean(stick)) > 0.99 or sliding < 0.01:
         flags.add('no_sliding')
         stick = np.abs(sp - w1) <= v_thr  # the discs move together (or not at all)
-        return done(None, stick, motion, n_sticks, w0, mismatch, replace(data, stick=stick))
+        return done(
+            None, stick, motion, n_sticks, w0, mismatch, replace(data, stick=stick), speed_off
+        )
     try:
         out = fit_block(rig, data, w0, friction.k, cfg, init=init, drive=drive)
     except FitError:
         flags.add('fit_failed')
-        return done(None, stick, motion, n_sticks, w0, mismatch, data)
+        return done(None, stick, motion, n_sticks, w0, mismatch, data, speed_off)
     out, failed = _judged(out, phases)
     if failed:
         flags.add('fit_failed')
-    return done(out, stick, motion, n_sticks, w0, mismatch, data)
+    return done(out, stick, motion, n_sticks, w0, mismatch, data, speed_off)

@@ -310,7 +310,7 @@ class StreamingPipeline:
         """Whether the plausibility stage holds samples back (see :meth:`release`)."""
         return self.input.holding
 
-    def release(self) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
+    def release(self, idle: float = 0.0) -> tuple[list[MomentChunk], list[PendingBlock], list[str]]:
         """Pass on what the plausibility stage holds, for a stream that went quiet.
 
         The stage holds the first samples until they are checked and the last few
@@ -318,6 +318,12 @@ class StreamingPipeline:
         with both sides). When no input comes for a while (a paused or finished test),
         the node calls this so the last block completes; a later contiguous chunk is
         then despiked without the released tail as context.
+
+        Parameters
+        ----------
+        idle : float
+            Release only after this long without input [s] (0: now;
+            :meth:`..plausibility.CheckedStream.release`).
 
         Returns
         -------
@@ -329,7 +335,7 @@ class StreamingPipeline:
         InvalidDataError
             The check of the held samples failed.
         """
-        return self._consume(self.input.release())
+        return self._consume(self.input.release(idle))
 
     def flush(self) -> list[PendingBlock]:
         """End of input: remaining aligned data and the partial block.

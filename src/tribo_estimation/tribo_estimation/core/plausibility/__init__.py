@@ -61,7 +61,12 @@ from tribo_estimation.core.plausibility.spikes import (
     repair_summary,
     running_median,
 )
-from tribo_estimation.core.plausibility.stream import CheckedStream, ChunkChecker, checked_chunks
+from tribo_estimation.core.plausibility.stream import (
+    IDLE_RELEASE_S,
+    CheckedStream,
+    ChunkChecker,
+    checked_chunks,
+)
 from tribo_estimation.core.signal import mad_sigma
 
 __all__ = [
@@ -73,6 +78,7 @@ __all__ = [
     'FS_MAX',
     'FS_MIN',
     'GROSS_FACTOR',
+    'IDLE_RELEASE_S',
     'MEDIAN_WIDTH',
     'SPEED_WARN',
     'SPIKE_RANGE',

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
 
@@ -222,6 +223,11 @@ class ChunkChecker:
         return out
 
 
+#: Input pause after which a live node releases the samples the checks hold [s]
+#: (:meth:`CheckedStream.release`).
+IDLE_RELEASE_S = 0.5
+
+
 class CheckedStream:
     """Live input of the estimators: channel aligner, then the input checks.
 
@@ -246,6 +252,7 @@ class CheckedStream:
             Samples held for the one-time check.
         """
         self.aligner = ChannelAligner()
+        self._last_push = time.monotonic()
         #: Samples replaced by the spike repair (None without checks).
         self.repairs: SpikeLog | None = SpikeLog() if scales is not None else None
         self.checker = (
@@ -293,6 +300,7 @@ class CheckedStream:
             The check of the first samples failed (a unit or time-base error), raised
             again on every later call; or the aligner refused the block.
         """
+        self._last_push = time.monotonic()
         return self._stage(self.aligner.push(channel, first_index, sample_rate, stamp, data))
 
     @property
@@ -300,20 +308,30 @@ class CheckedStream:
         """Whether the checks hold samples back (see :meth:`release`)."""
         return self.checker is not None and self.checker.holding
 
-    def release(self) -> list[AlignEvent]:
+    def release(self, idle: float = 0.0) -> list[AlignEvent]:
         """Pass on what the checks hold, for a stream that went quiet.
 
         The checks hold the first samples until they are checked and the last few
         samples of every chunk until the next one (a spike at a chunk edge is judged
-        with both sides); a node calls this after an input pause so its last block or
-        window completes.
+        with both sides); a node calls this from a timer with ``idle`` =
+        :data:`IDLE_RELEASE_S` so its last block or window completes after an input
+        pause.
+
+        Parameters
+        ----------
+        idle : float
+            Release only if nothing was pushed for this long [s] (0: now).
 
         Returns
         -------
         list of AlignEvent
-            The held events.
+            The held events (none while input still arrives).
         """
-        return self.checker.flush() if self.checker is not None else []
+        if self.checker is None or not self.checker.holding:
+            return []
+        if idle > 0.0 and time.monotonic() - self._last_push < idle:
+            return []
+        return self.checker.flush()
 
     def flush(self) -> list[AlignEvent]:
         """End of input: everything the aligner and the checks hold.

@@ -81,7 +81,6 @@ from .detect import (
     find_sticks,
     slip_speed,
     speed_mismatch,
-    stick_line_speeds,
     stick_residual,
 )
 from .lag import (
@@ -111,7 +110,6 @@ __all__ = [
     'find_sticks',
     'slip_speed',
     'speed_mismatch',
-    'stick_line_speeds',
     'stick_residual',
     'torsion_lag_compensated',
 ]

@@ -114,65 +114,6 @@ def stick_residual(
     )
 
 
-def stick_line_speeds(
-    time: FloatArray,
-    torsion: FloatArray,
-    accel: FloatArray,
-    rig: RigParams,
-    phases: list[StickPhase],
-    min_samples: int = 8,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Return the drive speed each stick line shows, free of the speed channel.
-
-    While the discs stick the stick residual r (:func:`stick_residual`, with the
-    chamber speed from the integrated acceleration) rises as ``C2*w0 + K2*w0'``
-    (Equ. 1 + 2 with w1 = w2): the slope of a line through a stick's interior, over
-    C2, is the drive speed there, whatever the speed channel's offset, gain or lag.
-
-    Parameters
-    ----------
-    time : FloatArray
-        Sample times [s].
-    torsion : FloatArray
-        Torsion moment M_t [N m] (amplifier lag compensated).
-    accel : FloatArray
-        Chamber acceleration [rad/s^2].
-    rig : RigParams
-        Rig parameters (Tab. 1).
-    phases : list of StickPhase
-        Stick phases (times as ``time``).
-    min_samples : int
-        Interior samples a stick needs to count.
-
-    Returns
-    -------
-    tuple of FloatArray
-        Per counted stick: the mean time of the line's samples [s], the drive speed
-        [rad/s] and the number of samples (as float, for weights).
-    """
-    empty = np.zeros(0)
-    dt = float(np.median(np.diff(time))) if time.size > 1 else math.nan
-    if not dt > 0.0:
-        return empty, empty, empty
-    w = chamber_speed_integral(accel, dt)
-    r = stick_residual(rig, torsion, accel, w)
-    rows: list[tuple[float, float, float]] = []
-    for ph in phases:
-        i0 = int(np.searchsorted(time, ph.start))
-        i1 = int(np.searchsorted(time, ph.end))
-        g = max(1, (i1 - i0) // 8)  # leave out the ends (breakaway, stick onset)
-        a, b = i0 + g, i1 - g
-        if b - a < min_samples:
-            continue
-        tt = time[a:b]
-        slope = float(np.polyfit(tt - tt[0], r[a:b], 1)[0])
-        rows.append((float(np.mean(tt)), slope / rig.C2, float(b - a)))
-    if not rows:
-        return empty, empty, empty
-    arr = np.asarray(rows, dtype=np.float64)
-    return arr[:, 0].copy(), arr[:, 1].copy(), arr[:, 2].copy()
-
-
 def drive_speed_level(speed: np.ndarray, fs: float, window: float = _DRIVE_WIN) -> np.ndarray:
     """Return the drive-speed level w0 [rad/s] per sample.
 
@@ -255,19 +196,16 @@ def _detect_all(
                     continue
                 kept.append((a, b, sl, i0, i1))
             mismatch = speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
-            phases = []
-            mids: list[float] = []
-            w_line: list[float] = []
-            for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True):
-                if abs(dw) > _W_MISMATCH:
-                    continue
-                phases.append(StickPhase(float(a), float(b)))
-                if i1 - i0 >= 6:
-                    mids.append(0.5 * (a + b))
-                    w_line.append(sl / rig.C2)
-            if len(mids) < 2:
+            phases = [
+                StickPhase(float(a), float(b), sl / rig.C2 if i1 - i0 >= 6 else math.nan)
+                for (a, b, sl, i0, i1), dw in zip(kept, mismatch, strict=True)
+                if abs(dw) <= _W_MISMATCH
+            ]
+            lines = [ph for ph in phases if math.isfinite(ph.drive_speed)]
+            if len(lines) < 2:
                 break
-            w0 = np.interp(t, np.asarray(mids), np.asarray(w_line))
+            mids = np.asarray([0.5 * (ph.start + ph.end) for ph in lines])
+            w0 = np.interp(t, mids, np.asarray([ph.drive_speed for ph in lines]))
         return phases, w0
 
     phases, w0_used = passes(w0)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 MOTION_TYPES: tuple[str, ...] = ('stick-slip', 'slip-slip', 'steady')
 
@@ -13,10 +14,16 @@ MIN_STICK = 1e-3
 
 @dataclass(frozen=True)
 class StickPhase:
-    """One stick phase: ``start``, ``end`` [s] and ``duration`` = end - start [s]."""
+    """One stick phase: ``start``, ``end`` [s] and ``duration`` = end - start [s].
+
+    ``drive_speed`` [rad/s]: the drive speed w0 its stick line shows at its middle
+    (the stick residual rises as ``C2*w0``, Equ. 1 + 2 with w1 = w2; free of the speed
+    channel); NaN for a phase of fewer than 6 samples. Not part of equality.
+    """
 
     start: float
     end: float
+    drive_speed: float = field(default=math.nan, compare=False)
 
     @property
     def duration(self) -> float:
