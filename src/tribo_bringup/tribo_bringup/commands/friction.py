@@ -44,7 +44,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         'block, with a quality column: ok or flags gap, saturated, no_sliding, startup, '
         'fit_failed, short, spikes, bursts, repaired; the last columns count the samples '
         'replaced before the fit and the bursts among them: both are left out of the fit, '
-        'a block with over 20 %% replaced is not fitted) and the figures blocks.png, '
+        'a block with over 20 % replaced is not fitted; w0, drive_mismatch and speed_offset '
+        "give the drive speed used, its deviation from nominal_speed and the speed channel's "
+        'offset from the drive speed of the stick lines, which sets the level when it exceeds '
+        '1 %) and the figures blocks.png, '
         'mu_slip.png and detail.png. The channels are checked against the rig first: a '
         'torque in N mm, a speed in rpm or a time in ms is named (exit 2); nothing is left '
         'in OUT on an error.',
