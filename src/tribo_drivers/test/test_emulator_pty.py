@@ -27,3 +27,56 @@ def test_write_to_a_port_nobody_reads_times_out_and_close_returns() -> None:
         assert not writer.is_alive()
     finally:
         port.close()
+
+
+class _FailingSerial:
+    """pyserial stand-in: one byte arrives, then the device fails (an unplug mid-read)."""
+
+    def __init__(self) -> None:
+        self.timeout: float | None = None
+        self.in_waiting = 40
+        self.calls = 0
+
+    def read(self, size: int) -> bytes:
+        import serial
+
+        self.calls += 1
+        if self.calls == 1:
+            return b'\xa5'
+        raise serial.SerialException('read failed: [Errno 5] Input/output error')
+
+    def close(self) -> None:
+        pass
+
+
+def test_serial_read_keeps_received_bytes_when_the_device_fails_mid_read() -> None:
+    import pytest
+
+    from tribo_drivers.core.transports import SerialTransport
+    from tribo_drivers.errors import TransportError
+
+    tr = SerialTransport('/dev/null-not-opened', 115200)
+    tr._serial = _FailingSerial()
+    # the byte already received is returned; the failure is reported by the next read
+    assert tr.read(0.1) == b'\xa5'
+    with pytest.raises(TransportError, match='Input/output error'):
+        tr.read(0.1)
+
+
+def test_drain_waits_for_the_driver_to_report_every_written_byte() -> None:
+    port = PtyPort()
+    try:
+        port.require_open_notice = True
+        port.notify_opened()
+        assert port.write(b'\x01' * 100)
+        # the queue may look empty while bytes sit in the kernel's flip buffer: with read
+        # reports, drain needs the count, not the queue
+        with open(port.path, 'rb', buffering=0) as slave:
+            got = b''
+            while len(got) < 100:
+                got += slave.read(100 - len(got))
+            assert port.drain(0.05) is False  # read but not reported yet
+            port.note_driver_read(len(got))
+            assert port.drain(0.5) is True
+    finally:
+        port.close()

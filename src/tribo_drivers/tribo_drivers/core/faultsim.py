@@ -67,10 +67,11 @@ class FaultReport:
 
 
 class _NotifyingSerialTransport(SerialTransport):
-    """SerialTransport that tells the emulator's pty when its open has returned.
+    """SerialTransport that tells the emulator's pty when its open has returned and what it read.
 
     The open flushes the input; frames sent from then on are counted as intact
-    ground truth.
+    ground truth.  The byte count read lets the emulator's drain before an unplug wait
+    until the driver really holds everything sent.
     """
 
     def __init__(self, port: PtyPort, baudrate: int) -> None:
@@ -81,6 +82,11 @@ class _NotifyingSerialTransport(SerialTransport):
     def open(self) -> None:
         super().open()
         self._pty.notify_opened()
+
+    def read(self, timeout: float) -> bytes:
+        data = super().read(timeout)
+        self._pty.note_driver_read(len(data))
+        return data
 
 
 def run_daq_fault_scenario(

@@ -99,17 +99,25 @@ class SerialTransport:
         ser = self._serial
         if ser is None:
             raise TransportError(f'serial port {self.port} is not open')
+        failures = (serial.SerialException, OSError, TypeError, AttributeError)
         try:
             ser.timeout = timeout
             first = ser.read(1)
-            if not first:
-                return b''
-            waiting = ser.in_waiting
-            rest = ser.read(min(waiting, self.max_read)) if waiting else b''
-            return bytes(first + rest)
-        except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+        except failures as exc:
             # TypeError/AttributeError: pyserial internals after a concurrent close.
             raise TransportError(f'serial port {self.port} failed: {exc}') from exc
+        if not first:
+            return b''
+        try:
+            # non-blocking: one os.read of what is buffered.  A blocking read(n) loops and,
+            # when the device fails mid-loop (unplug), raises and drops the bytes it had
+            # already taken from the kernel; with timeout 0 nothing received is ever dropped.
+            ser.timeout = 0
+            waiting = ser.in_waiting
+            rest = ser.read(min(waiting, self.max_read)) if waiting else b''
+        except failures:
+            rest = b''  # keep the first byte; the next read reports the failure
+        return bytes(first + rest)
 
     def write(self, data: bytes) -> None:
         """Keep ``data`` in ``written`` (a replay has no device to send to)."""

@@ -38,6 +38,10 @@ class PtyPort:
         #: has returned), not already when the driver has configured the line
         self.require_open_notice = False
         self._open_noticed = False
+        #: bytes written since the driver's open notice and bytes the driver reports as
+        #: read (:meth:`note_driver_read`): ``drain`` compares them when the notice is on
+        self._written = 0
+        self._driver_read = 0
         self.plug()
 
     @property
@@ -87,6 +91,12 @@ class PtyPort:
         with self.lock:
             if self.plugged:
                 self._open_noticed = True
+                self._written = self._driver_read = 0
+
+    def note_driver_read(self, n: int) -> None:
+        """Count ``n`` bytes as read by the driver (called by a test transport, see faultsim)."""
+        with self.lock:
+            self._driver_read += n
 
     def pending_to_driver(self) -> int:
         """Bytes written by the emulator that the driver has not read yet."""
@@ -96,11 +106,22 @@ class PtyPort:
             buf = fcntl.ioctl(self._slave, termios.TIOCINQ, b'\0\0\0\0')
             return int(struct.unpack('i', buf)[0])
 
+    def _drained(self) -> bool:
+        if self.pending_to_driver():
+            return False
+        if not self.require_open_notice:
+            return True
+        # the kernel moves written bytes to the slave's input queue asynchronously (the
+        # tty flip buffer), so an empty queue right after a write does not mean the driver
+        # has them: with read reports, compare byte counts instead
+        with self.lock:
+            return not self.plugged or self._driver_read >= self._written
+
     def drain(self, timeout: float = 2.0) -> bool:
         """Wait until the driver has read everything written so far (True if it did)."""
         end = time.monotonic() + timeout
         while time.monotonic() < end:
-            if self.pending_to_driver() == 0:
+            if self._drained():
                 return True
             time.sleep(0.002)
         return False
@@ -139,6 +160,7 @@ class PtyPort:
                         n = 0
                     except OSError:
                         return False
+                    self._written += n
                     view = view[n:]
                     continue
             if time.monotonic() > end:
