@@ -28,13 +28,16 @@ if TYPE_CHECKING:
     from tribo_bringup.errors import BagTruncatedError
     from tribo_estimation.core.config import RigConfig
     from tribo_estimation.core.discrepancy.fitting import Record
+    from tribo_estimation.core.discrepancy.select import SelectionSettings
     from tribo_estimation.core.signal import FloatArray
 
 
 def register(sub: Subparsers) -> None:
     """Add the ``discrepancy`` subcommand."""
     from tribo_estimation.core.discrepancy import candidates as cand_lib
+    from tribo_estimation.core.discrepancy.select import SelectionSettings
 
+    min_gain = SelectionSettings().min_gain
     library = ', '.join(c.name for c in cand_lib.all_candidates())
     p = sub.add_parser(
         'discrepancy',
@@ -97,9 +100,9 @@ def register(sub: Subparsers) -> None:
     p.add_argument(
         '--min-gain',
         type=bounded_float(0.0, 100.0),
-        default=0.25,
+        default=min_gain,
         metavar='F',
-        help='relative held-out improvement needed to add an effect (0.25)',
+        help=f'relative held-out improvement needed to add an effect ({min_gain:g})',
     )
     p.add_argument(
         '--no-torsion-lag',
@@ -246,6 +249,17 @@ def _add_input(path: Path, repairs: dict[str, int | str]) -> None:
     path.write_text(json.dumps(data, indent=2, allow_nan=False) + '\n')
 
 
+def _settings(
+    args: argparse.Namespace, names: tuple[str, ...] | None, **extra: int
+) -> SelectionSettings:
+    """Return the selection settings of the command line."""
+    from tribo_estimation.core.discrepancy import SelectionSettings
+
+    return SelectionSettings(
+        min_gain=args.min_gain, candidates=names, torsion_lag=not args.no_torsion_lag, **extra
+    )
+
+
 def _check_window(args: argparse.Namespace) -> None:
     from tribo_bringup.errors import ConfigError
 
@@ -259,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the workflow; returns the exit code."""
     from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
+    from tribo_estimation.core.discrepancy import run_discrepancy
     from tribo_estimation.core.discrepancy.report import write_json
 
     _check_window(args)
@@ -267,12 +281,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_joint(args)
     names = _candidate_names(args)
     cfg = load_rig_config(args.rig)
-    settings = SelectionSettings(
-        min_gain=args.min_gain,
-        max_effects=args.max_effects,
-        candidates=names,
-        torsion_lag=not args.no_torsion_lag,
-    )
+    settings = _settings(args, names, max_effects=args.max_effects)
     record, truncated, repairs = _load_record(Path(args.input[0]), args, cfg)
     result = run_discrepancy(
         record, cfg.rig, cfg.drive, k=cfg.friction.k, settings=settings, progress=_say
@@ -305,7 +314,6 @@ def _run_joint(args: argparse.Namespace) -> int:
     """
     from tribo_bringup.outputs import atomic_output_dir
     from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.discrepancy import SelectionSettings
     from tribo_estimation.core.discrepancy.joint import run_joint_discrepancy
     from tribo_estimation.core.discrepancy.report import write_json
 
@@ -317,9 +325,7 @@ def _run_joint(args: argparse.Namespace) -> int:
         if truncated is not None:
             raise truncated  # a joint fit needs every record whole
         records.append(record)
-    settings = SelectionSettings(
-        min_gain=args.min_gain, candidates=names, torsion_lag=not args.no_torsion_lag
-    )
+    settings = _settings(args, names)
     res = run_joint_discrepancy(
         records,
         cfg.rig,

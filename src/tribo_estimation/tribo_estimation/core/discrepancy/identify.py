@@ -129,6 +129,7 @@ def identifiability(
     min_drift_duration: float = 0.5,
     gain: float | None = None,
     decisive_gain: float = 0.9,
+    min_gain: float = 0.0,
 ) -> Identifiability:
     """Judge whether this record separates ``candidate`` from baseline and instrument.
 
@@ -155,7 +156,11 @@ def identifiability(
     * the relative standard error of every candidate parameter (the correlations
       inflate it; with the model-error term of :func:`gauss_newton`: a fit that
       leaves a systematic residual is as uncertain as its scatter between time
-      blocks, marked "model error" in the reason) must not exceed ``max_rel_se`` (-).
+      blocks, marked "model error" in the reason) must not exceed ``max_rel_se`` (-);
+    * the candidate must lower the baseline's cross-validated cost by at least
+      ``min_gain`` (-, the selection's detection limit): an effect pinned down by its
+      standard errors but smaller than that against the noise is one this record
+      cannot decide (a longer record, more cycles or a lower noise would).
 
     ``drive_speeds`` [rad/s] (per block or record) only shapes the reason of a
     speed-dependent effect that fails (one speed: "all at 3.14 rad/s").
@@ -180,6 +185,8 @@ def identifiability(
         The candidate's cross-validated relative cost reduction [-].
     decisive_gain : float
         Gain that overrules the stick-duration proxy [-].
+    min_gain : float
+        Smallest gain of a decidable effect [-] (0: no such check).
 
     Returns
     -------
@@ -267,6 +274,15 @@ def identifiability(
                 f'{candidate} down{speed_txt}; {corr_txt} {decide}',
                 suggest,
             )
+    if gain is not None and math.isfinite(gain) and gain < min_gain:
+        more = 'a longer record or a lower noise'
+        return Identifiability(
+            False,
+            f'{"; ".join(parts)}, but it lowers the held-out cost by only {100 * gain:.1f} % '
+            f'(< {100 * min_gain:g} %): too small against the noise for this record to decide '
+            f'({more} would decide it)',
+            more,
+        )
     return Identifiability(True, f'{"; ".join(parts)} (1 SE); {corr_txt}')
 
 

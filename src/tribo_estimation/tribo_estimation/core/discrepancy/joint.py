@@ -367,7 +367,14 @@ def run_joint_discrepancy(
         d_bic = bic(cost, len(specs)) - base_bic
         gn = gauss_newton(jp, specs, vals, corr_time=st.corr_time)
         verdicts[name] = identifiability(
-            name, c.param_names, gn, durations, drive_speeds=speeds, duration=length
+            name,
+            c.param_names,
+            gn,
+            durations,
+            drive_speeds=speeds,
+            duration=length,
+            gain=gain,
+            min_gain=st.min_gain,
         )
         scores[name] = {
             'params': {n: vals[n] for n in c.param_names},

@@ -122,6 +122,9 @@ class Problem:
             )
         )
         self.n_evals = 0
+        #: instrument parameters refitted with every model (the baseline frees the
+        #: speed-sensor lag and offset when the lag is significant; none by default)
+        self.free_instrument: tuple[ParamSpec, ...] = ()
         seg = self.segments
         i = seg.start
         fs = record.fs

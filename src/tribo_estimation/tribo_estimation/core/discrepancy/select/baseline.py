@@ -135,15 +135,17 @@ def fit_baseline(
 ) -> tuple[dict[str, float], SimulatedRecord, dict[str, object]]:
     """Fit the baseline of one record.
 
-    The speed-sensor model from the stick phases (held fixed), the paper's model
-    (Equ. 1-8: mu0, mu_inf) from several starts, channel weights from its residuals
-    (never above 1/noise floor) and a polished refit (with the speed-sensor lag and
-    offset free when the lag is significant).
+    The speed-sensor model from the stick phases (held fixed while the starts are
+    screened), the paper's model (Equ. 1-8: mu0, mu_inf) from several starts, channel
+    weights from its residuals (never above 1/noise floor) and a polished refit (with
+    the speed-sensor lag and offset free when the lag is significant; they then stay
+    free in every effect's fit: :attr:`.fitting.Problem.free_instrument`).
 
     Parameters
     ----------
     pb : Problem
-        The record's fit problem; its residual weights are set here.
+        The record's fit problem; its residual weights and free instrument
+        parameters are set here.
     st : SelectionSettings
         Settings (evaluation budgets).
     say : Progress
@@ -158,7 +160,7 @@ def fit_baseline(
     sel = Selector(pb, st, say)
     record, rig = pb.record, pb.rig
     # the instrument model (speed-sensor lag and offset) is identified from the stick
-    # phases before any fit (friction-free) and held fixed by every model
+    # phases before any fit (friction-free)
     seg = pb.segments
     sensor = identify_speed_sensor(record, rig, seg.stick_phases())
     used = sensor.values()
@@ -197,10 +199,13 @@ def fit_baseline(
         floors[ch] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
     pb.set_residual_weights(base_sim, floors)
     # the instrument model (speed-sensor lag and offset) joins the baseline before
-    # any effect is tried; the effects' fits hold it fixed
-    # (with a significant speed-sensor lag, lag and offset are refined jointly: the
-    # stick regression's lag is ~2 % off and its offset, correlated with it, biased)
-    lag_free = [SPEED_LAG, SPEED_OFFSET] if used['speed_lag_tau'] > 0.0 else []
+    # any effect is tried.  With a significant speed-sensor lag, lag and offset are
+    # refined jointly (the stick regression's lag is ~2 % off and its offset, correlated
+    # with it, biased) and stay free in every effect's fit: refined without the missing
+    # effect they absorb part of it (a frictional lag moved the offset 0.17 rad/s), and
+    # an effect fitted against them held there fails (frictional lag 0.73 vs 0.05 N m)
+    lag_free = (SPEED_LAG, SPEED_OFFSET) if used['speed_lag_tau'] > 0.0 else ()
+    pb.free_instrument = lag_free
     base_fit = pb.fit([MU0, MU_INF, *lag_free], base_vals, max_nfev=st.max_nfev)
     base_vals = base_fit.values
     for p, entry in zip(lag_free, (speed_lag, speed_offset), strict=False):
@@ -306,6 +311,7 @@ def judge_candidates(
     corr_time: float = 1e-3,
     gains: Mapping[str, float] | None = None,
     profile_se: Mapping[str, float] | None = None,
+    min_gain: float = 0.0,
 ) -> dict[str, Identifiability]:
     """Give every candidate's identifiability verdict (:func:`..identify.identifiability`).
 
@@ -329,6 +335,8 @@ def judge_candidates(
     profile_se : Mapping[str, float] or None
         Parameter name -> standard error [SI] from its cost profile (a floor of the
         linearised one, :meth:`..linearised.GaussNewton.with_profile_se`).
+    min_gain : float
+        Smallest gain of a decidable effect [-] (the selection's ``min_gain``).
 
     Returns
     -------
@@ -345,6 +353,7 @@ def judge_candidates(
             corr_time=corr_time,
             gain=None if gains is None else gains.get(name),
             profile_se=profile_se,
+            min_gain=min_gain,
         )[0]
         for name, vals in fits.items()
     }
@@ -359,18 +368,24 @@ def _judge(
     corr_time: float,
     gain: float | None,
     profile_se: Mapping[str, float] | None = None,
+    min_gain: float = 0.0,
 ) -> tuple[Identifiability, GaussNewton]:
     """Return one candidate's verdict and the linearisation of its fit."""
     durations, speeds, length = facts
     c = cand_lib.get(name)
-    specs = [MU0, MU_INF]
-    specs += [p for p in (SPEED_LAG, SPEED_OFFSET) if float(vals.get(p.name, 0.0)) != 0.0]
-    specs += list(c.params)
+    specs = [MU0, MU_INF, *pb.free_instrument, *c.params]
     gn = gauss_newton(pb, specs, vals, corr_time=corr_time)
     if profile_se:
         gn = gn.with_profile_se(profile_se)
     verdict = identifiability(
-        name, c.param_names, gn, durations, drive_speeds=speeds, duration=length, gain=gain
+        name,
+        c.param_names,
+        gn,
+        durations,
+        drive_speeds=speeds,
+        duration=length,
+        gain=gain,
+        min_gain=min_gain,
     )
     return verdict, gn
 
@@ -385,6 +400,7 @@ def judge_converged(
     corr_time: float = 1e-3,
     gain: float | None = None,
     profile_se: Mapping[str, float] | None = None,
+    min_gain: float = 0.0,
 ) -> Identifiability:
     """Re-check an accepted candidate's verdict on its converged (polished) fit.
 
@@ -410,6 +426,8 @@ def judge_converged(
         The candidate's cross-validated relative cost reduction [-].
     profile_se : Mapping[str, float] or None
         Parameter name -> standard error [SI] from its cost profile.
+    min_gain : float
+        Smallest gain of a decidable effect [-] (the selection's ``min_gain``).
 
     Returns
     -------
@@ -425,6 +443,7 @@ def judge_converged(
         corr_time=corr_time,
         gain=gain,
         profile_se=profile_se,
+        min_gain=min_gain,
     )
     unstable = fit_stability(name, c.param_names, gn, first)
     return unstable if unstable is not None and verdict.ok else verdict

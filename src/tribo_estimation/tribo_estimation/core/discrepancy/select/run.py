@@ -108,7 +108,7 @@ def run_discrepancy(
                 s = dict(current.params)
                 s.update(pt)
                 starts.append(s)
-            vals = sel.fit_best(specs_of(effects), starts, profile=c.profile)
+            vals = sel.fit_best(specs_of(effects, pb.free_instrument), starts, profile=c.profile)
             if c.profile:  # standard errors from its profile (its parameters only)
                 profile_se.update({n: v for n, v in sel.profile_se.items() if n in c.param_names})
             ms = sel.score(effects, vals)
@@ -129,6 +129,7 @@ def run_discrepancy(
                 {s.effect: s.model.params for s in scores},
                 gains={s.effect: s.gain for s in scores},
                 profile_se=profile_se,
+                min_gain=st.min_gain,
             )
             for n, v in verdicts.items():
                 say(f'identifiable {n}: {"yes" if v.ok else "no"}: {v.reason}')
@@ -182,7 +183,11 @@ def run_discrepancy(
             break
         c = cand_lib.get(best.effect)
         # polish the accepted model to convergence before it becomes the reference
-        pol = pb.fit(specs_of(best.model.effects), best.model.params, max_nfev=2 * st.max_nfev)
+        pol = pb.fit(
+            specs_of(best.model.effects, pb.free_instrument),
+            best.model.params,
+            max_nfev=2 * st.max_nfev,
+        )
         model = sel.score(best.model.effects, pol.values)
         if model.cost > best.model.cost:
             model = best.model
@@ -191,7 +196,11 @@ def run_discrepancy(
         saved = pb.drive_state()
         pb.replace_drive(model.params)
         if not np.array_equal(pb.drive_estimate.knot_time, saved[0].knot_time):
-            pol2 = pb.fit(specs_of(best.model.effects), model.params, max_nfev=st.max_nfev)
+            pol2 = pb.fit(
+                specs_of(best.model.effects, pb.free_instrument),
+                model.params,
+                max_nfev=st.max_nfev,
+            )
             model2 = sel.score(best.model.effects, pol2.values)
             if model2.cost < model.cost:
                 say(
@@ -206,7 +215,7 @@ def run_discrepancy(
         # (many standard errors) is unstable: not identified
         final_verdict = judge_converged(
             pb, base_sim, c.name, best.model.params, model.params, gain=best.gain,
-            profile_se=profile_se,
+            profile_se=profile_se, min_gain=st.min_gain,
         )  # fmt: skip
         verdicts[c.name] = final_verdict
         if not final_verdict.ok:

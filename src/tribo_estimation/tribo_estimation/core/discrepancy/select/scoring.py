@@ -23,20 +23,24 @@ from ..stats import FloatArray, rms
 from .results import ModelScore, Progress, SelectionSettings
 
 
-def specs_of(effects: Sequence[str]) -> list[ParamSpec]:
+def specs_of(effects: Sequence[str], instrument: Sequence[ParamSpec] = ()) -> list[ParamSpec]:
     """Return the fitted parameters of the baseline plus ``effects``.
 
     Parameters
     ----------
     effects : Sequence[str]
         Names of the added candidates.
+    instrument : Sequence[ParamSpec]
+        Instrument parameters refitted with every model
+        (:attr:`.fitting.Problem.free_instrument`): an effect's fit must be able to
+        move what the baseline's instrument terms absorbed of it.
 
     Returns
     -------
     list[ParamSpec]
-        ``mu0``, ``mu_inf`` (Equ. 8), then every candidate's parameters.
+        ``mu0``, ``mu_inf`` (Equ. 8), the instrument's, then every candidate's parameters.
     """
-    specs = [MU0, MU_INF]
+    specs = [MU0, MU_INF, *instrument]
     for e in effects:
         specs.extend(cand_lib.get(e).params)
     return specs
@@ -407,7 +411,7 @@ class Selector:
         ModelScore
             The scores.
         """
-        specs = specs_of(effects)
+        specs = specs_of(effects, self.pb.free_instrument)
         sim = self.pb.simulate(values)
         cost = self.pb.cost(sim)
         ne = n_eff(self.pb, None, self.st.corr_time)
