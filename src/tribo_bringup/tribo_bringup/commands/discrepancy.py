@@ -16,6 +16,7 @@ torsion-moment residual in N m) and PNG plots; progress goes to stderr.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -250,14 +251,15 @@ def _add_input(path: Path, repairs: dict[str, int | str]) -> None:
 
 
 def _settings(
-    args: argparse.Namespace, names: tuple[str, ...] | None, **extra: int
+    args: argparse.Namespace, names: tuple[str, ...] | None, max_effects: int | None = None
 ) -> SelectionSettings:
     """Return the selection settings of the command line."""
     from tribo_estimation.core.discrepancy import SelectionSettings
 
-    return SelectionSettings(
-        min_gain=args.min_gain, candidates=names, torsion_lag=not args.no_torsion_lag, **extra
+    st = SelectionSettings(
+        min_gain=args.min_gain, candidates=names, torsion_lag=not args.no_torsion_lag
     )
+    return st if max_effects is None else dataclasses.replace(st, max_effects=max_effects)
 
 
 def _check_window(args: argparse.Namespace) -> None:
