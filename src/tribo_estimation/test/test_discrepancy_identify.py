@@ -215,3 +215,16 @@ def test_gauss_newton_model_error_term() -> None:
     assert gn2.se[1] > 3.0 * se_b
     plain = gauss_newton(_Line(y2, x), specs, {'a': coef2[1], 'b': coef2[0]}, robust=False)
     assert plain.model_error == () and plain.se[1] < gn2.se[1]
+
+
+def test_effect_below_the_detection_limit_is_too_small_to_decide() -> None:
+    """An effect pinned down by its standard errors but lowering the held-out cost by
+    less than the selection's min_gain is one the record cannot decide."""
+    names = ('mu0', 'mu_inf', 'stribeck_shape')
+    gn = GaussNewton(names, (0.13, 0.1, -0.17), (1e-4, 1e-4, 0.005), np.eye(3), ())
+    small = identifiability('stribeck_shape', names[2:], gn, np.ones(5), gain=0.03,
+                            min_gain=0.05)  # fmt: skip
+    assert not small.ok and 'too small' in small.reason and '3.0 %' in small.reason
+    assert small.suggest == 'a longer record or a lower noise'
+    assert identifiability('stribeck_shape', names[2:], gn, np.ones(5), gain=0.06,
+                           min_gain=0.05).ok  # fmt: skip

@@ -219,3 +219,39 @@ def test_clean_speed_channel_is_left_alone() -> None:
     for b in res:
         # below the 1 % tolerance: the channel's own level is used
         assert abs(b.speed_offset) < 0.01 * W30, b.speed_offset
+
+
+def _drift_record(stiffness_drift: float, drive: SpeedProfile, seed: int) -> Record:
+    from tribo_estimation.core.reference import Unmodelled
+
+    tc, ac, sc = rig_channels(1.0)
+    r = make_record(RecordSpec(CFG.rig, CFG.friction, drive, torsion=tc, accel=ac, speed=sc,
+                               unmodelled=Unmodelled(stiffness_drift=stiffness_drift),
+                               seed=seed, duration=2.0, start_offset=0.5))  # fmt: skip
+    return _record(r)
+
+
+@pytest.mark.parametrize('speed', [10.0, 30.0])
+def test_stick_kinematics_drift_flags_a_changing_stiffness(speed: float) -> None:
+    """While the discs stick w2 = w1 = (dM_t/dt)/C1 whatever the friction: a torsion
+    element whose stiffness grows 2 % over the record (1.6 % within it) makes the
+    chamber speed and the speed channel drift apart; without it they do not."""
+    drive = SpeedProfile.startup(rpm(speed), 0.2)
+    drifting = _drift_record(0.02 / 2.5, drive, seed=11)
+    s = identify_speed_sensor(drifting, CFG.rig)
+    # expected drift -C1 growth within the record (1.6 %); tolerance 0.5 % (the lag
+    # and offset columns absorb part of it)
+    assert s.drift == pytest.approx(-0.016, abs=0.005)
+    assert s.drifting() and s.drift_report()['drifting'] is True
+    steady = identify_speed_sensor(_drift_record(0.0, drive, seed=11), CFG.rig)
+    assert abs(steady.drift) < 0.005 and not steady.drifting()
+
+
+def test_speed_step_gain_is_not_a_drift() -> None:
+    """A speed-channel gain error of 2 % through a 12 -> 30 rpm step shifts y - w at
+    the step; the gain column of the drift regression takes it (the drift stays below
+    the limit)."""
+    r = _rec('step')
+    rec = _record(r, r.speed * 1.02)
+    s = identify_speed_sensor(rec, CFG.rig)
+    assert math.isfinite(s.drift) and not s.drifting()

@@ -308,13 +308,17 @@ def run_joint_discrepancy(
         raise InvalidParameterError(f'{len(drives)} drive profiles for {len(records)} records')
     t_start = _time.perf_counter()
     problems, fixed, bases, sims, instruments = [], [], [], [], []
+    drifting: list[int] = []  # records whose stick kinematics drift (rig/instrument)
     for i, (rec, drv) in enumerate(zip(records, drives, strict=True)):
         say(f'record {i}: baseline')
         rec, tq_lag = instrument_record(rec, rig, st, say)
         from_start = begins_at_drive_start(rec, drv.ramp_time, drv.nominal_speed)
         segs = make_segments(rec, rig, block_time=st.block_time, dwell_from_start=from_start)
         pb = Problem(rec, rig, drv, k=k, segments=segs)
-        vals, sim, instr = fit_baseline(pb, st, say)
+        bf = fit_baseline(pb, st, say)
+        vals, sim, instr = bf.values, bf.sim, bf.instrument
+        if bf.sensor.drifting():
+            drifting.append(i)
         instr['torsion_lag_tau'] = tq_lag.report()
         problems.append(pb)
         fixed.append({n: v for n, v in vals.items() if n not in ('mu0', 'mu_inf')})
@@ -392,9 +396,13 @@ def run_joint_discrepancy(
     ]  # fmt: skip
     best = min(better, key=lambda n: scores[n]['delta_bic']) if better else ''
     # the best explanation must be identifiable, else nothing is named (another
-    # candidate would only absorb its signal)
-    named = best if best and verdicts[best].ok else ''
-    blocked = (best,) if best and not named else ()
+    # candidate would only absorb its signal); nor is anything named when the rig or
+    # an instrument changes during a record (its stick kinematics drift)
+    named = best if best and verdicts[best].ok and not drifting else ''
+    if best and drifting:
+        say(f'{best} improves, but records {drifting} have a rig or instrument mismatch '
+            '(their stick kinematics drift): not named')  # fmt: skip
+    blocked = (best,) if best and not named and not drifting else ()
     final = fits[named] if named else base_start
     final_rms = jp.torque_rms(final)
     per: list[dict[str, Any]] = []

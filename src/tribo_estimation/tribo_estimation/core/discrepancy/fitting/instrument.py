@@ -207,6 +207,11 @@ class SpeedSensor:
         Its standard error [rad/s].
     n : int
         Number of stick samples used.
+    drift : float
+        How far the speed channel and the stick phases' chamber speed drift apart
+        over the record, relative to the mean stick speed [-] (NaN: not estimated).
+    drift_se : float
+        Its standard error [-].
     """
 
     tau: float
@@ -214,6 +219,45 @@ class SpeedSensor:
     offset: float
     offset_se: float
     n: int
+    drift: float = math.nan
+    drift_se: float = math.nan
+
+    def drifting(self) -> bool:
+        """Tell whether the stick-phase kinematics drift during the record.
+
+        True when :attr:`drift` exceeds :data:`MAX_MISMATCH_DRIFT` and
+        :data:`DRIFT_Z` standard errors. While the discs stick ``w2 = w1`` whatever
+        the friction, so no friction effect can cause it: the torsion element's
+        stiffness C1 (``w1 = (dM_t/dt)/C1``) or a sensor gain changes, a mismatch of
+        the rig or the instrument, not missing friction physics.
+
+        Returns
+        -------
+        bool
+            True if the record's stick phases drift.
+        """
+        return (
+            math.isfinite(self.drift)
+            and math.isfinite(self.drift_se)
+            and abs(self.drift) > MAX_MISMATCH_DRIFT
+            and abs(self.drift) > DRIFT_Z * self.drift_se
+        )
+
+    def drift_report(self) -> dict[str, object]:
+        """Return the ``speed_mismatch_drift`` entry of ``discrepancy.json``.
+
+        Returns
+        -------
+        dict
+            ``value`` and ``se`` [-], ``unit``, ``limit`` [-] and ``drifting``.
+        """
+        return {
+            'value': self.drift,
+            'se': self.drift_se,
+            'unit': '-',
+            'limit': MAX_MISMATCH_DRIFT,
+            'drifting': self.drifting(),
+        }
 
     def values(self) -> dict[str, float]:
         """Return the sensor as model values (:data:`.records.INSTRUMENT_FIELDS`).
@@ -237,6 +281,66 @@ class SpeedSensor:
         }
 
 
+#: Largest drift apart of the speed channel and the stick phases' chamber speed over
+#: a record, relative to the mean stick speed [-], and the standard errors it must
+#: also exceed [-] to count (:meth:`SpeedSensor.drifting`). Records without such a
+#: drift stay within 0.7 % (the benchmark matrix: speed step, start-up, 5 ms lag,
+#: noise x3); a 2 % stiffness drift shows 1.4-1.7 % at 30-50 standard errors.
+MAX_MISMATCH_DRIFT = 0.01
+DRIFT_Z = 5.0
+#: Spread of the stick phases' mean speeds (p90 - p10 over the mean) [-] above which
+#: a sensor gain is fitted with the drift (a speed step tells a gain from a drift).
+_GAIN_SPREAD = 0.2
+
+
+def _cluster_lstsq(
+    X: FloatArray, d: FloatArray, cluster: IntArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """Least squares ``d ~ X`` with standard errors cluster-robust over ``cluster``.
+
+    Returns the coefficients and their standard errors (None if X is singular).
+    """
+    try:
+        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
+        binv = np.linalg.inv(X.T @ X)
+    except np.linalg.LinAlgError:
+        return None
+    r = d - X @ coef
+    _, g = np.unique(cluster, return_inverse=True)
+    n_cl = int(g.max()) + 1
+    scores = np.zeros((n_cl, X.shape[1]))
+    np.add.at(scores, g, X * r[:, None])
+    cov = binv @ (scores.T @ scores) @ binv * (n_cl / max(n_cl - 1, 1))
+    return coef, np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def _mismatch_drift(
+    t: FloatArray, w: FloatArray, base: FloatArray, d: FloatArray, cluster: IntArray
+) -> tuple[float, float]:
+    """Drift of ``d = y - w`` over the stick samples, relative to the mean stick speed.
+
+    The sensor regression's columns ``base`` plus the time (scaled to the record's
+    span) and, when the sticks are at several speeds, a gain column ``w - mean(w)``.
+    Returns the drift over the span / ``|mean(w)|`` and its standard error [-].
+    """
+    span = float(t.max() - t.min())
+    w_mean = float(np.mean(w))
+    if span <= 0.0 or w_mean == 0.0:
+        return math.nan, math.nan
+    cols = [base, (t - float(np.mean(t))) / span]
+    _, first = np.unique(cluster, return_index=True)
+    per_stick = np.asarray([float(np.mean(x)) for x in np.split(w, first[1:])])
+    lo, hi = np.percentile(per_stick, (10.0, 90.0))
+    if (hi - lo) > _GAIN_SPREAD * abs(w_mean):
+        cols.append((w - w_mean)[:, None])
+    fit = _cluster_lstsq(np.column_stack(cols), d, cluster)
+    if fit is None:
+        return math.nan, math.nan
+    coef, se = fit
+    k = base.shape[1]
+    return float(coef[k]) / abs(w_mean), float(se[k]) / abs(w_mean)
+
+
 def identify_speed_sensor(
     record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
 ) -> SpeedSensor:
@@ -249,6 +353,9 @@ def identify_speed_sensor(
     ``y - w = offset - tau*y'``: a linear regression over the stick samples
     (10 samples from each end of a phase left out) gives both; standard errors
     are cluster-robust over the stick phases. ``tau`` is limited to [0, 20 ms].
+    The same regression with a time column (and a gain column when the sticks are
+    at several speeds) gives the drift of ``y - w`` over the record
+    (:meth:`SpeedSensor.drifting`).
 
     Parameters
     ----------
@@ -286,20 +393,15 @@ def identify_speed_sensor(
     cl = np.concatenate(cl_l)
     d = record.speed[idx] - w[idx]
     X = np.column_stack((np.ones(idx.size), -acc[idx]))
-    try:
-        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
-        binv = np.linalg.inv(X.T @ X)
-    except np.linalg.LinAlgError:
+    fit = _cluster_lstsq(X, d, cl)
+    if fit is None:
         return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
-    r = d - X @ coef
-    _, g = np.unique(cl, return_inverse=True)
-    G = int(g.max()) + 1
-    scores = np.zeros((G, 2))
-    np.add.at(scores, g, X * r[:, None])
-    cov = binv @ (scores.T @ scores) @ binv * (G / max(G - 1, 1))
-    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    coef, se = fit
     tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
-    return SpeedSensor(tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size))
+    drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
+    return SpeedSensor(
+        tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se
+    )
 
 
 def stuck_speed_through_lag(

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from ..fitting import (
     Problem,
     Record,
     SimulatedRecord,
+    SpeedSensor,
     TorsionLag,
     identify_speed_sensor,
     identify_torsion_lag,
@@ -130,9 +132,30 @@ def instrument_record(
     return torsion_compensated_record(record, rig, tq.used), tq
 
 
-def fit_baseline(
-    pb: Problem, st: SelectionSettings, say: Progress
-) -> tuple[dict[str, float], SimulatedRecord, dict[str, object]]:
+@dataclass(frozen=True)
+class BaselineFit:
+    """The baseline of one record (:func:`fit_baseline`).
+
+    Parameters
+    ----------
+    values : dict of str to float
+        mu0, mu_inf (Equ. 8) and the instrument model's values (SI).
+    sim : SimulatedRecord
+        Its simulation.
+    instrument : dict of str to object
+        The ``instrument`` report of ``discrepancy.json``.
+    sensor : SpeedSensor
+        The speed-sensor identification from the stick phases (with the drift check
+        of the stick kinematics, :meth:`.fitting.SpeedSensor.drifting`).
+    """
+
+    values: dict[str, float]
+    sim: SimulatedRecord
+    instrument: dict[str, object]
+    sensor: SpeedSensor
+
+
+def fit_baseline(pb: Problem, st: SelectionSettings, say: Progress) -> BaselineFit:
     """Fit the baseline of one record.
 
     The speed-sensor model from the stick phases (held fixed while the starts are
@@ -153,9 +176,9 @@ def fit_baseline(
 
     Returns
     -------
-    tuple[dict[str, float], SimulatedRecord, dict[str, object]]
-        The values (with the instrument model), the simulation and the instrument
-        report of ``discrepancy.json``.
+    BaselineFit
+        The values (with the instrument model), the simulation, the instrument
+        report of ``discrepancy.json`` and the speed-sensor identification.
     """
     sel = Selector(pb, st, say)
     record, rig = pb.record, pb.rig
@@ -179,11 +202,13 @@ def fit_baseline(
     instrument: dict[str, object] = {
         'speed_lag_tau': speed_lag,
         'speed_offset': speed_offset,
+        'speed_mismatch_drift': sensor.drift_report(),
         'stick_samples': sensor.n,
     }
     say(
         f'speed sensor: lag {1e3 * sensor.tau:.3g} +- {1e3 * sensor.tau_se:.2g} ms, offset '
-        f'{sensor.offset:.3g} +- {sensor.offset_se:.2g} rad/s'
+        f'{sensor.offset:.3g} +- {sensor.offset_se:.2g} rad/s; stick kinematics drift '
+        f'{100 * sensor.drift:.2g} +- {100 * sensor.drift_se:.2g} %'
     )
     say(
         f'{pb.segments.n} segments in {pb.segments.n_blocks} blocks; fitting the baseline '
@@ -212,7 +237,7 @@ def fit_baseline(
         entry['used'] = base_vals[p.name]
         entry['se_joint'] = base_fit.se.get(p.name, math.nan)
     base_sim = pb.simulate(base_vals)
-    return base_vals, base_sim, instrument
+    return BaselineFit(base_vals, base_sim, instrument, sensor)
 
 
 def block_speeds(pb: Problem) -> list[dict[str, float]]:
@@ -450,6 +475,7 @@ def judge_converged(
 
 
 __all__ = [
+    'BaselineFit',
     'baseline_starts',
     'block_speeds',
     'drive_report',

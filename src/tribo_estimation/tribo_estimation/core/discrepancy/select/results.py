@@ -157,10 +157,11 @@ class Unexplained:
     """Residual structure no candidate explains.
 
     ``kind`` one of 'spectral_line', 'phase', 'trend', 'time', 'shaft_angle',
-    'broadband'; ``where`` says where it concentrates; ``size`` its magnitude
-    (N m: line amplitude, phase excess rms, trend change over the record, excess
-    rms of the worst time block, angle-harmonic amplitude); ``frequency`` Hz for
-    lines (else None).
+    'broadband', 'instrument' (the stick kinematics drift: the rig or a sensor
+    changes during the record); ``where`` says where it concentrates; ``size`` its
+    magnitude (N m: line amplitude, phase excess rms, trend change over the record,
+    excess rms of the worst time block, angle-harmonic amplitude; for 'instrument'
+    the torque residual's rms it leaves); ``frequency`` Hz for lines (else None).
     """
 
     kind: str

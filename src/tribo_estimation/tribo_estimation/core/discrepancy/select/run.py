@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time as _time
+from dataclasses import replace
 
 import numpy as np
 
@@ -10,7 +11,7 @@ from tribo_estimation.core.model import DriveProfile, RigParams
 
 from .. import candidates as cand_lib
 from ..candidates import Candidate
-from ..fitting import Problem, Record, begins_at_drive_start, make_segments
+from ..fitting import Problem, Record, SpeedSensor, begins_at_drive_start, make_segments
 from ..identify import Identifiability
 from ..localise import localise, torque_residual
 from ..sparse import SparseTerm
@@ -30,6 +31,7 @@ from .results import (
     Progress,
     SelectionSettings,
     Traces,
+    Unexplained,
 )
 from .scoring import Selector, specs_of, worst_block_loss
 from .unexplained import describe_unexplained, propose_terms
@@ -80,8 +82,12 @@ def run_discrepancy(
     segments = make_segments(record, rig, block_time=st.block_time, dwell_from_start=from_start)
     pb = Problem(record, rig, drive, k=k, segments=segments)
     sel = Selector(pb, st, say)
-    base_vals, base_sim, instrument = fit_baseline(pb, st, say)
+    bf = fit_baseline(pb, st, say)
+    base_vals, base_sim, instrument = bf.values, bf.sim, bf.instrument
     instrument['torsion_lag_tau'] = tq_lag.report()
+    mismatch = _kinematics_mismatch(bf.sensor, pb.rig.C1)
+    if mismatch is not None:
+        say(f'instrument: {mismatch.where}: no effect will be named')
     current = sel.score((), base_vals)
     baseline = current
     say(
@@ -166,6 +172,13 @@ def run_discrepancy(
                 f'time block {100 * best.block_loss:.0f} % worse: not named'
             )
             ok = False
+        if ok and mismatch is not None:
+            # the rig or an instrument changes during the record (the stick phases'
+            # kinematics drift, which no friction effect can cause): an effect named
+            # now would only absorb it
+            say(f'round {rnd + 1}: {best.effect} improves, but the record has a rig or '
+                'instrument mismatch: not named')  # fmt: skip
+            ok = False
         if ok and not verdicts.get(best.effect, _OK).ok:
             # the best explanation is one this record cannot separate: name nothing
             # (another candidate would only absorb its signal) and say so
@@ -178,7 +191,7 @@ def run_discrepancy(
         ]
         rounds.append(tuple(scores))
         if not ok:
-            if best.effect not in (*blocked, *inconsistent):
+            if best.effect not in (*blocked, *inconsistent) and mismatch is None:
                 say(f'round {rnd + 1}: no candidate improves clearly (best: {best.effect})')
             break
         c = cand_lib.get(best.effect)
@@ -250,6 +263,8 @@ def run_discrepancy(
     terms: tuple[SparseTerm, ...] = ()
     if unexplained and st.propose_terms:
         terms = propose_terms(pb, final_sim, unexplained, sigma)
+    if mismatch is not None:
+        unexplained = [replace(mismatch, size=pb.torque_rms(final_sim)), *unexplained]
     for u in unexplained:
         say(
             f'unexplained: {u.kind}: {u.where}, size {u.size:.3g} N m'
@@ -287,6 +302,36 @@ def run_discrepancy(
         identifiable=verdicts,
         blocked=tuple(blocked),
         inconsistent=tuple(inconsistent),
+    )
+
+
+def _kinematics_mismatch(sensor: SpeedSensor, c1: float) -> Unexplained | None:
+    """Return the stick kinematics' drift as an unexplained item (None if there is none).
+
+    Parameters
+    ----------
+    sensor : SpeedSensor
+        The speed-sensor identification (:meth:`.fitting.SpeedSensor.drifting`).
+    c1 : float
+        Stiffness of the torsion element [N m/rad] (Tab. 1).
+
+    Returns
+    -------
+    Unexplained or None
+        Kind ``instrument``, where it shows and the relative drift (size: set by the
+        caller to the torque residual's rms [N m]).
+    """
+    if not sensor.drifting():
+        return None
+    return Unexplained(
+        kind='instrument',
+        where=(
+            f'stick phases: the chamber speed (dM_t/dt)/C1 (C1 = {c1:.4g} N m/rad) and the '
+            f'speed channel drift apart by {100 * sensor.drift:+.2g} % of the speed over the '
+            "record (the torsion element's stiffness or a sensor gain changes)"
+        ),
+        size=0.0,
+        details={'relative_drift': sensor.drift, 'relative_drift_se': sensor.drift_se},
     )
 
 
