@@ -311,7 +311,8 @@ def _cluster_lstsq(
     scores = np.zeros((n_cl, X.shape[1]))
     np.add.at(scores, g, X * r[:, None])
     cov = binv @ (scores.T @ scores) @ binv * (n_cl / max(n_cl - 1, 1))
-    return coef, np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return np.asarray(coef, dtype=np.float64), np.asarray(se, dtype=np.float64)
 
 
 def _mismatch_drift(
