@@ -89,6 +89,61 @@ def normal_equations(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return A, g
 
 
+def cluster_robust_se(J: FloatArray, r: FloatArray, clusters: npt.NDArray[np.int64]) -> FloatArray:
+    """Cluster-robust (sandwich) standard errors of a least-squares estimate.
+
+    Residuals within one cluster are correlated (a shooting segment of the block
+    fit, a stick phase of the speed-sensor regression), between clusters nearly
+    independent: ``cov = B^-1 (sum_s g_s g_s^T) B^-1 * G/(G - 1)``, ``B = J^T J``,
+    ``g_s = J_s^T r_s``. With fewer than 3 clusters the classical
+    ``s^2 (J^T J)^-1`` with a lag-1 autocorrelation inflation is used.
+    A parameter without any influence (zero Jacobian column, e.g. mu0 in
+    steady sliding) gets NaN and is left out for the others.
+
+    Parameters
+    ----------
+    J : FloatArray
+        Jacobian (or design matrix) at the estimate, shape (m, n).
+    r : FloatArray
+        Residuals at the estimate, shape (m,).
+    clusters : numpy.ndarray of int
+        Cluster index 0..G-1 of every residual, shape (m,).
+
+    Returns
+    -------
+    FloatArray
+        Standard errors, shape (n,), in the parameters' units.
+    """
+    n_par = J.shape[1]
+    norms = np.sqrt(np.sum(J * J, axis=0))
+    live = norms > 1e-9 * max(float(norms.max()) if norms.size else 0.0, 1e-300)
+    if not live.all():
+        out = np.full(n_par, math.nan)
+        if live.any():
+            out[live] = cluster_robust_se(J[:, live], r, clusters)
+        return out
+    B = J.T @ J
+    try:
+        Binv = np.linalg.inv(B)
+    except np.linalg.LinAlgError:
+        return np.full(n_par, math.nan)
+    G = int(clusters.max()) + 1 if clusters.size else 0
+    if G >= 3:
+        scores = np.zeros((G, n_par))
+        np.add.at(scores, clusters, J * r[:, None])
+        meat = scores.T @ scores
+        cov = Binv @ meat @ Binv * (G / (G - 1))
+    else:
+        dof = max(1, r.shape[0] - n_par)
+        s2 = float(np.dot(r, r)) / dof
+        rr = r - r.mean()
+        den = float(np.dot(rr, rr))
+        rho = float(np.dot(rr[1:], rr[:-1]) / den) if den > 0.0 else 0.0
+        rho = min(max(rho, 0.0), 0.99)
+        cov = Binv * s2 * (1.0 + rho) / (1.0 - rho)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
 def _finite_sq(r: FloatArray) -> float:
     """Sum of squares, +inf when any residual is not finite (the non-finite guard)."""
     if not np.all(np.isfinite(r)):

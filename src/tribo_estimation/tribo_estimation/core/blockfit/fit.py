@@ -46,7 +46,7 @@ import numpy.typing as npt
 from ...errors import FitError
 from .. import kernel as kn
 from ..drive import DriveEstimate
-from ..lsq import LsqResult, levenberg_marquardt
+from ..lsq import LsqResult, cluster_robust_se, levenberg_marquardt
 from ..model import DriveProfile, FrictionLaw, RigParams, pack_params
 from ..shooting import DriveKnots, local_cubic, shoot, sliding_states, stuck_states, window_mean
 from ..signal import CHAMBER_HALF, noise_level, runs
@@ -196,46 +196,6 @@ def _dilate(mask: BoolArray, width: int) -> BoolArray:
     """
     k = np.ones(2 * width + 1)
     return np.asarray(np.convolve(mask.astype(np.float64), k, mode='same') > 0.0)
-
-
-def _robust_se(J: FloatArray, r: FloatArray, clusters: IntArray, n_par: int) -> FloatArray:
-    """Cluster-robust (sandwich) standard errors of a least-squares estimate.
-
-    Residuals within one shooting segment are correlated (phase and state
-    errors), between segments nearly independent, so the segments are the
-    clusters: ``cov = B^-1 (sum_s g_s g_s^T) B^-1 * G/(G - 1)``, ``B = J^T J``,
-    ``g_s = J_s^T r_s``. With fewer than 3 clusters the classical
-    ``s^2 (J^T J)^-1`` with a lag-1 autocorrelation inflation is used.
-    A parameter without any influence (zero Jacobian column, e.g. mu0 in
-    steady sliding) gets NaN and is left out for the others.
-    """
-    norms = np.sqrt(np.sum(J * J, axis=0))
-    live = norms > 1e-9 * max(float(norms.max()) if norms.size else 0.0, 1e-300)
-    if not live.all():
-        out = np.full(n_par, math.nan)
-        if live.any():
-            out[live] = _robust_se(J[:, live], r, clusters, int(live.sum()))
-        return out
-    B = J.T @ J
-    try:
-        Binv = np.linalg.inv(B)
-    except np.linalg.LinAlgError:
-        return np.full(n_par, math.nan)
-    G = int(clusters.max()) + 1 if clusters.size else 0
-    if G >= 3:
-        scores = np.zeros((G, n_par))
-        np.add.at(scores, clusters, J * r[:, None])
-        meat = scores.T @ scores
-        cov = Binv @ meat @ Binv * (G / (G - 1))
-    else:
-        dof = max(1, r.shape[0] - n_par)
-        s2 = float(np.dot(r, r)) / dof
-        rr = r - r.mean()
-        den = float(np.dot(rr, rr))
-        rho = float(np.dot(rr[1:], rr[:-1]) / den) if den > 0.0 else 0.0
-        rho = min(max(rho, 0.0), 0.99)
-        cov = Binv * s2 * (1.0 + rho) / (1.0 - rho)
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 @dataclass(frozen=True)
@@ -465,7 +425,7 @@ class _Problem:
 
     def xtol(self, x: FloatArray, J: FloatArray, r: FloatArray) -> FloatArray:
         """Step tolerance: far below the statistical uncertainty (or 1e-4 relative)."""
-        se = _robust_se(J, r, self.clusters, x.size)
+        se = cluster_robust_se(J, r, self.clusters)
         return np.maximum(np.where(np.isfinite(se), 0.1 * se, 0.0), 1e-4 * np.abs(x)) + 1e-12
 
 
@@ -531,7 +491,7 @@ def fit_block(
     theta0 = _theta0(d, fnr, start, k, n_par)
     prob = _Problem.build(p0, n_par, nodes, d, sig_m)
     sol = _solve(prob, theta0, prob.accel_weights(theta0, sig_a), cfg.max_iter)
-    se = _robust_se(sol.jac, sol.fun, prob.clusters, n_par)
+    se = cluster_robust_se(sol.jac, sol.fun, prob.clusters)
     sim_t = prob.simulate(sol.x)[kn.OUT_TORSION]
     return FitOutcome(
         mu0=float(sol.x[0]),

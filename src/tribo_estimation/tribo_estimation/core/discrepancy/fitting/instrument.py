@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
+from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import lag_segments
 from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, local_slope
@@ -296,23 +297,17 @@ _GAIN_SPREAD = 0.2
 def _cluster_lstsq(
     X: FloatArray, d: FloatArray, cluster: IntArray
 ) -> tuple[FloatArray, FloatArray] | None:
-    """Least squares ``d ~ X`` with standard errors cluster-robust over ``cluster``.
+    """Least squares ``d ~ X``, standard errors cluster-robust over ``cluster``.
 
-    Returns the coefficients and their standard errors (None if X is singular).
+    :func:`tribo_estimation.core.lsq.cluster_robust_se` over the stick phases.
+    Returns the coefficients and their standard errors (None if X is rank-deficient).
     """
-    try:
-        coef, *_ = np.linalg.lstsq(X, d, rcond=None)
-        binv = np.linalg.inv(X.T @ X)
-    except np.linalg.LinAlgError:
+    coef, _, rank, _ = np.linalg.lstsq(X, d, rcond=None)
+    if rank < X.shape[1]:
         return None
-    r = d - X @ coef
     _, g = np.unique(cluster, return_inverse=True)
-    n_cl = int(g.max()) + 1
-    scores = np.zeros((n_cl, X.shape[1]))
-    np.add.at(scores, g, X * r[:, None])
-    cov = binv @ (scores.T @ scores) @ binv * (n_cl / max(n_cl - 1, 1))
-    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return np.asarray(coef, dtype=np.float64), np.asarray(se, dtype=np.float64)
+    se = cluster_robust_se(X, d - X @ coef, g.astype(np.int64))
+    return np.asarray(coef, dtype=np.float64), se
 
 
 def _mismatch_drift(
