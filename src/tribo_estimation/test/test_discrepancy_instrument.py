@@ -34,7 +34,8 @@ def _record(
     r = make_record(RecordSpec(CFG.rig, CFG.friction, SpeedProfile.startup(rpm(speed_rpm), 0.2),
                                extensions=ext or Extensions(),
                                unmodelled=unmodelled or Unmodelled(), torsion=tc, accel=ac,
-                               speed=sc, seed=seed, duration=duration, start_offset=0.5))  # fmt: skip
+                               speed=sc, seed=seed, duration=duration,
+                               start_offset=0.5))  # fmt: skip
     return Record(r.time - r.time[0], r.torsion_moment, r.angular_acceleration, r.speed)
 
 
