@@ -44,8 +44,10 @@ def test_effect_found_behind_a_5ms_speed_sensor_lag() -> None:
     frictional lag (they are refined without it); they stay free in the effect's fit,
     which then reaches the noise floor with the right lag."""
     rec = _record(25.0, ext=Extensions(lag_tau=0.002), speed_lag=0.005)
+    # the two candidates that competed (Stribeck shape was named before)
+    st = SelectionSettings(max_effects=1, candidates=('frictional_lag', 'stribeck_shape'))
     res = run_discrepancy(rec, CFG.rig, DriveProfile(rpm(25.0), 0.0), k=CFG.friction.k,
-                          settings=SelectionSettings(max_effects=1))  # fmt: skip
+                          settings=st)  # fmt: skip
     assert [a.effect for a in res.added] == ['frictional_lag']
     assert res.added[0].params['lag_tau'] == pytest.approx(0.002, rel=0.1)
     assert res.final.rms < 1.5 * FLOOR  # the issue's limit
@@ -59,8 +61,9 @@ def test_changing_stiffness_is_reported_not_absorbed_by_an_effect() -> None:
     friction effect changes the stick phases' kinematics; nothing is named and the
     mismatch is reported as unexplained, with its size."""
     rec = _record(10.0, unmodelled=Unmodelled(stiffness_drift=0.02 / 2.5))
+    st = SelectionSettings(max_effects=1, candidates=('friction_drift', 'torque_offset'))
     res = run_discrepancy(rec, CFG.rig, DriveProfile(rpm(10.0), 0.0), k=CFG.friction.k,
-                          settings=SelectionSettings(max_effects=1))  # fmt: skip
+                          settings=st)  # fmt: skip
     assert res.added == ()
     first = res.unexplained[0]
     assert first.kind == 'instrument' and 'stick phases' in first.where
@@ -78,7 +81,10 @@ def test_no_second_effect_from_the_lagged_speed_channel_alone() -> None:
     worse; with the default settings (up to 3 effects) it is not added."""
     # the benchmark matrix's record (3 s, its seed) on which the ripple was added
     rec = _record(25.0, ext=Extensions(viscous=0.5), speed_lag=0.005, seed=1122, duration=3.0)
-    res = run_discrepancy(rec, CFG.rig, DriveProfile(rpm(25.0), 0.0), k=CFG.friction.k)
+    # the default settings but the two candidates involved (up to 3 effects)
+    st = SelectionSettings(candidates=('viscous_friction', 'drive_speed_ripple'))
+    res = run_discrepancy(rec, CFG.rig, DriveProfile(rpm(25.0), 0.0), k=CFG.friction.k,
+                          settings=st)  # fmt: skip
     assert [a.effect for a in res.added] == ['viscous_friction']
     assert res.added[0].params['viscous'] == pytest.approx(0.5, rel=0.2)
     assert res.final.rms < 1.5 * FLOOR
