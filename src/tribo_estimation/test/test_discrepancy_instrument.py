@@ -90,3 +90,21 @@ def test_no_second_effect_from_the_lagged_speed_channel_alone() -> None:
     assert res.final.rms < 1.5 * FLOOR
     for a in res.added:
         assert a.rms_after < a.rms_before  # every added effect lowers the torque residual
+
+
+def test_joint_fit_frees_each_records_speed_sensor() -> None:
+    """Two records (15, 30 rpm) behind a 5 ms speed lag with a 2 ms frictional lag: the
+    joint fit frees each record's speed-sensor lag and offset with the shared effect
+    (held at the baselines, the lag came out 0.0012 s at 58 % instead of 97 % gain)."""
+    from tribo_estimation.core.discrepancy.joint import run_joint_discrepancy
+
+    speeds = (15.0, 30.0)
+    recs = [_record(s, ext=Extensions(lag_tau=0.002), speed_lag=0.005, seed=int(s))
+            for s in speeds]  # fmt: skip
+    st = SelectionSettings(max_effects=1, candidates=('frictional_lag', 'stribeck_shape'))
+    jr = run_joint_discrepancy(recs, CFG.rig, [DriveProfile(rpm(s), 0.0) for s in speeds],
+                               k=CFG.friction.k, settings=st)  # fmt: skip
+    assert jr.named == 'frictional_lag'
+    assert jr.params['lag_tau'] == pytest.approx(0.002, rel=0.05)
+    for rec in jr.per_record:
+        assert rec['final']['rms'] < 1.5 * FLOOR

@@ -5,9 +5,10 @@ that one record cannot: viscous friction from mu_inf, dwell-time stiction from m
 :class:`JointProblem` holds one :class:`.fitting.Problem` per record and stacks their
 weighted residual vectors; its parameter map has shared names (the candidate's
 parameters) and per-record names suffixed ``@i`` (``mu0@0``, ``mu_inf@1``: Equ. 8 per
-record; the drive profile and the speed-sensor model are each record's own and held
-fixed from its baseline). The solver is the project's bounded Levenberg-Marquardt
-(:func:`tribo_estimation.core.lsq.levenberg_marquardt`).
+record; the drive profile and the speed-sensor model are each record's own: the
+profile held from its baseline, the speed-sensor lag and offset, when the baseline
+freed them, free per record in every effect's fit). The solver is the project's
+bounded Levenberg-Marquardt (:func:`tribo_estimation.core.lsq.levenberg_marquardt`).
 
 :func:`run_joint_discrepancy`: the baseline of every record (:func:`.select.fit_baseline`),
 then one round of the selection on the joint fit: every candidate fitted jointly,
@@ -151,8 +152,24 @@ class JointProblem:
         return np.concatenate(parts).astype(np.int64)
 
     def specs(self, shared: Sequence[ParamSpec], each: Sequence[ParamSpec]) -> list[ParamSpec]:
-        """Parameter specs: ``each`` renamed per record (``@i``), then ``shared``."""
-        return [per_record(p, i) for i in range(self.n) for p in each] + list(shared)
+        """Return the parameter specs: per record (``@i``) ``each``, the free instrument, shared.
+
+        Each record's free instrument terms are those of its baseline
+        (:attr:`.fitting.Problem.free_instrument`).
+        """
+        own = [per_record(p, i) for i, pb in enumerate(self.problems) for p in pb.free_instrument]
+        return [per_record(p, i) for i in range(self.n) for p in each] + own + list(shared)
+
+    def instrument_start(self) -> dict[str, float]:
+        """Return the start values of the free instrument terms (``name@i``, SI).
+
+        Each record's baseline values (held in :attr:`fixed`).
+        """
+        return {
+            f'{p.name}@{i}': float(self.fixed[i][p.name])
+            for i, pb in enumerate(self.problems)
+            for p in pb.free_instrument
+        }
 
     def fit(
         self, specs: Sequence[ParamSpec], start: Mapping[str, float], *, max_nfev: int = 60
@@ -336,6 +353,9 @@ def run_joint_discrepancy(
     else:
         each, law = [MU0, MU_INF], []
         base_start = {f'{n}@{i}': b[n] for i, b in enumerate(bases) for n in ('mu0', 'mu_inf')}
+    # each record's instrument terms stay free in every effect's fit (as in the
+    # single-record workflow): they start from the record's baseline
+    base_start.update(jp.instrument_start())
     r0 = jp.residuals(base_start)
     base_cost = float(r0 @ r0)
     n_all = r0.size
