@@ -411,7 +411,10 @@ class Selector:
         ModelScore
             The scores.
         """
-        specs = specs_of(effects, self.pb.free_instrument)
+        # the held-out refits keep the instrument terms at ``values`` (as every first
+        # candidate fit does); the BIC counts them
+        specs = specs_of(effects)
+        n_params = len(specs_of(effects, self.pb.free_instrument))
         sim = self.pb.simulate(values)
         cost = self.pb.cost(sim)
         ne = n_eff(self.pb, None, self.st.corr_time)
@@ -437,8 +440,8 @@ class Selector:
             rms=self.pb.torque_rms(sim),
             cv_cost=cv_cost,
             cv_rms=cv_rms,
-            bic=bic(cost, ne, len(specs)),
-            n_params=len(specs),
+            bic=bic(cost, ne, n_params),
+            n_params=n_params,
             block_cost=tuple(float(x) for x in block_costs(self.pb, sim)),
         )
 
