@@ -54,7 +54,7 @@ from .layout import (
     Y_W1,
     Y_W2,
 )
-from .state import FloatTuple, with_entry
+from .state import FASTMATH, FloatTuple, with_entry
 
 FloatArray = NDArray[np.float64]
 
@@ -63,7 +63,7 @@ FloatArray = NDArray[np.float64]
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def drive_speed(p: FloatArray, t: float) -> float:
@@ -101,7 +101,7 @@ def drive_speed(p: FloatArray, t: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def drive_angle(p: FloatArray, t: float) -> float:
@@ -146,7 +146,7 @@ def drive_angle(p: FloatArray, t: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def friction_levels(p: FloatArray, t: float) -> tuple[float, float]:
@@ -170,7 +170,7 @@ def friction_levels(p: FloatArray, t: float) -> tuple[float, float]:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def friction_coefficient(p: FloatArray, t: float, v_abs: float, peak_passed: bool) -> float:
@@ -207,7 +207,7 @@ def friction_coefficient(p: FloatArray, t: float, v_abs: float, peak_passed: boo
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def static_coefficient(p: FloatArray, t: float, t_stick: float) -> float:
@@ -244,7 +244,7 @@ def static_coefficient(p: FloatArray, t: float, t_stick: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def bearing_moment(p: FloatArray, w1: float) -> float:
@@ -272,7 +272,7 @@ def bearing_moment(p: FloatArray, w1: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def chamber_moment(p: FloatArray, phi1: float, w1: float) -> float:
@@ -300,7 +300,7 @@ def chamber_moment(p: FloatArray, phi1: float, w1: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
@@ -351,7 +351,7 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def stick_moment(p: FloatArray, t: float, phi1: float, w: float, phi2: float) -> float:
@@ -388,7 +388,7 @@ def stick_moment(p: FloatArray, t: float, phi1: float, w: float, phi2: float) ->
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def slip_friction_moment(
@@ -430,7 +430,7 @@ def slip_friction_moment(
     cache=True,
     inline='always',
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
 )
 def effect_rates(
     p: FloatArray,
@@ -483,7 +483,7 @@ def effect_rates(
     cache=True,
     inline='always',
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
 )
 def breakaway_state(p: FloatArray, t: float, y: FloatTuple, mu_s: float) -> FloatTuple:
     """Return ``y`` with the effects' states re-initialised at a breakaway.
@@ -513,7 +513,7 @@ def breakaway_state(p: FloatArray, t: float, y: FloatTuple, mu_s: float) -> Floa
     cache=True,
     inline='always',
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
 )
 def derivatives(
     p: FloatArray,
@@ -574,7 +574,7 @@ def derivatives(
     return effect_rates(p, t, y, stuck, direction, peak_passed, d)
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def _derivatives_call(
     p: FloatArray,
     t: float,
@@ -587,7 +587,7 @@ def _derivatives_call(
     return derivatives(p, t, y, stuck, direction, peak_passed)
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def drive_speed_array(p: FloatArray, t: FloatArray) -> FloatArray:
     """Return :func:`drive_speed` at every time of ``t``.
 
@@ -609,7 +609,7 @@ def drive_speed_array(p: FloatArray, t: FloatArray) -> FloatArray:
     return out
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def drive_angle_array(p: FloatArray, t: FloatArray) -> FloatArray:
     """Return :func:`drive_angle` at every time of ``t``.
 
@@ -631,7 +631,7 @@ def drive_angle_array(p: FloatArray, t: FloatArray) -> FloatArray:
     return out
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def friction_coefficient_array(
     p: FloatArray, t: float, v_abs: FloatArray, peak_passed: bool
 ) -> FloatArray:

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from .equations import _derivatives_call, static_coefficient, stick_moment
 from .layout import P_FN, P_R, Y_PHI1, Y_PHI2, Y_W1, Y_W2
-from .state import FloatTuple
+from .state import FASTMATH, FloatTuple
 from .step import _rk4
 
 FloatArray = NDArray[np.float64]
@@ -33,7 +33,7 @@ EV_BREAKAWAY = 3
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
 )
 def _event_value(
     p: FloatArray,
@@ -56,7 +56,7 @@ def _event_value(
     return float(p[P_FN] * p[P_R] * static_coefficient(p, t, t_stick) - abs(ms))
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def _locate(
     p: FloatArray,
     which: int,

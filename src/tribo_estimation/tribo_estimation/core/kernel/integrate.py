@@ -45,7 +45,7 @@ from .layout import (
     Y_W1,
     Y_W2,
 )
-from .state import FloatTuple, from_state, to_state, with_entry
+from .state import FASTMATH, FloatTuple, from_state, to_state, with_entry
 from .step import STEP_RATE, _rk4, slip_rate
 
 FloatArray = NDArray[np.float64]
@@ -54,7 +54,7 @@ IntArray = NDArray[np.int64]
 _MAX_ZERO_EVENTS = 8
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def _stick_together(p: FloatArray, y: FloatTuple) -> FloatTuple:
     """Return ``y`` with both discs at their common, momentum-conserving speed [rad/s].
 
@@ -66,7 +66,7 @@ def _stick_together(p: FloatArray, y: FloatTuple) -> FloatTuple:
     return with_entry(with_entry(y, Y_W1, w), Y_W2, w)
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def integrate(
     p: FloatArray, s: FloatArray, n_out: int, dt: float, n_sub: int, out: FloatArray
 ) -> int:
@@ -96,7 +96,7 @@ def integrate(
     return integrate_logged(p, s, n_out, dt, n_sub, out, np.empty(0), np.empty(0, dtype=np.int64))
 
 
-@njit(cache=True, error_model='numpy', fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'})
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def integrate_logged(
     p: FloatArray,
     s: FloatArray,

@@ -26,7 +26,8 @@ from .layout import NY, Y_SLOTS, Y_ZERO
 FloatArray = NDArray[np.float64]
 FloatTuple = tuple[float, ...]
 
-_FASTMATH = {'contract', 'arcp', 'afn', 'reassoc', 'nsz'}
+#: The kernel's fast-math flags (every jitted kernel function uses these).
+FASTMATH = {'contract', 'arcp', 'afn', 'reassoc', 'nsz'}
 #: The kernel's fast-math flags without reassociation (sums in the written order).
 _FASTMATH_FIXED_ORDER = {'contract', 'arcp', 'afn', 'nsz'}
 
@@ -61,7 +62,7 @@ def _with_entry_numba(tup: object, j: object, value: object) -> object:
     return impl
 
 
-@njit(cache=True, error_model='numpy', fastmath=_FASTMATH)
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def from_state(s: FloatArray) -> FloatTuple:
     """Return the integrated state ``y`` read from the state vector ``s``.
 
@@ -81,7 +82,7 @@ def from_state(s: FloatArray) -> FloatTuple:
     return y
 
 
-@njit(cache=True, error_model='numpy', fastmath=_FASTMATH)
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def to_state(y: FloatTuple, s: FloatArray) -> None:
     """Write the integrated state ``y`` into its slots of the state vector ``s``.
 
@@ -96,7 +97,7 @@ def to_state(y: FloatTuple, s: FloatArray) -> None:
         s[Y_SLOTS[j]] = y[j]
 
 
-@njit(cache=True, error_model='numpy', fastmath=_FASTMATH)
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def axpy(y: FloatTuple, a: float, k: FloatTuple) -> FloatTuple:
     """Return ``y + a*k`` over the ``NY`` integrated entries (``k`` may be longer).
 

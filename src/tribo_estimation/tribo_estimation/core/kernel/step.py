@@ -31,7 +31,7 @@ from .layout import (
     P_SHAPE,
     P_VISC,
 )
-from .state import FloatTuple, axpy, rk4_combine
+from .state import FASTMATH, FloatTuple, axpy, rk4_combine
 
 FloatArray = NDArray[np.float64]
 
@@ -43,7 +43,7 @@ STEP_RATE = 0.15
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
     inline='always',
 )
 def slip_rate(p: FloatArray, t: float, v_abs: float, peak_passed: bool) -> float:
@@ -86,7 +86,7 @@ def slip_rate(p: FloatArray, t: float, v_abs: float, peak_passed: bool) -> float
 @njit(
     cache=True,
     error_model='numpy',
-    fastmath={'contract', 'arcp', 'afn', 'reassoc', 'nsz'},
+    fastmath=FASTMATH,
 )
 def _rk4(
     p: FloatArray,
