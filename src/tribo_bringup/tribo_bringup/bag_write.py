@@ -13,8 +13,8 @@ from pathlib import Path
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from tribo_bringup.bag_types import ROS_DISTRO, offered_qos, typestore
 from tribo_bringup.errors import BagError
+from tribo_common.bag_types import ROS_DISTRO, offered_qos, typestore
 
 
 class BagWriter:

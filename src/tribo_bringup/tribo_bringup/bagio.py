@@ -7,14 +7,14 @@ info`` opens on a full ROS install, and read back with rosbags.
 One job per module; this module is the facade that names them all
 (``from tribo_bringup import bagio``; ``bagio.iter_messages`` etc.):
 
-- :mod:`tribo_bringup.bag_types`: the type table (:data:`TRIBO_TYPES`,
+- :mod:`tribo_common.bag_types`: the type table (:data:`TRIBO_TYPES`,
   :data:`TOPIC_TYPES` and :data:`RIG_TOPICS` from :mod:`tribo_common.topics`, the
   offered QoS, the typestore with the tribo_msgs types registered from the ``.msg``
   files).
-- :mod:`tribo_bringup.bag_read`: reading (:func:`iter_messages`, :func:`bag_topics`,
+- :mod:`tribo_common.bag_read`: reading (:func:`iter_messages`, :func:`bag_topics`,
   :func:`rig_namespaces`, :func:`find_namespace`) and the stream checks
   (:func:`check_streams`, :func:`bag_summary`).
-- :mod:`tribo_bringup.bag_salvage`: tolerant raw scanners of cut-off MCAP and
+- :mod:`tribo_common.bag_salvage`: tolerant raw scanners of cut-off MCAP and
   sqlite3 files.
 - :mod:`tribo_bringup.bag_write`: :class:`BagWriter`.
 
@@ -22,7 +22,7 @@ Robustness:
 - A bag whose recording was cut off (no ``metadata.yaml``, or an MCAP file
   without its summary, or a file that ends in the middle of a record) is read
   up to the last complete message: every good message is yielded first, then
-  :class:`~tribo_bringup.errors.BagTruncatedError` names the file and the last
+  :class:`~tribo_common.errors.BagTruncatedError` names the file and the last
   good message (or, with ``on_error='warn'``, a warning is issued instead).
 - Connections of unknown message types are skipped with a warning.
 
@@ -39,7 +39,8 @@ with the QoS its publishers offer in the graph (``offered_qos_profiles``, so tha
 
 from __future__ import annotations
 
-from tribo_bringup.bag_read import (
+from tribo_bringup.bag_write import BagWriter
+from tribo_common.bag_read import (
     BagMessage,
     OnError,
     StreamCheck,
@@ -50,7 +51,7 @@ from tribo_bringup.bag_read import (
     iter_messages,
     rig_namespaces,
 )
-from tribo_bringup.bag_types import (
+from tribo_common.bag_types import (
     RIG_TOPICS,
     ROS_DISTRO,
     TOPIC_TYPES,
@@ -59,7 +60,6 @@ from tribo_bringup.bag_types import (
     offered_qos,
     typestore,
 )
-from tribo_bringup.bag_write import BagWriter
 
 __all__ = [
     'RIG_TOPICS',

@@ -3,7 +3,7 @@
 Each subcommand lives in :mod:`tribo_bringup.commands` as a module exposing
 ``register(subparsers)``; the module adds its parser and sets
 ``func=<callable(args) -> int>``. Bad input raised as one of the packages'
-specific errors (subclasses of ``EstimationError``, ``NvctError``,
+specific errors (subclasses of ``CommonError``, ``EstimationError``, ``NvctError``,
 ``DriverError``, ``BringupError``), a bad option value (argparse) or an
 ``OSError`` naming a file (missing input, unwritable ``--out``) is answered
 with one line on stderr and exit code 2; no traceback. Anything else is a bug:
@@ -46,6 +46,7 @@ def _error_types() -> tuple[type[BaseException], ...]:
     """Collect the packages' base error classes (each package has one errors.py)."""
     types: list[type[BaseException]] = []
     for mod_name, cls_name in (
+        ('tribo_common.errors', 'CommonError'),
         ('tribo_estimation.errors', 'EstimationError'),
         ('tribo_nvct.errors', 'NvctError'),
         ('tribo_drivers.errors', 'DriverError'),

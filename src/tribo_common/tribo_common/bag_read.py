@@ -1,7 +1,7 @@
 """Reading tribo sessions from rosbag2 bags (rosbags), tolerant of cut-off recordings.
 
 Every good message of a bag is yielded first; a truncated or corrupt bag then
-raises :class:`~tribo_bringup.errors.BagTruncatedError` naming the file and the last
+raises :class:`~tribo_common.errors.BagTruncatedError` naming the file and the last
 good message (or, with ``on_error='warn'``, warns). Connections of unknown message
 types are skipped with a warning. Also: the rigs (namespaces) of a bag and the
 continuity checks of its sample streams.
@@ -18,9 +18,9 @@ from typing import Any, Literal
 from rosbags.rosbag2 import Reader
 from rosbags.typesys.store import Typestore
 
-from tribo_bringup.bag_salvage import _CorruptError, _iter_raw_mcap, _iter_raw_sqlite, _sqlite_files
-from tribo_bringup.bag_types import RIG_TOPICS, typestore
-from tribo_bringup.errors import BagError, BagTruncatedError
+from tribo_common.bag_salvage import _CorruptError, _iter_raw_mcap, _iter_raw_sqlite, _sqlite_files
+from tribo_common.bag_types import RIG_TOPICS, typestore
+from tribo_common.errors import BagError, BagTruncatedError
 from tribo_common import topics as topic_table
 
 OnError = Literal['raise', 'warn']

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from rosbags.typesys.store import Typestore
 
-from tribo_bringup.errors import BagError
+from tribo_common.errors import BagError
 
 
 class _CorruptError(Exception):
