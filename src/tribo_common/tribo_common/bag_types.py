@@ -22,8 +22,8 @@ from rosbags.interfaces import (
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from tribo_common.errors import BagError
 from tribo_common import topics as topic_table
+from tribo_common.errors import BagError
 
 #: Message types of this project, by rosbags name.
 TRIBO_TYPES = ('SampleBlock', 'DetectorCounts', 'FrictionEstimate', 'WearState', 'ModelDiscrepancy')
