@@ -129,3 +129,41 @@ def test_tribo_run_ends_cleanly_on_double_sigint(tmp_path: Path, procs: list[Pro
     _assert_clean(run.output())
     assert 'run: recorded' in run.output()
     assert json.loads(state.read_text())['dwells']
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process so far [s] (Linux /proc)."""
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+@pytest.mark.parametrize('delay', [0.0, 0.3, 0.7])
+def test_busy_model_monitor_ends_cleanly_on_sigint(
+    tmp_path: Path, procs: list[Proc], delay: float
+) -> None:
+    """Ctrl-C of a launched graph while the monitor's worker evaluates a window: the
+    worker stops before the context is shut down (no publish on an invalid context,
+    no traceback, exit 0). A 1 s window every 0.1 s keeps the worker always busy."""
+    rig = _node('tribo_drivers.nodes.sim_rig', tmp_path, 'rig', **{'effects.viscous': 0.05})
+    mon = Proc(
+        [
+            sys.executable, '-m', 'tribo_estimation.nodes.model_monitor', '--ros-args',
+            '--params-file', str(ROOT / 'config' / 'model_monitor.yaml'),
+            '-p', 'window:=1.0', '-p', 'hop:=0.1', '-p', 'time_budget:=0.5',
+        ],
+        tmp_path / 'mon.log', env={'TRIBO_ROOT': str(ROOT)},
+    )  # fmt: skip
+    procs += [rig, mon]
+    assert wait_for(lambda: 'streaming started' in rig.output(), 120), rig.output()
+    # busy: the worker evaluates back to back once the first window is due
+    deadline = time.monotonic() + 60.0
+    busy = 0.0
+    while time.monotonic() < deadline and busy < 0.7:
+        c0 = _cpu_seconds(mon.popen.pid)
+        time.sleep(0.5)
+        busy = (_cpu_seconds(mon.popen.pid) - c0) / 0.5
+    assert busy >= 0.7, (busy, mon.output())
+    time.sleep(delay)
+    rc = _sigint_twice(mon)
+    assert rc == 0, mon.output()
+    _assert_clean(mon.output())

@@ -91,8 +91,14 @@ class Graph:
     _instances: list[Any] = field(default_factory=list, init=False)
 
     def init_ros(self, ros_args: Sequence[str] = ()) -> None:
-        """Initialise rclpy with the parameter files (no node created yet)."""
+        """Initialise rclpy with the parameter files (no node created yet).
+
+        rclpy's signal handlers are not installed: Ctrl-C raises KeyboardInterrupt
+        and the context stays valid until :meth:`close` has stopped the nodes'
+        threads.
+        """
         import rclpy
+        from rclpy.signals import SignalHandlerOptions
 
         args = ['tribo-run', '--ros-args']
         for f in self.params_files:
@@ -100,7 +106,7 @@ class Graph:
                 raise ConfigError(f'{f}: no such parameter file')
             args += ['--params-file', str(f)]
         args += list(ros_args)
-        rclpy.init(args=args)
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
     def add(self, name: str, overrides: Mapping[str, object] | None = None) -> Node:
         """Create node ``name`` (a key of :data:`NODES`) with its parameter overrides."""
@@ -160,9 +166,10 @@ class Graph:
             raise BringupError(f'the graph stopped: {spinner.error!r}') from spinner.error
 
     def close(self) -> None:
-        """Stop and destroy the nodes and shut rclpy down.
+        """Stop and destroy the nodes, then shut rclpy down.
 
-        A further Ctrl-C during the shutdown is ignored (it would cut short the
+        Each node's ``close`` stops its threads while the context is still valid. A
+        further Ctrl-C during the shutdown is ignored (it would cut short the
         recorder's last write or the wear monitor's state file).
         """
         import signal

@@ -1,7 +1,10 @@
-"""Start and stop a node the Jazzy way (``rclpy.init()`` returns None).
+"""Start and stop a node: the shared ``main`` of every tribo executable.
 
 Every tribo executable's ``main`` calls :func:`run_node` with a factory; a
-parameter error ends the process with one line on stderr and exit code 2.
+parameter error ends the process with one line on stderr and exit code 2. A
+node's threads stop before its context is shut down: :func:`run_node` calls the
+node's ``close`` first, and a worker thread publishes through a
+:class:`PublishGate` that ``close`` shuts.
 """
 
 from __future__ import annotations
@@ -9,19 +12,17 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Protocol, TypedDict
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import (
-    ExternalShutdownException,
-    MultiThreadedExecutor,
-    SingleThreadedExecutor,
-)
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import ok as rclpy_ok
 from rclpy.utilities import try_shutdown
 
@@ -53,61 +54,134 @@ class SpinsOnce(Protocol):
         """Run one callback or wait up to ``timeout_sec`` [s] for one."""
 
 
-class _SigintLatch:
-    """Python-level SIGINT handler under rclpy's: counts Ctrl-C, never raises.
+class Publishes(Protocol):
+    """An rclpy publisher as :class:`PublishGate` uses it."""
 
-    rclpy's own handler (installed by ``rclpy.init`` over this one and calling it)
-    shuts the context down, which ends the spin; this handler only keeps Python
-    from raising KeyboardInterrupt, so neither the first SIGINT nor a second one
-    (a terminal's Ctrl-C plus the SIGINT ``ros2 launch`` forwards) lands in the
-    middle of the shutdown (``close``, ``destroy_node``).
+    def publish(self, msg: object) -> None:
+        """Publish one message."""
+
+
+class PublishGate:
+    """Lets a node's worker thread publish only until the node closes.
+
+    :meth:`close` waits for a publish in progress and refuses every later one, so
+    nothing reaches rclpy once the node's ``close`` has returned, even while the
+    worker is still computing: :func:`run_node` and the graph runner shut the
+    context down only after ``close``.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._open = True
+
+    @contextmanager
+    def batch(self) -> Iterator[bool]:
+        """Hold the gate for several publishes: yields whether they may go out.
+
+        Yields
+        ------
+        bool
+            True while the gate is open; :meth:`close` waits for the batch to end.
+        """
+        with self._lock:
+            yield self._open
+
+    def publish(self, publisher: Publishes, msg: object) -> bool:
+        """Publish ``msg`` unless the gate is closed.
+
+        Parameters
+        ----------
+        publisher : Publishes
+            The rclpy publisher.
+        msg : object
+            The message.
+
+        Returns
+        -------
+        bool
+            True if published, False once the gate is closed.
+        """
+        with self.batch() as ok:
+            if ok:
+                publisher.publish(msg)
+            return ok
+
+    def close(self) -> None:
+        """Refuse every later publish (returns after a publish in progress)."""
+        with self._lock:
+            self._open = False
+
+
+class _StopRequest:
+    """Python-level handler of SIGINT and SIGTERM: asks the spin to end, never raises.
+
+    rclpy's own signal handlers are not installed (they shut the context down at
+    once, while the node's threads may still publish). The first signal ends the
+    spin; later ones (a terminal's Ctrl-C plus the SIGINT ``ros2 launch``
+    forwards, or its SIGTERM escalation) are counted and ignored, so none lands
+    in the middle of the shutdown (``close``, ``destroy_node``).
     """
 
     def __init__(self) -> None:
         self.count = 0
+        self.event = threading.Event()
 
     def __call__(self, signum: int, frame: object) -> None:
         self.count += 1
+        self.event.set()
 
 
-def run_node(
-    factory: Callable[[], Node], args: Sequence[str] | None = None, *, threads: int = 1
-) -> int:
-    """Create the node with ``factory`` and spin it until SIGINT / shutdown.
+#: Longest wait of one spin step [s]: how soon a signal ends the spin.
+SPIN_STEP_S = 0.1
 
-    ``threads`` > 1 uses a MultiThreadedExecutor; the default single-threaded
-    executor costs far less CPU per message in rclpy (the tribo nodes do heavy work
-    in their own threads, not in callbacks). Returns the process exit code (0, or 2
-    on a parameter/configuration error). Ctrl-C, once or repeatedly, ends the node
-    cleanly: its ``close`` (e.g. the wear monitor's last state write) always runs.
+#: Signals that stop a node (Ctrl-C; the SIGTERM of ``ros2 launch``'s escalation).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+    """Create the node with ``factory`` and spin it until SIGINT, SIGTERM or shutdown.
+
+    The node spins on a SingleThreadedExecutor (the tribo nodes do heavy work in
+    their own threads, not in callbacks). The stop order is fixed: the spin ends,
+    the node's ``close`` stops its threads (e.g. the wear monitor's last state
+    write, a worker's last publish), the node is destroyed, and only then is the
+    context shut down; a further SIGINT or SIGTERM meanwhile is ignored.
+
+    Parameters
+    ----------
+    factory : Callable[[], Node]
+        Builds the node (after ``rclpy.init``).
+    args : Sequence[str] or None
+        Command line (``sys.argv`` when None).
+
+    Returns
+    -------
+    int
+        The process exit code: 0, or 2 on a parameter or configuration error (one
+        line on stderr).
     """
-    latch = _SigintLatch()
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, latch)
-    rclpy.init(args=list(args) if args is not None else None)
+    stop = _StopRequest()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {sig: signal.signal(sig, stop) for sig in STOP_SIGNALS if main_thread}
+    rclpy.init(
+        args=list(args) if args is not None else None,
+        signal_handler_options=SignalHandlerOptions.NO,
+    )
     node: Node | None = None
     code = 0
     try:
         node = factory()
-        executor = (
-            MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
-        )
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
+        while not stop.event.is_set() and rclpy_ok():
+            executor.spin_once(timeout_sec=SPIN_STEP_S)
+    except ExternalShutdownException:
         pass
     except (ParameterError, ValueError, OSError) as exc:
-        if latch.count == 0:
+        if stop.count == 0:
             name = node.get_name() if node is not None else _node_name(args)
             print(f'{name}: error: {exc}', file=sys.stderr)
             code = 2
-    except Exception:
-        # SIGINT shuts the context down from rclpy's handler; a spin that was just
-        # building its wait set then fails with RCLError ("context is not valid")
-        # instead of ExternalShutdownException: that is the same clean stop.
-        if latch.count == 0 and rclpy_ok():
-            raise
     finally:
         if node is not None:
             close = getattr(node, 'close', None)
@@ -115,11 +189,11 @@ def run_node(
                 close()
             node.destroy_node()
         try_shutdown()
-        if previous is not None:
-            # after a Ctrl-C the process is ending: a further SIGINT, even during the
-            # interpreter's exit (which resets Python-level handlers to the default,
-            # but leaves an ignored signal ignored), must not kill it with -SIGINT
-            signal.signal(signal.SIGINT, signal.SIG_IGN if latch.count else previous)
+        for sig, handler in previous.items():
+            # after a stop signal the process is ending: a further one, even during the
+            # interpreter's exit (which resets Python-level handlers to the default, but
+            # leaves an ignored signal ignored), must not kill it
+            signal.signal(sig, signal.SIG_IGN if stop.count else handler)
     return code
 
 

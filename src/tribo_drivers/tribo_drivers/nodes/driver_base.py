@@ -21,7 +21,7 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
-from tribo_common.node_main import NodeOptions
+from tribo_common.node_main import NodeOptions, PublishGate
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, status_qos
 from tribo_drivers.core.diagnostics import DriverCounters, driver_status
@@ -57,6 +57,7 @@ class DriverNode(LifecycleNode, Generic[ItemT]):
         self.stream: DeviceStream[ItemT] | None = None
         self._thread: threading.Thread | None = None
         self._running = threading.Event()
+        self._gate = PublishGate()
         self._prev: DriverCounters | None = None
         self._diag_pub = self.create_publisher(
             DiagnosticArray, topics.DIAGNOSTICS.name, status_qos()
@@ -147,8 +148,12 @@ class DriverNode(LifecycleNode, Generic[ItemT]):
         return TransitionCallbackReturn.SUCCESS
 
     def close(self) -> None:
-        """Stop the reader and release the port (also called by run_node at exit)."""
+        """Stop the reader and release the port (run_node calls it before the shutdown).
+
+        Nothing is published after this returns.
+        """
         self._stop_reader()
+        self._gate.close()
         if self.stream is not None:
             self.stream.close()
 
@@ -161,18 +166,11 @@ class DriverNode(LifecycleNode, Generic[ItemT]):
             self._thread = None
 
     def _publish_or_stop(self, items: list[ItemT]) -> bool:
-        """Publish ``items``; return False once the context is shut down.
-
-        After a Ctrl-C while streaming the reader then ends quietly instead of
-        failing on an invalid publisher.
-        """
-        try:
-            self.publish_items(items)
-        except Exception:
-            if self.context.ok() and self._running.is_set():
-                raise
-            return False
-        return True
+        """Publish ``items``; return False once the node is closed."""
+        with self._gate.batch() as ok:
+            if ok:
+                self.publish_items(items)
+            return ok
 
     def _reader(self) -> None:
         stream = self.stream

@@ -32,7 +32,7 @@ from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
-from tribo_common.node_main import NodeOptions, run_node
+from tribo_common.node_main import NodeOptions, PublishGate, run_node
 from tribo_common.params import ParameterError, declare, declare_specs
 from tribo_common.qos import data_qos
 from tribo_drivers.nodes.specs import SIM_RIG_PARAMS
@@ -103,6 +103,7 @@ class SimRigNode(Node):
         self.index = 0
         self.pubs = [self.create_publisher(_msg_type(), t, data_qos()) for t, *_ in CHANNELS]
         self._stop = threading.Event()
+        self._gate = PublishGate()
         self.t_start_ns = 0
         self._thread = threading.Thread(target=self._loop, name='sim_rig', daemon=True)
         self._thread.start()
@@ -121,7 +122,7 @@ class SimRigNode(Node):
         return ', '.join(on) if on else 'none'
 
     def step(self) -> None:
-        """Simulate and publish the next block."""
+        """Simulate and publish the next block (nothing once the node is closed)."""
         res = simulate(
             self.rig,
             self.friction,
@@ -135,17 +136,20 @@ class SimRigNode(Node):
         )
         self.state = res.final_state
         stamp = self.t_start_ns + round(self.index * 1e9 / self.fs)
-        for pub, (_topic, channel, unit, field) in zip(self.pubs, CHANNELS, strict=True):
-            pub.publish(
-                make_sample_block(
-                    getattr(res, field),
-                    first_index=self.index,
-                    sample_rate=self.fs,
-                    stamp_ns=stamp,
-                    channel=channel,
-                    unit=unit,
+        with self._gate.batch() as ok:
+            if not ok:
+                return
+            for pub, (_topic, channel, unit, field) in zip(self.pubs, CHANNELS, strict=True):
+                pub.publish(
+                    make_sample_block(
+                        getattr(res, field),
+                        first_index=self.index,
+                        sample_rate=self.fs,
+                        stamp_ns=stamp,
+                        channel=channel,
+                        unit=unit,
+                    )
                 )
-            )
         self.index += self.block
 
     def _wait_for_subscribers(self) -> None:
@@ -197,15 +201,15 @@ class SimRigNode(Node):
             try:
                 self.step()
             except Exception as exc:  # keep the failure visible, stop cleanly
-                if self.context.ok() and not self._stop.is_set():
-                    self.get_logger().error(f'simulation stopped: {exc}')
-                return  # else: Ctrl-C shut the context down while publishing
+                self.get_logger().error(f'simulation stopped: {exc}')
+                return
 
     def close(self) -> None:
-        """Stop the simulation thread."""
+        """Stop the simulation thread; nothing is published after this returns."""
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout=2.0)
+        self._gate.close()
 
 
 def _msg_type() -> type:

@@ -26,7 +26,7 @@ from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import Block, make_sample_block, time_from_ns
-from tribo_common.node_main import NodeOptions, run_node
+from tribo_common.node_main import NodeOptions, PublishGate, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import data_qos, history_qos
 from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
@@ -81,6 +81,7 @@ class FrictionEstimatorNode(Node):
         self._pub_est = self.create_publisher(
             FrictionEstimate, topics.FRICTION_ESTIMATE.name, history_qos()
         )
+        self._gate = PublishGate()
         self._subs = subscribe_rig_streams(self, self._on_block)
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name='friction_fit', daemon=True)
@@ -158,14 +159,16 @@ class FrictionEstimatorNode(Node):
             except Exception as exc:  # keep a long test running; the block is reported lost
                 self.get_logger().error(f'block {blk.index}: fit crashed: {exc!r}')
                 continue
-            self._pub_est.publish(to_msg(res))
+            if not self._gate.publish(self._pub_est, to_msg(res)):
+                return
             self.published += 1
 
     def close(self) -> None:
-        """Stop the worker after the queued blocks."""
+        """Stop the worker after the block being fitted; nothing is published after this."""
         self._queue.put(None)
         self._stop.set()
         self._worker.join(timeout=5.0)
+        self._gate.close()
 
 
 def to_msg(r: BlockResult) -> FrictionEstimate:

@@ -30,7 +30,7 @@ from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import Block, float64_array, time_from_ns
-from tribo_common.node_main import NodeOptions, run_node
+from tribo_common.node_main import NodeOptions, PublishGate, run_node
 from tribo_common.params import ParameterError, declare_specs
 from tribo_common.qos import history_qos
 from tribo_common.rig_streams import RIG_INPUTS, require_contact, subscribe_rig_streams
@@ -55,6 +55,10 @@ TOPICS: dict[str, str] = RIG_INPUTS
 
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = MODEL_MONITOR_PARAMS
+
+#: Longest wait of :meth:`ModelMonitorNode.close` for the window being evaluated [s]
+#: (``ros2 launch`` escalates to SIGTERM 5 s after its SIGINT).
+CLOSE_WAIT_S = 2.0
 
 
 class ModelMonitorNode(Node):
@@ -94,6 +98,7 @@ class ModelMonitorNode(Node):
         self.skipped = 0
         self.published = 0
         self._pub = self.create_publisher(ModelDiscrepancy, OUTPUT_TOPIC, history_qos())
+        self._gate = PublishGate()
         self._subs = subscribe_rig_streams(self, self._on_block)
         self._worker = threading.Thread(target=self._work, name='model_monitor', daemon=True)
         self._worker.start()
@@ -174,15 +179,22 @@ class ModelMonitorNode(Node):
             except Exception as exc:  # keep a long test running; the window is reported lost
                 self.get_logger().error(f'window ending {w.time[-1]:.2f} s: crashed: {exc!r}')
                 continue
-            self._pub.publish(to_msg(res, offset))
+            if not self._gate.publish(self._pub, to_msg(res, offset)):
+                return
             self.published += 1
 
     def close(self) -> None:
-        """Stop the worker after the window being evaluated."""
+        """Stop the worker: the window being evaluated is published if it ends in time.
+
+        Nothing is published after this returns (the worker publishes through a
+        :class:`~tribo_common.node_main.PublishGate`), so the context may be shut down
+        next even while an evaluation still runs.
+        """
         with self._cond:
             self._closing = True
             self._cond.notify()
-        self._worker.join(timeout=10.0)
+        self._worker.join(timeout=CLOSE_WAIT_S)
+        self._gate.close()
 
 
 def to_msg(r: WindowResult, offset: float = 0.0) -> ModelDiscrepancy:
