@@ -17,11 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tribo_estimation.core import kernel as kn
-from tribo_estimation.core.measurement import (
-    apply_measurement_transforms,
-    sensor_lag,
-    sensor_offset,
-)
+from tribo_estimation.core.measurement import apply_measurement_transforms
 from tribo_estimation.core.model import (
     DriveProfile,
     Extensions,
@@ -30,18 +26,8 @@ from tribo_estimation.core.model import (
     RigState,
     pack_params,
 )
+from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import InvalidParameterError, SimulationError
-
-#: Re-exported from :mod:`tribo_estimation.core.measurement` (old import path).
-__all__ = [
-    'NoiseSpec',
-    'SimResult',
-    'free_decay_state',
-    'sensor_lag',
-    'sensor_offset',
-    'simulate',
-    'simulate_free_decay',
-]
 
 
 @dataclass(frozen=True)
@@ -63,12 +49,13 @@ class NoiseSpec:
                 raise InvalidParameterError(f'NoiseSpec.{name} must be >= 0, got {val!r}')
 
 
-@dataclass(frozen=True)
-class SimResult:
-    """Simulated rig record (arrays of equal length, one entry per output sample).
+@dataclass(frozen=True, eq=False, kw_only=True)
+class SimResult(RigRecord):
+    """Simulated rig record: the measured channels of a :class:`RigRecord` plus the truth.
 
-    Measured channels: ``time`` [s], ``torsion_moment`` [N m], ``angular_acceleration``
-    [rad/s^2], ``speed`` (shaft, w2) [rad/s]. Truth (noise-free): ``friction_moment`` M
+    Measured channels (:class:`~tribo_estimation.core.record.RigRecord`): ``time``
+    [s], ``torsion_moment`` [N m], ``angular_acceleration`` [rad/s^2], ``speed``
+    (shaft, w2) [rad/s], ``fs`` [Hz]. Truth (noise-free): ``friction_moment`` M
     [N m], ``slip_speed`` v = w2 - w1 [rad/s], ``stick`` (bool), ``chamber_speed`` w1
     [rad/s]. ``final_state`` is the state at ``time[-1] + 1/fs`` (start of the next
     chunk); ``n_events`` the number of located switching events, ``event_times`` [s]
@@ -76,19 +63,15 @@ class SimResult:
     = slip ended without sticking, i.e. reversal).
     """
 
-    time: np.ndarray
-    torsion_moment: np.ndarray
-    angular_acceleration: np.ndarray
-    speed: np.ndarray
     friction_moment: np.ndarray
     slip_speed: np.ndarray
     stick: np.ndarray
     chamber_speed: np.ndarray
     final_state: RigState
     n_events: int
-    fs: float
     event_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     event_kinds: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    source: str = 'simulation'
 
 
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
