@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_estimation.core.model import Extensions
-from tribo_estimation.errors import InvalidDataError, TooShortError
+from tribo_estimation.core.record import RigRecord
 
 from ..candidates import ParamSpec
 from ..stats import FloatArray, IntArray
@@ -52,87 +52,9 @@ INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET)
 INSTRUMENT_FIELDS: frozenset[str] = frozenset(p.name for p in INSTRUMENT)
 
 
-@dataclass(frozen=True)
-class Record:
-    """A measured rig record on a uniform time base.
-
-    Parameters
-    ----------
-    time : FloatArray
-        Sample times [s], strictly increasing and uniform within 1 %.
-    torsion_moment : FloatArray
-        Torsion moment C1*phi1 [N m].
-    angular_acceleration : FloatArray
-        Angular acceleration of the chamber [rad/s^2].
-    speed : FloatArray
-        Shaft speed w2 [rad/s].
-
-    Raises
-    ------
-    InvalidDataError
-        A column of the wrong shape or with a non-finite value, or a time base
-        that is not strictly increasing and uniform.
-    TooShortError
-        Fewer than 100 samples.
-    """
-
-    time: FloatArray
-    torsion_moment: FloatArray
-    angular_acceleration: FloatArray
-    speed: FloatArray
-
-    def __post_init__(self) -> None:
-        """Check the columns' shapes, finiteness and the uniform time base."""
-        n = self.time.size
-        for name in ('time', 'torsion_moment', 'angular_acceleration', 'speed'):
-            a = getattr(self, name)
-            if a.ndim != 1 or a.size != n:
-                raise InvalidDataError(
-                    f'record column {name!r} has shape {a.shape}, expected ({n},)'
-                )
-            bad = np.flatnonzero(~np.isfinite(a))
-            if bad.size:
-                raise InvalidDataError(
-                    f'record column {name!r} has a non-finite value at sample {int(bad[0])}'
-                )
-        if n < 100:
-            raise TooShortError(f'record has {n} samples; the discrepancy fit needs >= 100')
-        dt = np.diff(self.time)
-        if np.any(dt <= 0):
-            i = int(np.flatnonzero(dt <= 0)[0]) + 1
-            raise InvalidDataError(f'record time is not strictly increasing at sample {i}')
-        med = float(np.median(dt))
-        if np.max(np.abs(dt - med)) > 0.01 * med:
-            i = int(np.argmax(np.abs(dt - med))) + 1
-            raise InvalidDataError(
-                f'record is not uniformly sampled (step {dt[i - 1]:.3g} s at sample {i}, '
-                f'median {med:.3g} s); resample it first'
-            )
-
-    @property
-    def dt(self) -> float:
-        """Sample interval [s]."""
-        return float((self.time[-1] - self.time[0]) / (self.time.size - 1))
-
-    @property
-    def fs(self) -> float:
-        """Sample rate [Hz]."""
-        return 1.0 / self.dt
-
-    def channel(self, name: str) -> FloatArray:
-        """Return a measured column by name.
-
-        Parameters
-        ----------
-        name : str
-            Field name of the column (e.g. ``'torsion_moment'``).
-
-        Returns
-        -------
-        FloatArray
-            The column in its unit.
-        """
-        return np.asarray(getattr(self, name), dtype=np.float64)
+#: The measured record: the package's one record type
+#: (:class:`~tribo_estimation.core.record.RigRecord`).
+Record = RigRecord
 
 
 @dataclass(frozen=True)
