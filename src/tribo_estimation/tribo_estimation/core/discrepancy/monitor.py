@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tribo_estimation.core.model import DriveProfile, RigParams
+from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import EstimationError, InvalidDataError, InvalidParameterError
 
 from . import candidates as cand_lib
@@ -183,14 +184,8 @@ class WindowResult:
     ranking: tuple[tuple[str, float], ...] = field(default=())
 
 
-@dataclass(frozen=True)
-class WindowData:
-    """The samples of one window, ready to evaluate (a copy; see :meth:`WindowMonitor.add`)."""
-
-    time: FloatArray
-    torsion_moment: FloatArray
-    angular_acceleration: FloatArray
-    speed: FloatArray
+#: The samples of one window, ready to evaluate (a copy; see :meth:`WindowMonitor.add`).
+WindowData = RigRecord
 
 
 # --------------------------------------------------------------------------- localisation
@@ -404,7 +399,8 @@ class WindowMonitor:
             j0 = j1 - n_win
             if j0 >= 0:
                 arrs = [np.concatenate([c[i] for c in self._chunks])[j0:j1] for i in range(1, 4)]
-                out.append(WindowData(tt[j0:j1].copy(), *(a.copy() for a in arrs)))
+                tq, ac, sp = (a.copy() for a in arrs)
+                out.append(WindowData(tt[j0:j1].copy(), tq, ac, sp))
         # trim what no future window needs: chunks that end before the next window
         # starts (a window may end inside the newest chunk: trimming by the newest
         # sample would drop the start of the window due now)
