@@ -184,7 +184,17 @@ def test_campaign_figure_from_dirs_and_yaml(tmp_path: Path) -> None:
     fig = tmp_path / 'campaign.png'
     assert (
         cli.main(
-            ['campaign', str(out), str(out), '--labels', '10 rpm', '30 rpm', '--out', str(fig)]
+            [
+                'campaign',
+                'plot',
+                str(out),
+                str(out),
+                '--labels',
+                '10 rpm',
+                '30 rpm',
+                '--out',
+                str(fig),
+            ]
         )
         == 0
     )
@@ -196,14 +206,23 @@ def test_campaign_figure_from_dirs_and_yaml(tmp_path: Path) -> None:
         f'  - {{dir: {out}, label: 30 rpm, group: oil B}}\n'
     )
     fig2 = tmp_path / 'c2.png'
-    assert cli.main(['campaign', '--spec', str(spec), '--out', str(fig2)]) == 0
+    assert cli.main(['campaign', 'plot', '--spec', str(spec), '--out', str(fig2)]) == 0
     assert fig2.stat().st_size > 10_000
 
 
 def test_campaign_label_count_mismatch(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert (
         cli.main(
-            ['campaign', str(tmp_path), '--labels', 'a', 'b', '--out', str(tmp_path / 'f.png')]
+            [
+                'campaign',
+                'plot',
+                str(tmp_path),
+                '--labels',
+                'a',
+                'b',
+                '--out',
+                str(tmp_path / 'f.png'),
+            ]
         )
         == 2
     )

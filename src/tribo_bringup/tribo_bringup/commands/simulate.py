@@ -1,11 +1,15 @@
-"""``tribo simulate``: simulate the stick-slip rig (paper 2.3-2.4) and write a rig CSV.
+"""``tribo simulate``: simulate the stick-slip rig (paper 2.3-2.4) and write a rig CSV or a bag.
 
     tribo simulate --rig RIG.yaml --duration S [--fs HZ] [--noise] [--seed N] --out FILE.csv
+    tribo simulate --rig RIG.yaml --duration S [--noise] --out SESSION.mcap   (or a bag folder)
     tribo simulate --rig RIG.yaml --free-decay --phi0 RAD --duration S [--noise] --out FILE.csv
 
 The CSV has the rig columns ``time,torsion_moment,angular_acceleration,speed``
 (s, N m, rad/s^2, rad/s) followed by the truth ``friction_moment,slip_speed,stick``;
-the rig parameters are written as ``# key: value`` comments. Long runs are
+the rig parameters are written as ``# key: value`` comments. An ``--out`` that
+does not end in ``.csv`` is a bag (``.mcap``: one MCAP file; else a rosbag2
+folder) with the three ``rig/*`` SampleBlock streams as recorded from the rig
+(:class:`tribo_bringup.rig_bag.RigBagWriter`; no truth). Long runs are
 simulated and written in 1 s chunks (seamless continuation of the state).
 """
 
@@ -33,7 +37,7 @@ def register(sub: Subparsers) -> None:
     """Add the ``simulate`` subcommand."""
     p = sub.add_parser(
         'simulate',
-        help='simulate the stick-slip rig and write a rig CSV',
+        help='simulate the stick-slip rig and write a rig CSV or a bag',
         description='Simulate the 2-DOF disc-on-disc stick-slip rig (paper Equ. 1-3, 6, 8, '
         'event-accurate stick/slip switching) and write the sensor signals (torsion moment, '
         'chamber acceleration, shaft speed) plus the truth (friction moment, slip speed, stick '
@@ -88,7 +92,13 @@ def register(sub: Subparsers) -> None:
         metavar='RAD',
         help='initial chamber deflection for --free-decay [rad] (0.01)',
     )
-    p.add_argument('--out', required=True, metavar='FILE.csv', help='output rig CSV')
+    p.add_argument(
+        '--out',
+        required=True,
+        metavar='FILE.csv|BAG',
+        help='output rig CSV (.csv), MCAP file (.mcap) or rosbag2 folder (anything else; '
+        'must not exist)',
+    )
     p.set_defaults(func=run)
 
 
@@ -145,6 +155,26 @@ def run(args: argparse.Namespace) -> int:
     chunk = max(1, round(CHUNK_S * args.fs))
     done = 0
     state = initial
+    if Path(args.out).suffix.lower() != '.csv':
+        from tribo_bringup.rig_bag import RigBagWriter
+
+        bag = RigBagWriter(args.out, args.fs)
+        try:
+            while done < n_total:
+                n = min(chunk, n_total - done)
+                r = simulate(
+                    rig, friction, drive, n / args.fs, args.fs,
+                    initial=state, extensions=ext, noise=noise, seed=rng,
+                )  # fmt: skip
+                state = r.final_state
+                bag.write(r.torsion_moment, r.angular_acceleration, r.speed)
+                done += n
+        except BaseException:
+            bag.abort()
+            raise
+        bag.close()
+        print(f'wrote {n_total} samples ({args.duration:g} s at {args.fs:g} Hz) to {args.out}')
+        return 0
     with (
         atomic_output_file(args.out) as tmp,
         RigCsvWriter(tmp, ('friction_moment', 'slip_speed', 'stick'), meta) as w,
