@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from tribo_common import nodes
+
 ROOT = Path(__file__).resolve().parents[1]
 INSTALL = ROOT / 'install'
 PACKAGES = (
@@ -20,16 +22,13 @@ PACKAGES = (
 )
 
 
-def console_scripts(pkg: str) -> list[str]:
-    """Executable names declared in a package's setup.py."""
-    tree = ast.parse((ROOT / 'src' / pkg / 'setup.py').read_text())
-    names: list[str] = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and ' = ' in node.value:
-            name, target = node.value.split(' = ', 1)
-            if ':' in target:
-                names.append(name.strip())
-    return names
+def console_scripts(pkg: str) -> dict[str, str]:
+    """Executable name -> ``module:function`` of a package: its node table rows, and the
+    ``tribo`` CLI of tribo_bringup (the one console script that is not a node)."""
+    scripts = dict(line.split(' = ', 1) for line in nodes.console_scripts(pkg))
+    if pkg == 'tribo_bringup':
+        scripts['tribo'] = 'tribo_bringup.cli:main'
+    return scripts
 
 
 pytestmark = pytest.mark.skipif(not INSTALL.is_dir(), reason='workspace not built (make setup)')
@@ -42,40 +41,50 @@ def test_ament_index_marker(pkg: str) -> None:
     assert (INSTALL / pkg / 'share' / pkg / 'package.xml').is_file()
 
 
-EXPECTED = {
-    'tribo_drivers': {'sim_rig', 'sim_detector', 'daq_driver', 'counter_driver', 'can_driver'},
-    'tribo_estimation': {'friction_estimator', 'model_monitor'},
-    'tribo_nvct': {'wear_monitor'},
-    'tribo_bringup': {'tribo', 'live_bridge'},
-}
+#: Every package that installs executables: the node table's packages and the CLI's.
+EXEC_PACKAGES = sorted({n.package for n in nodes.NODES} | {'tribo_bringup'})
 
 
-@pytest.mark.parametrize('pkg', sorted(EXPECTED))
+def test_setup_py_takes_its_console_scripts_from_the_node_table() -> None:
+    for pkg in EXEC_PACKAGES:
+        text = (ROOT / 'src' / pkg / 'setup.py').read_text()
+        assert 'console_scripts(PACKAGE)' in text, pkg
+    assert len(nodes.BY_NAME) == len(nodes.NODES), 'node names must be unique'
+
+
+@pytest.mark.parametrize('pkg', EXEC_PACKAGES)
 def test_executables_in_lib_pkg(pkg: str) -> None:
-    declared = set(console_scripts(pkg))
-    assert EXPECTED[pkg] <= declared, f'{pkg}: setup.py lacks {EXPECTED[pkg] - declared}'
+    declared = console_scripts(pkg)
+    assert declared, pkg
     for exe in sorted(declared):
         path = INSTALL / pkg / 'lib' / pkg / exe
         assert path.is_file(), f'{path} missing (ros2 run {pkg} {exe} would fail)'
         assert os.access(path, os.X_OK), f'{path} is not executable'
+    # the installed scripts run the table's module:function (the built entry points)
+    assert _built_entry_points(pkg) == declared
 
 
-@pytest.mark.parametrize('pkg', sorted(EXPECTED))
+def _built_entry_points(pkg: str) -> dict[str, str]:
+    """The console scripts of the built distribution of ``pkg`` (what `ros2 run` loads)."""
+    import importlib.metadata
+
+    where = [str(p) for p in (INSTALL / pkg / 'lib').glob('python3*/site-packages')]
+    where.append(str(ROOT / 'build' / pkg))  # --symlink-install: the egg-info of the build
+    for dist in importlib.metadata.distributions(path=where):
+        if dist.metadata['Name'].replace('-', '_') == pkg:
+            return {e.name: e.value for e in dist.entry_points if e.group == 'console_scripts'}
+    raise AssertionError(f'{pkg}: no built distribution in {where}')
+
+
+@pytest.mark.parametrize('pkg', EXEC_PACKAGES)
 def test_entry_points_resolve(pkg: str) -> None:
     """Each console script's target module exists and defines main()."""
-    tree = ast.parse((ROOT / 'src' / pkg / 'setup.py').read_text())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and ' = ' in node.value:
-            _, target = node.value.split(' = ', 1)
-            if ':' not in target:
-                continue
-            module, func = target.split(':')
-            src = ROOT / 'src' / pkg / (module.replace('.', '/') + '.py')
-            assert src.is_file(), f'{target}: {src} missing'
-            defs = {
-                n.name for n in ast.parse(src.read_text()).body if isinstance(n, ast.FunctionDef)
-            }
-            assert func in defs, f'{target}: no function {func}() in {src}'
+    for target in console_scripts(pkg).values():
+        module, func = target.split(':')
+        src = ROOT / 'src' / pkg / (module.replace('.', '/') + '.py')
+        assert src.is_file(), f'{target}: {src} missing'
+        defs = {n.name for n in ast.parse(src.read_text()).body if isinstance(n, ast.FunctionDef)}
+        assert func in defs, f'{target}: no function {func}() in {src}'
 
 
 def test_messages_built() -> None:
@@ -90,9 +99,10 @@ def test_messages_built() -> None:
         assert (share / f'{name}.msg').is_file(), f'{name}.msg not installed'
 
 
-#: Modules of tribo_common that import no rclpy: the cores may use them (one parameter
-#: spec, one YAML loader, one topic table, ROS_HOME); the rest of tribo_common is rclpy.
-RCLPY_FREE_COMMON = ('paramspec', 'yamlio', 'topics', 'rosenv')
+#: Modules of tribo_common that import no rclpy: the cores and the packages' setup.py may
+#: use them (one parameter spec, one YAML loader, one topic table, one node table,
+#: ROS_HOME); the rest of tribo_common is rclpy.
+RCLPY_FREE_COMMON = ('paramspec', 'yamlio', 'topics', 'nodes', 'rosenv')
 
 
 def _imports(py: Path) -> list[str]:

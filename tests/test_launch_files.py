@@ -14,6 +14,8 @@ from typing import Any, ClassVar
 
 import pytest
 
+from tribo_common.nodes import BY_NAME, launched_by
+
 LAUNCH = Path(__file__).resolve().parents[1] / 'src' / 'tribo_bringup' / 'launch'
 
 
@@ -100,13 +102,11 @@ def test_sim_launch_defaults_start_a_fresh_test_in_the_root_namespace(
 ) -> None:
     acts = _actions('sim.launch.py', monkeypatch)
     nodes = {a.kwargs['name']: a for a in acts if type(a).__name__ == 'Node'}
-    assert set(nodes) == {
-        'sim_rig',
-        'sim_detector',
-        'friction_estimator',
-        'model_monitor',
-        'wear_monitor',
-    }
+    # the node table's 'sim' rows, simulators included, none of them a lifecycle node
+    assert set(nodes) == {n.name for n in launched_by('sim')}
+    assert {'sim_rig', 'sim_detector', 'model_monitor'} <= set(nodes)
+    for name, a in nodes.items():
+        assert (a.kwargs['package'], a.kwargs['executable']) == (BY_NAME[name].package, name)
     assert all(a.kwargs['namespace'] == '' for a in nodes.values())
     wear = _params(nodes['wear_monitor'])
     assert wear['fresh_start'] is True and 'state_file' not in wear
@@ -133,8 +133,12 @@ def test_sim_launch_namespace_resume_and_record(monkeypatch: pytest.MonkeyPatch)
 
 def test_hardware_launch_resumes_by_default(monkeypatch: pytest.MonkeyPatch) -> None:
     acts = _actions('hardware.launch.py', monkeypatch, namespace='/rigA/')
-    kinds = sorted(type(a).__name__ for a in acts)
-    assert kinds == ['LifecycleNode'] * 3 + ['Node'] * 2
+    kinds = {a.kwargs['name']: type(a).__name__ for a in acts}
+    # the drivers are lifecycle nodes, as the node table says; no simulator
+    assert kinds == {
+        n.name: 'LifecycleNode' if n.lifecycle else 'Node' for n in launched_by('hardware')
+    }
+    assert sorted(kinds.values()) == ['LifecycleNode'] * 3 + ['Node'] * 2
     assert all(a.kwargs['namespace'] == '/rigA' for a in acts)
     (wear,) = [a for a in acts if a.kwargs['name'] == 'wear_monitor']
     assert _params(wear)['fresh_start'] is False

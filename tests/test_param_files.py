@@ -7,7 +7,6 @@ silently ignored by ROS), and every file a launch file passes exists.
 
 from __future__ import annotations
 
-import importlib
 import re
 from pathlib import Path
 from typing import Any
@@ -16,19 +15,13 @@ import pytest
 import yaml
 
 from conftest import requires_ros
+from tribo_common import nodes
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 LAUNCH = Path(__file__).resolve().parents[1] / 'src' / 'tribo_bringup' / 'launch'
 
-NODE_CLASSES = {
-    'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
-    'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
-    'model_monitor': ('tribo_estimation.nodes.model_monitor', 'ModelMonitorNode'),
-    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
-    'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
-    'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),
-    'counter_driver': ('tribo_drivers.nodes.counter_driver', 'CounterDriver'),
-}
+#: Nodes with a ROS parameter file in config/ (the node table's ``config``).
+WITH_FILE = {n.name: n for n in nodes.NODES if n.config}
 
 
 def _param_files() -> list[tuple[Path, str, dict[str, Any]]]:
@@ -45,17 +38,17 @@ def _param_files() -> list[tuple[Path, str, dict[str, Any]]]:
 
 
 def test_launch_files_name_existing_config_files() -> None:
-    named = set()
+    named = {n.config for n in nodes.NODES if n.config and n.launch}
     for launch in LAUNCH.glob('*.launch.py'):
         named |= set(re.findall(r"params\('([^']+)'\)", launch.read_text()))
-    assert named, 'no params(...) found in the launch files'
+    assert named, 'no parameter files named by the node table or the launch files'
     missing = sorted(n for n in named if not (CONFIG / n).is_file())
     assert not missing, missing
 
 
 def test_every_node_params_file_is_checked() -> None:
-    nodes = {node for _, node, _ in _param_files()}
-    assert nodes == set(NODE_CLASSES), nodes ^ set(NODE_CLASSES)
+    found = {(path.name, node) for path, node, _ in _param_files()}
+    assert found == {(n.config, name) for name, n in WITH_FILE.items()}
 
 
 @requires_ros
@@ -67,8 +60,7 @@ def test_params_file_keys_are_declared(path: Path, node_name: str, params: dict[
     import rclpy
     from rclpy.parameter import Parameter
 
-    module, cls_name = NODE_CLASSES[node_name]
-    cls = getattr(importlib.import_module(module), cls_name)
+    cls = WITH_FILE[node_name].node_class()
     values = dict(params)
     if node_name == 'wear_monitor':
         values['nvct_config'] = str(CONFIG / 'nvct.yaml')  # relative to the workspace root

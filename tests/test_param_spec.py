@@ -7,7 +7,6 @@ the loader validates with them, ``docs/parameters.md`` is rendered from them.
 
 from __future__ import annotations
 
-import importlib
 import math
 import re
 from pathlib import Path
@@ -18,6 +17,7 @@ import yaml
 
 from conftest import requires_ros
 from tribo_bringup.paramdocs import NODE_PARAMS, render
+from tribo_common import nodes
 from tribo_common.paramspec import ParamSpec, SpecError
 from tribo_estimation.core import config as rig_config
 from tribo_estimation.core.model import RigParams
@@ -26,18 +26,6 @@ from tribo_estimation.errors import InvalidParameterError
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / 'config'
-
-NODE_CLASSES = {
-    'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
-    'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
-    'model_monitor': ('tribo_estimation.nodes.model_monitor', 'ModelMonitorNode'),
-    'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
-    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
-    'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetector'),
-    'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
-    'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),
-    'counter_driver': ('tribo_drivers.nodes.counter_driver', 'CounterDriver'),
-}
 
 #: Values a test start needs (no device opened, any free port, required files).
 OVERRIDES: dict[str, dict[str, Any]] = {
@@ -57,8 +45,20 @@ def _bounds(s: ParamSpec) -> tuple[Any, ...]:
     return (s.unit, s.default, s.lower, s.upper, s.type, s.read_only)
 
 
-def test_every_node_with_rig_parameters_is_specified() -> None:
-    assert set(NODE_PARAMS) == set(NODE_CLASSES)
+def test_every_node_module_is_in_the_node_table() -> None:
+    """A node module with a main() (an executable) is a row of the node table, and every
+    row names an existing module with that main() and class."""
+    found = set()
+    for py in ROOT.glob('src/*/*/nodes/*.py'):
+        text = py.read_text()
+        if re.search(r'^def main\(', text, re.M):
+            found.add('.'.join(py.relative_to(py.parents[2]).with_suffix('').parts))
+    table = {n.module for n in nodes.NODES}
+    assert found == table, found ^ table
+    for n in nodes.NODES:
+        src = ROOT / 'src' / n.package / (n.module.replace('.', '/') + '.py')
+        assert f'class {n.class_name}(' in src.read_text(), n.name
+    assert set(NODE_PARAMS) == set(nodes.BY_NAME)
 
 
 @pytest.mark.parametrize('node', sorted(NODE_PARAMS))
@@ -142,9 +142,10 @@ def test_param_files_validate_against_the_spec(
             assert value == RIG_SPEC[key].default, f'{file}: {key} = {value} is not Tab. 1'
 
 
-def test_param_files_cover_every_spec_node_but_the_bridge() -> None:
+def test_param_files_are_those_of_the_node_table() -> None:
     # sim_detector.yaml is the simulator's own file, not a ROS parameter file
-    assert {n for _, n, _ in _param_files()} == set(NODE_PARAMS) - {'live_bridge', 'sim_detector'}
+    found = {(file, n) for file, n, _ in _param_files()}
+    assert found == {(n.config, n.name) for n in nodes.NODES if n.config}
 
 
 @pytest.mark.parametrize('path', sorted(CONFIG.glob('rig*.yaml')), ids=lambda p: p.name)
@@ -183,13 +184,12 @@ def test_parameter_docs_are_current() -> None:
 
 @requires_ros
 @pytest.mark.ros
-@pytest.mark.parametrize('node_name', sorted(NODE_CLASSES))
+@pytest.mark.parametrize('node_name', sorted(nodes.BY_NAME))
 def test_declared_parameters_come_from_the_spec(node_name: str) -> None:
     import rclpy
     from rclpy.parameter import Parameter
 
-    module, cls_name = NODE_CLASSES[node_name]
-    cls = getattr(importlib.import_module(module), cls_name)
+    cls = nodes.BY_NAME[node_name].node_class()
     specs = {s.name: s for s in NODE_PARAMS[node_name]}
     over = OVERRIDES.get(node_name, {})
     context = rclpy.Context()

@@ -1,8 +1,15 @@
 """ament_python package shell for tribo_bringup (console scripts go to lib/tribo_bringup)."""
 
+import sys
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
+
+# the node table (tribo_common.nodes, no rclpy): from the source tree while colcon builds
+# the workspace, else from an installed tribo_common
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tribo_common'))
+from tribo_common.nodes import console_scripts
 
 PACKAGE = 'tribo_bringup'
 
@@ -25,9 +32,6 @@ setup(
     description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [
-            'tribo = tribo_bringup.cli:main',
-            'live_bridge = tribo_bringup.nodes.live_bridge:main',
-        ],
+        'console_scripts': ['tribo = tribo_bringup.cli:main', *console_scripts(PACKAGE)],
     },
 )

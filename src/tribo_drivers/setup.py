@@ -1,8 +1,15 @@
 """ament_python package shell for tribo_drivers (console scripts go to lib/tribo_drivers)."""
 
+import sys
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
+
+# the node table (tribo_common.nodes, no rclpy): from the source tree while colcon builds
+# the workspace, else from an installed tribo_common
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tribo_common'))
+from tribo_common.nodes import console_scripts
 
 PACKAGE = 'tribo_drivers'
 
@@ -21,13 +28,5 @@ setup(
     maintainer_email='tribo@example.org',
     description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
-    entry_points={
-        'console_scripts': [
-            'sim_rig = tribo_drivers.nodes.sim_rig:main',
-            'sim_detector = tribo_drivers.nodes.sim_detector:main',
-            'daq_driver = tribo_drivers.nodes.daq_driver:main',
-            'counter_driver = tribo_drivers.nodes.counter_driver:main',
-            'can_driver = tribo_drivers.nodes.can_driver:main',
-        ],
-    },
+    entry_points={'console_scripts': console_scripts(PACKAGE)},
 )

@@ -1,8 +1,15 @@
 """ament_python package shell for tribo_estimation (console scripts go to lib/tribo_estimation)."""
 
+import sys
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
+
+# the node table (tribo_common.nodes, no rclpy): from the source tree while colcon builds
+# the workspace, else from an installed tribo_common
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tribo_common'))
+from tribo_common.nodes import console_scripts
 
 PACKAGE = 'tribo_estimation'
 
@@ -21,10 +28,5 @@ setup(
     maintainer_email='tribo@example.org',
     description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
-    entry_points={
-        'console_scripts': [
-            'friction_estimator = tribo_estimation.nodes.friction_estimator:main',
-            'model_monitor = tribo_estimation.nodes.model_monitor:main',
-        ],
-    },
+    entry_points={'console_scripts': console_scripts(PACKAGE)},
 )

@@ -1,8 +1,15 @@
 """ament_python package shell for tribo_nvct (console scripts go to lib/tribo_nvct)."""
 
+import sys
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
+
+# the node table (tribo_common.nodes, no rclpy): from the source tree while colcon builds
+# the workspace, else from an installed tribo_common
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tribo_common'))
+from tribo_common.nodes import console_scripts
 
 PACKAGE = 'tribo_nvct'
 
@@ -21,9 +28,5 @@ setup(
     maintainer_email='tribo@example.org',
     description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
-    entry_points={
-        'console_scripts': [
-            'wear_monitor = tribo_nvct.nodes.wear_monitor:main',
-        ],
-    },
+    entry_points={'console_scripts': console_scripts(PACKAGE)},
 )

@@ -4,7 +4,8 @@ Full ROS 2 installs: `ros2 launch tribo_bringup hardware.launch.py` (`--show-arg
 lists the arguments).
 
 Serial DAQ (torsion, acceleration, speed), CAN sensor modules (normal force,
-oil temperature), radiation counter, friction estimator and wear monitor.
+oil temperature), radiation counter, friction estimator and wear monitor: the rows
+of ``tribo_common.nodes`` launched by ``'hardware'``, each with its parameter file.
 The drivers are lifecycle nodes started with ``autostart: true`` from their
 parameter files. A real wear test resumes its saved state (``resume:=false``
 starts a new one).
@@ -18,6 +19,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 
+from tribo_common.nodes import launched_by
 from tribo_common.topics import normalize_namespace
 
 TRUE = ('true', '1', 'yes', 'on')
@@ -39,28 +41,19 @@ def _graph(context: LaunchContext) -> list:
     }
     if arg('state_file'):
         wear['state_file'] = arg('state_file')
-    drivers = [
-        LifecycleNode(
-            package='tribo_drivers', executable=name, name=name, namespace=ns,
-            parameters=[file],
-        )
-        for name, file in (
-            ('daq_driver', params('daq_driver.yaml')),
-            ('can_driver', params('can_driver.yaml')),
-            ('counter_driver', params('counter_driver.yaml')),
-        )
-    ]  # fmt: skip
+    extra = {'wear_monitor': wear}
+
+    def parameters(config_file: str, name: str) -> list:
+        """Return the node's parameter file in config_dir (if any), then its values here."""
+        files = [params(config_file)] if config_file else []
+        return files + ([extra[name]] if name in extra else [])
+
     return [
-        *drivers,
-        Node(
-            package='tribo_estimation', executable='friction_estimator',
-            name='friction_estimator', namespace=ns,
-            parameters=[params('friction_estimator.yaml')],
-        ),
-        Node(
-            package='tribo_nvct', executable='wear_monitor', name='wear_monitor', namespace=ns,
-            parameters=[params('wear_monitor.yaml'), wear],
-        ),
+        (LifecycleNode if n.lifecycle else Node)(
+            package=n.package, executable=n.name, name=n.name, namespace=ns,
+            parameters=parameters(n.config, n.name),
+        )
+        for n in launched_by('hardware')
     ]  # fmt: skip
 
 

@@ -1,7 +1,8 @@
 """Launch the tribo graph on the simulated rig.
 
 Full ROS 2 installs: `ros2 launch tribo_bringup sim.launch.py` (`--show-args` lists
-the arguments). Equivalent of `tribo run --sim`.
+the arguments). Equivalent of `tribo run --sim`. The nodes are the rows of
+``tribo_common.nodes`` launched by ``'sim'``, each with its parameter file.
 
 Arguments: ``config_dir``, ``namespace`` (moves the whole rig: topics
 ``/NS/rig/...``), ``record`` (+ ``bag``), ``state_file`` and ``resume`` (a
@@ -14,8 +15,9 @@ from ament_index_python.packages import get_package_share_directory
 from launch import LaunchContext, LaunchDescription
 from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
+from launch_ros.actions import LifecycleNode, Node
 
+from tribo_common.nodes import launched_by
 from tribo_common.topics import DIAGNOSTICS, TOPICS, normalize_namespace
 
 TRUE = ('true', '1', 'yes', 'on')
@@ -44,28 +46,23 @@ def _graph(context: LaunchContext) -> list:
         wear['state_file'] = arg('state_file')
     # recording: the rig waits for the estimator and the recorder to match (no lost start)
     rig = {'min_subscribers': 2 if record else 0}
+    extra = {
+        'sim_rig': rig,
+        'sim_detector': {'sim_config': params('sim_detector.yaml')},
+        'wear_monitor': wear,
+    }
+
+    def parameters(config_file: str, name: str) -> list:
+        """Return the node's parameter file in config_dir (if any), then its values here."""
+        files = [params(config_file)] if config_file else []
+        return files + ([extra[name]] if name in extra else [])
+
     actions = [
-        Node(
-            package='tribo_drivers', executable='sim_rig', name='sim_rig', namespace=ns,
-            parameters=[params('sim_rig.yaml'), rig],
-        ),
-        Node(
-            package='tribo_drivers', executable='sim_detector', name='sim_detector',
-            namespace=ns, parameters=[{'sim_config': params('sim_detector.yaml')}],
-        ),
-        Node(
-            package='tribo_estimation', executable='friction_estimator',
-            name='friction_estimator', namespace=ns,
-            parameters=[params('friction_estimator.yaml')],
-        ),
-        Node(
-            package='tribo_estimation', executable='model_monitor', name='model_monitor',
-            namespace=ns, parameters=[params('model_monitor.yaml')],
-        ),
-        Node(
-            package='tribo_nvct', executable='wear_monitor', name='wear_monitor', namespace=ns,
-            parameters=[params('wear_monitor.yaml'), wear],
-        ),
+        (LifecycleNode if n.lifecycle else Node)(
+            package=n.package, executable=n.name, name=n.name, namespace=ns,
+            parameters=parameters(n.config, n.name),
+        )
+        for n in launched_by('sim')
     ]  # fmt: skip
     if record:
         topics = [t.resolve(ns) for t in TOPICS if t is not DIAGNOSTICS]

@@ -8,7 +8,6 @@ RIG.yaml, whose keys are the rig nodes' parameter names.
 
 from __future__ import annotations
 
-import importlib
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -18,23 +17,11 @@ from typing import TYPE_CHECKING, Any
 
 from tribo_bringup.errors import BringupError, ConfigError
 from tribo_common.node_main import spin_background
+from tribo_common.nodes import BY_NAME
 from tribo_common.topics import normalize_namespace
 
 if TYPE_CHECKING:
     from rclpy.node import Node
-
-#: Node name -> (module, class). Every class takes rclpy Node keyword arguments.
-NODES: dict[str, tuple[str, str]] = {
-    'sim_rig': ('tribo_drivers.nodes.sim_rig', 'SimRigNode'),
-    'sim_detector': ('tribo_drivers.nodes.sim_detector', 'SimDetector'),
-    'friction_estimator': ('tribo_estimation.nodes.friction_estimator', 'FrictionEstimatorNode'),
-    'model_monitor': ('tribo_estimation.nodes.model_monitor', 'ModelMonitorNode'),
-    'wear_monitor': ('tribo_nvct.nodes.wear_monitor', 'WearMonitor'),
-    'live_bridge': ('tribo_bringup.nodes.live_bridge', 'LiveBridgeNode'),
-    'daq_driver': ('tribo_drivers.nodes.daq_driver', 'DaqDriver'),
-    'can_driver': ('tribo_drivers.nodes.can_driver', 'CanDriver'),
-    'counter_driver': ('tribo_drivers.nodes.counter_driver', 'CounterDriver'),
-}
 
 
 def rig_overrides(rig_yaml: str | Path) -> dict[str, dict[str, object]]:
@@ -76,7 +63,7 @@ class Graph:
     """A set of nodes spinning in one process.
 
     Args:
-        nodes: node names (keys of :data:`NODES`).
+        nodes: node names (rows of :data:`tribo_common.nodes.NODES`).
         params_files: ROS 2 parameter files applied to every node (by node name).
         overrides: per-node parameter overrides (name -> value).
         namespace: namespace of every node (``''``: the root; ``rigB``: topics
@@ -109,13 +96,12 @@ class Graph:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
     def add(self, name: str, overrides: Mapping[str, object] | None = None) -> Node:
-        """Create node ``name`` (a key of :data:`NODES`) with its parameter overrides."""
+        """Create node ``name`` (a row of :data:`tribo_common.nodes.NODES`) with its overrides."""
         from rclpy.parameter import Parameter
 
-        if name not in NODES:
-            raise ConfigError(f'unknown node {name!r}; known: {", ".join(NODES)}')
-        module, cls_name = NODES[name]
-        cls = getattr(importlib.import_module(module), cls_name)
+        if name not in BY_NAME:
+            raise ConfigError(f'unknown node {name!r}; known: {", ".join(BY_NAME)}')
+        cls = BY_NAME[name].node_class()
         values = {**self.overrides.get(name, {}), **(overrides or {})}
         node: Node = cls(
             parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],

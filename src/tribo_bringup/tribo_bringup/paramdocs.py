@@ -5,38 +5,18 @@ keeps the file equal to :func:`render`. ``python -m tribo_bringup.paramdocs
 --physics docs/physics.md`` regenerates the candidate table of ``docs/physics.md``
 (section 8) from the candidate registry (:func:`render_physics`). The tables are those the nodes
 declare from and the RIG.yaml loader validates with: the rig's
-(:data:`tribo_estimation.core.rigspec.RIG_SPEC`) and one per node
-(:data:`NODE_PARAMS`).
+(:data:`tribo_estimation.core.rigspec.RIG_SPEC`) and one per node of the node
+table (:data:`NODE_PARAMS`, from :data:`tribo_common.nodes.NODES`).
 """
 
 from __future__ import annotations
 
-from tribo_bringup.nodes.specs import LIVE_BRIDGE_PARAMS
+from tribo_common.nodes import NODES
 from tribo_common.paramspec import ParamSpec, markdown_table
-from tribo_drivers.nodes.specs import (
-    CAN_PARAMS,
-    COUNTER_PARAMS,
-    DAQ_PARAMS,
-    DRIVER_PARAMS,
-    SIM_DETECTOR_PARAMS,
-    SIM_RIG_PARAMS,
-)
 from tribo_estimation.core.rigspec import RIG_OPTIONAL, RIG_REQUIRED, RIG_SPEC
-from tribo_estimation.nodes.specs import FRICTION_ESTIMATOR_PARAMS, MODEL_MONITOR_PARAMS
-from tribo_nvct.nodes.specs import WEAR_MONITOR_PARAMS
 
-#: Node name -> the parameters it declares from a spec.
-NODE_PARAMS: dict[str, tuple[ParamSpec, ...]] = {
-    'sim_rig': SIM_RIG_PARAMS,
-    'friction_estimator': FRICTION_ESTIMATOR_PARAMS,
-    'model_monitor': MODEL_MONITOR_PARAMS,
-    'wear_monitor': WEAR_MONITOR_PARAMS,
-    'sim_detector': SIM_DETECTOR_PARAMS,
-    'daq_driver': (*DRIVER_PARAMS, *DAQ_PARAMS),
-    'can_driver': (*DRIVER_PARAMS, *CAN_PARAMS),
-    'counter_driver': (*DRIVER_PARAMS, *COUNTER_PARAMS),
-    'live_bridge': LIVE_BRIDGE_PARAMS,
-}
+#: Node name -> the parameters it declares from a spec (the node table's spec sources).
+NODE_PARAMS: dict[str, tuple[ParamSpec, ...]] = {n.name: n.param_specs() for n in NODES}
 
 
 def render() -> str:
@@ -51,17 +31,44 @@ def render() -> str:
         f'{", ".join(f"`{k}`" for k in RIG_OPTIONAL)} and `effects` (hidden model '
         'extensions, fields of `tribo_estimation.core.model.Extensions`).\n',
         markdown_table(RIG_SPEC),
+        '## Nodes (`tribo_common.nodes`)\n',
+        node_table(),
     ]
-    for node, specs in NODE_PARAMS.items():
+    for info in NODES:
+        node, specs = info.name, NODE_PARAMS[info.name]
         rig = [s.name for s in specs if s.name in RIG_SPEC]
         own = [s for s in specs if s.name not in RIG_SPEC]
         parts.append(f'## Node `{node}`\n')
+        parts.append(f'{info.description[:1].upper()}{info.description[1:]}.\n')
         if rig:
             parts.append(f'Rig parameters (as above): {", ".join(f"`{n}`" for n in rig)}.\n')
         if node == 'sim_rig':
             parts.append('Also `effects.<name>` for every hidden extension (default 0).\n')
         parts.append(markdown_table(own))
     return '\n'.join(parts)
+
+
+def node_table() -> str:
+    """Return the Markdown table of the graph's nodes (:data:`tribo_common.nodes.NODES`).
+
+    Returns
+    -------
+    str
+        One row per node: executable, package, kind, lifecycle, parameter file and
+        the ``tribo run`` option that starts it.
+    """
+    rows = [
+        '| executable | package | kind | lifecycle | parameter file | `tribo run` |',
+        '|---|---|---|---|---|---|',
+    ]
+    for n in NODES:
+        start = next((f'`{o.flag} {o.metavar}`' for o in n.run_options if o.starts), '')
+        config = f'`config/{n.config}`' if n.config else ''
+        lifecycle = 'yes' if n.lifecycle else 'no'
+        rows.append(
+            f'| `{n.name}` | {n.package} | {n.kind.value} | {lifecycle} | {config} | {start} |'
+        )
+    return '\n'.join(rows) + '\n'
 
 
 #: Markers around the generated candidate table in ``docs/physics.md``.

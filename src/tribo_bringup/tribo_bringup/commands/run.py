@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from tribo_bringup.errors import ConfigError
 from tribo_bringup.paths import CONFIG
+from tribo_common.nodes import BY_NAME, NodeInfo, NodeKind, of_kind
 
 if TYPE_CHECKING:
     from tribo_bringup.argtypes import Subparsers
@@ -59,22 +60,15 @@ def register(sub: Subparsers) -> None:
         help='run the nodes in namespace NS (topics /NS/rig/..., as __ns:=/NS): several '
         'rigs on one graph',
     )
-    p.add_argument('--daq', metavar='PORT', help='also run the serial DAQ driver on PORT')
-    p.add_argument(
-        '--can', metavar='CHANNEL', help='also run the CAN sensor-module driver on CHANNEL'
-    )
-    p.add_argument(
-        '--can-interface',
-        metavar='NAME',
-        help='python-can interface of --can (default: can_driver.yaml, socketcan)',
-    )
-    p.add_argument('--counter', metavar='PORT', help='also run the radiation counter driver')
+    for node in of_kind(NodeKind.DRIVER):
+        for opt in node.run_options:
+            p.add_argument(opt.flag, metavar=opt.metavar, help=opt.help)
     p.add_argument(
         '--params',
         nargs='*',
         default=None,
-        help='ROS 2 parameter files (default: config/{friction_estimator,wear_monitor,'
-        'model_monitor}.yaml where present)',
+        help='ROS 2 parameter files (default: the config/ files of the nodes run, but the '
+        "simulators')",
     )
     p.add_argument('--duration', type=float, default=0.0, help='seconds to run (0: until Ctrl-C)')
     p.add_argument('--record', metavar='BAG', help='also record all topics into this bag')
@@ -86,39 +80,63 @@ def register(sub: Subparsers) -> None:
         help='run the live model monitor (model_monitor -> /model/discrepancy; default: on)',
     )
     p.add_argument(
-        '--nodes', nargs='+', help='explicit node list (overrides --sim/--bridge selection)'
+        '--nodes',
+        nargs='+',
+        metavar='NODE',
+        help=f'explicit node list, of {", ".join(BY_NAME)} (overrides --sim/--bridge selection)',
     )
     p.set_defaults(func=run)
 
 
-def default_params(nodes: list[str] | None = None) -> list[str]:
-    """Return the parameter files in config/ used by default (those of the drivers run too)."""
-    names = ['friction_estimator.yaml', 'wear_monitor.yaml', 'model_monitor.yaml']
-    names += [f'{n}.yaml' for n in DRIVERS if nodes is not None and n in nodes]
+def default_params(nodes: list[str]) -> list[str]:
+    """Return the ROS parameter files in config/ of the nodes run (not the simulators').
+
+    The simulated rig takes its parameters from ``--rig`` instead.
+    """
+    names = [
+        BY_NAME[n].config
+        for n in nodes
+        if n in BY_NAME and BY_NAME[n].config and BY_NAME[n].kind is not NodeKind.SIMULATOR
+    ]
     return [str(CONFIG / n) for n in names if (CONFIG / n).is_file()]
-
-
-#: Hardware driver nodes and the option that starts each.
-DRIVERS = {'daq_driver': 'daq', 'can_driver': 'can', 'counter_driver': 'counter'}
 
 
 def select_nodes(args: argparse.Namespace) -> list[str]:
     """Return the nodes of a ``tribo run``.
 
     Explicit ``--nodes``, else the simulators (unless ``--no-sim``), the drivers
-    asked for, the estimator, the wear monitor and the bridge.
+    whose option is given, the estimators, the model monitor (unless
+    ``--no-monitor``) and the bridge (``--bridge``).
     """
     if args.nodes:
         nodes = list(args.nodes)
     else:
-        nodes = ['sim_rig', 'sim_detector'] if args.sim else []
-        nodes += [n for n, opt in DRIVERS.items() if getattr(args, opt, None)]
-        nodes += ['friction_estimator', 'wear_monitor']
+        nodes = [n.name for n in of_kind(NodeKind.SIMULATOR)] if args.sim else []
+        nodes += [n.name for n in of_kind(NodeKind.DRIVER) if _started(n, args)]
+        nodes += [n.name for n in of_kind(NodeKind.ESTIMATOR)]
         if getattr(args, 'monitor', False):
-            nodes.append('model_monitor')
-    if args.bridge and 'live_bridge' not in nodes:
-        nodes.append('live_bridge')
+            nodes += [n.name for n in of_kind(NodeKind.MONITOR)]
+    if args.bridge:
+        nodes += [n.name for n in of_kind(NodeKind.BRIDGE) if n.name not in nodes]
     return nodes
+
+
+def _started(node: NodeInfo, args: argparse.Namespace) -> bool:
+    """Return whether an option that starts ``node`` was given."""
+    return any(o.starts and getattr(args, o.dest, None) for o in node.run_options)
+
+
+def driver_overrides(args: argparse.Namespace) -> dict[str, dict[str, object]]:
+    """Return the parameter values the drivers' ``tribo run`` options set, per node."""
+    out: dict[str, dict[str, object]] = {}
+    for node in of_kind(NodeKind.DRIVER):
+        if not _started(node, args):
+            continue
+        for opt in node.run_options:
+            value = getattr(args, opt.dest, None)
+            if value:
+                out.setdefault(node.name, {})[opt.parameter] = value
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,14 +161,7 @@ def run(args: argparse.Namespace) -> int:
         # match, so that the bag holds the stream from its first sample
         subscribers = 1 + sum(n in nodes for n in ('friction_estimator', 'live_bridge'))
         overrides.setdefault('sim_rig', {})['min_subscribers'] = subscribers
-    if args.daq:
-        overrides['daq_driver'] = {'port': args.daq}
-    if args.can:
-        overrides['can_driver'] = {'channel': args.can}
-        if args.can_interface:
-            overrides['can_driver']['interface'] = args.can_interface
-    if args.counter:
-        overrides['counter_driver'] = {'port': args.counter}
+    overrides.update(driver_overrides(args))
     ns = normalize_namespace(args.namespace)
     graph = Graph(
         nodes=nodes,
