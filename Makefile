@@ -33,7 +33,7 @@ help:
 	@echo 'make test   - run the tests'
 	@echo 'make setup  - install .venv and build the workspace (done by demo/test as needed)'
 	@echo 'make bench  - run the benchmarks (speed and accuracy figures)'
-	@echo 'make lint   - ruff and mypy'
+	@echo 'make lint   - ruff, mypy and the dead-code check (vulture)'
 	@echo 'make fuzz   - the property-based bad-input suite, long profile (10,000 inputs per command)'
 
 setup: $(ROOT)/.setup-done
@@ -71,9 +71,10 @@ MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimatio
 	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench
 
 test: setup
-	@echo '[test] ruff, mypy, pytest'
+	@echo '[test] ruff, mypy, vulture, pytest'
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
+	@$(IN_ENV) vulture
 	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
 
 # Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
@@ -87,10 +88,13 @@ fuzz: setup
 	  -n $(PYTEST_JOBS) --timeout=0 --hypothesis-show-statistics tests/test_fuzz_commands.py \
 	  tests/test_fuzz_decoders.py tests/test_fuzz_bursts.py
 
+# vulture: the dead-code check (configuration in pyproject.toml, dynamic uses in
+# tools/vulture_whitelist.py)
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
 	@$(IN_ENV) ruff format --no-cache --check src tests bench tools conftest.py
 	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
+	@$(IN_ENV) vulture
 
 bench: setup
 	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; python $$b; done

@@ -54,7 +54,7 @@ class _Timeout(Exception):
 
 @contextlib.contextmanager
 def _time_limit(seconds: float) -> Iterator[None]:
-    def fire(signum: int, frame: FrameType | None) -> None:
+    def fire(_signum: int, _frame: FrameType | None) -> None:
         raise _Timeout(f'command did not end within {seconds} s')
 
     old = signal.signal(signal.SIGALRM, fire)

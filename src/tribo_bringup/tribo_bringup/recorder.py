@@ -175,11 +175,6 @@ class Recorder(Node):
                 self._matched.add(topic)
                 self.get_logger().info(f'recording {topic} ({n} publisher(s) matched)')
 
-    @property
-    def matched_topics(self) -> frozenset[str]:
-        """Topics with at least one matched publisher so far."""
-        return frozenset(self._matched)
-
     def _subscribe(self, topic: str, msgtype: str) -> None:
         if topic in self._subs:
             return

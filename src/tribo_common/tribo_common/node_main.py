@@ -126,7 +126,7 @@ class _StopRequest:
         self.count = 0
         self.event = threading.Event()
 
-    def __call__(self, signum: int, frame: object) -> None:
+    def __call__(self, _signum: int, _frame: object) -> None:
         self.count += 1
         self.event.set()
 

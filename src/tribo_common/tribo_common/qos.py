@@ -43,9 +43,6 @@ def status_qos() -> QoSProfile:
 #: Depth of the result history kept by :func:`history_qos` publishers (topic table).
 HISTORY_DEPTH = topics.HISTORY_DEPTH
 
-#: Low-rate result topics published with :func:`history_qos` (root namespace names).
-RESULT_TOPICS = frozenset(t.resolve() for t in topics.TOPICS if t.qos is topics.QosKind.HISTORY)
-
 
 def history_qos(depth: int = HISTORY_DEPTH) -> QoSProfile:
     """QoS for low-rate results (friction estimates, wear states): lossless and latched.

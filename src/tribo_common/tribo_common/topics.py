@@ -140,8 +140,6 @@ RIG_STREAMS: tuple[Topic, ...] = (TORSION_MOMENT, ANGULAR_ACCELERATION, SPEED)
 #: SampleBlock topics (down-sampled by the live bridge).
 SAMPLE_STREAMS: tuple[Topic, ...] = tuple(t for t in TOPICS if t.msgtype == SAMPLE_BLOCK)
 
-BY_NAME: dict[str, Topic] = {t.name: t for t in TOPICS}
-
 
 def normalize_namespace(namespace: str | None) -> str:
     """``'rigB'``, ``'/rigB/'`` -> ``'/rigB'``; ``None``, ``''``, ``'/'`` -> ``''`` (root)."""

@@ -29,8 +29,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from tribo_drivers.errors import ConfigError, FrameError
 
 ACCEL_ID = 0x101
@@ -190,8 +188,3 @@ class CanCodec:
             return bytes(self._messages[frame_id].encode(signals, scaling=True, strict=True))
         except Exception as exc:  # cantools EncodeError: out of range
             raise FrameError(f'cannot encode CAN frame 0x{frame_id:03X}: {exc}') from exc
-
-
-def quantise(value: float, scale: float) -> float:
-    """Nearest value representable with ``scale`` per bit (for exact round-trip tests)."""
-    return float(np.rint(value / scale) * scale)

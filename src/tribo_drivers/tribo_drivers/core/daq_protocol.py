@@ -131,15 +131,6 @@ class DaqScaling:
         if any(g == 0.0 for g in self.gain):
             raise ConfigError(f'DAQ scaling gain must be non-zero, got {self.gain}')
 
-    def to_raw(self, channel: int, value: npt.ArrayLike) -> npt.NDArray[np.int32]:
-        """Inverse scaling (for emulators): counts nearest to ``value`` (SI) on ``channel``."""
-        raw = np.rint(
-            np.asarray(value, dtype=np.float64) / self.gain[channel] + self.offset[channel]
-        )
-        if np.any(np.abs(raw) > 2**31 - 1):
-            raise FrameError(f'value out of the i32 range of channel {CHANNELS[channel]}')
-        return raw.astype(np.int32)
-
 
 @dataclass(frozen=True)
 class DaqSamples:
@@ -172,7 +163,7 @@ def encode_frames(
     idx = np.asarray(sample_index, dtype=np.int64) % INDEX_MODULUS
     n = idx.size
     arr = np.zeros(n, dtype=FRAME_DTYPE)
-    arr['sync'] = (0xA5, 0x5A)
+    arr['sync'] = tuple(SYNC)
     arr['sample_index'] = idx.astype(np.uint32)
     for name, values in (
         ('torque_raw', torque_raw),
@@ -220,7 +211,8 @@ def scan_buffer(buf: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.int64], int]
     if n < FRAME_SIZE:
         return np.zeros(0, dtype=np.int64), 0
     head = buf[: n - FRAME_SIZE + 1]
-    cand = np.flatnonzero((head == 0xA5) & (buf[1 : n - FRAME_SIZE + 2] == 0x5A)).astype(np.int64)
+    is_sync = (head == SYNC[0]) & (buf[1 : n - FRAME_SIZE + 2] == SYNC[1])
+    cand = np.flatnonzero(is_sync).astype(np.int64)
     if cand.size == 0:
         return cand, 0
     windows = np.lib.stride_tricks.sliding_window_view(buf, FRAME_SIZE)
@@ -275,7 +267,6 @@ class DaqDecoderStats:
     frames: int = 0
     crc_errors: int = 0
     discarded_bytes: int = 0
-    bytes_in: int = 0
 
 
 @dataclass
@@ -288,7 +279,6 @@ class DaqDecoder:
 
     def feed(self, chunk: bytes | bytearray | memoryview) -> DaqSamples:
         """Decode ``chunk`` appended to the undecoded tail of earlier chunks."""
-        self.stats.bytes_in += len(chunk)
         data = self._tail + bytes(chunk) if self._tail else bytes(chunk)
         samples, consumed = decode_buffer(data, self.scaling)
         self._tail = data[consumed:]
@@ -320,7 +310,7 @@ def decode_scalar(data: bytes, scaling: DaqScaling) -> list[tuple[int, int, floa
     i = 0
     n = len(data)
     while i + FRAME_SIZE <= n:
-        if data[i] == 0xA5 and data[i + 1] == 0x5A:
+        if data[i] == SYNC[0] and data[i + 1] == SYNC[1]:
             (crc,) = struct.unpack_from('<H', data, i + CRC_END)
             if crc16_ccitt_false(data[i + CRC_START : i + CRC_END]) == crc:
                 idx, tq, ac, sp = struct.unpack_from('<Iiii', data, i + 2)

@@ -2,15 +2,12 @@
 
 Each driver keeps a :class:`DriverCounters` record; :func:`driver_status` turns it, together
 with the measured rate, into a :class:`DiagnosticStatus` (the node converts that into
-``diagnostic_msgs/DiagnosticStatus``).  :class:`DiagnosticUpdater` calls registered status
-functions at a fixed period, like ``diagnostic_updater.Updater``.
+``diagnostic_msgs/DiagnosticStatus``) at its ``diagnostic_period``.
 """
 
 from __future__ import annotations
 
-import math
 from collections import deque
-from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from enum import IntEnum
 
@@ -150,31 +147,3 @@ def driver_status(
         *counters.as_pairs(),
     )
     return DiagnosticStatus(Level(level), name, message, hardware_id, values)
-
-
-StatusTask = Callable[[float], DiagnosticStatus]
-
-
-@dataclass
-class DiagnosticUpdater:
-    """Calls status tasks every ``period`` seconds (``update`` returns [] in between)."""
-
-    period: float = 1.0
-    tasks: list[StatusTask] = field(default_factory=list)
-    _last: float = -math.inf
-
-    def __post_init__(self) -> None:
-        """Refuse a diagnostic period that is not > 0 s."""
-        if not self.period > 0:
-            raise ConfigError(f'diagnostic period must be > 0 s, got {self.period}')
-
-    def add(self, task: StatusTask) -> None:
-        """Add a status task, evaluated at every update."""
-        self.tasks.append(task)
-
-    def update(self, now: float, force: bool = False) -> list[DiagnosticStatus]:
-        """Return the tasks' statuses if a period [s] has passed since the last (or ``force``)."""
-        if not force and now - self._last < self.period:
-            return []
-        self._last = now
-        return [task(now) for task in self.tasks]

@@ -333,13 +333,6 @@ class BlockBatcher:
         ]
 
 
-def expand_frame_indices(
-    frame_index: npt.NDArray[np.int64], per_frame: int
-) -> npt.NDArray[np.int64]:
-    """Sample indices of frames carrying ``per_frame`` samples each (frame_index in samples)."""
-    return (frame_index[:, None] + np.arange(per_frame, dtype=np.int64)[None, :]).reshape(-1)
-
-
 def block_size_for(sample_rate: float, blocks_per_second: float = 200.0) -> int:
     """Block length [samples] giving about ``blocks_per_second`` blocks (at least 1 sample)."""
     if sample_rate <= 0 or blocks_per_second <= 0:
@@ -357,5 +350,4 @@ __all__: Sequence[str] = (
     'SampleBlock',
     'TrackResult',
     'block_size_for',
-    'expand_frame_indices',
 )

@@ -48,26 +48,23 @@ class ReconnectState:
     connects: int = 0
     disconnects: int = 0
     last_error: str = ''
-    last_error_time: float = math.nan
 
     @property
     def reconnects(self) -> int:
         """Successful opens after the first one [-]."""
         return max(self.connects - 1, 0)
 
-    def failed(self, message: str, now: float) -> None:
-        """Record a failed open with its message at host time ``now`` [s]."""
+    def failed(self, message: str) -> None:
+        """Record a failed open with its message."""
         self.failures += 1
         self.last_error = message
-        self.last_error_time = now
 
     def connected(self) -> None:
         """Record a successful open (the back-off starts over)."""
         self.failures = 0
         self.connects += 1
 
-    def lost(self, message: str, now: float) -> None:
-        """Record the loss of an open device at host time ``now`` [s]."""
+    def lost(self, message: str) -> None:
+        """Record the loss of an open device."""
         self.disconnects += 1
         self.last_error = message
-        self.last_error_time = now

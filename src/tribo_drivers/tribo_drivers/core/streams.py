@@ -105,7 +105,7 @@ class DeviceStream(ABC, Generic[T]):
                 out = self._open()
             except DriverError as exc:
                 self._close()
-                self.connection.failed(str(exc), time.monotonic())
+                self.connection.failed(str(exc))
                 self.counters.last_error = str(exc)
                 return []
             self.connection.connected()
@@ -119,7 +119,7 @@ class DeviceStream(ABC, Generic[T]):
 
     def _lost(self, message: str) -> list[T]:
         self._close()
-        self.connection.lost(message, time.monotonic())
+        self.connection.lost(message)
         self.counters.connected = False
         self.counters.disconnects = self.connection.disconnects
         self.counters.last_error = message
@@ -381,7 +381,6 @@ class CanStream(DeviceStream[SampleBlock]):
         self.codec = codec
         self.subs = {fid: _CanSub(spec, blocks_per_second) for fid, spec in codec.specs.items()}
         self.max_frames_per_poll = max_frames_per_poll
-        self.unknown_ids = 0
 
     def _flush(self) -> list[SampleBlock]:
         out: list[SampleBlock] = []
@@ -414,8 +413,7 @@ class CanStream(DeviceStream[SampleBlock]):
             c.frame_errors += 1
             c.last_error = str(exc)
             return []
-        if sample is None:
-            self.unknown_ids += 1
+        if sample is None:  # a frame of another module on the bus
             return []
         sub = self.subs[sample.frame_id]
         host = float(msg.timestamp) if getattr(msg, 'timestamp', 0.0) else self.host_clock()

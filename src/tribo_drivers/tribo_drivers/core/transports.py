@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
@@ -131,72 +130,6 @@ class SerialTransport:
             ser.flush()
         except (serial.SerialException, OSError) as exc:
             raise TransportError(f'write to {self.port} failed: {exc}') from exc
-
-
-class ReplayTransport:
-    """Replays a recorded byte file in chunks, optionally paced at ``bytes_per_second``.
-
-    At the end of the file ``read`` returns b'' (after ``timeout``), like an idle device.
-    """
-
-    def __init__(
-        self, path: str | Path, chunk_size: int = 4096, bytes_per_second: float | None = None
-    ) -> None:
-        self.path = Path(path)
-        if chunk_size < 1:
-            raise ConfigError(f'replay chunk size must be >= 1, got {chunk_size}')
-        self.chunk_size = chunk_size
-        self.bytes_per_second = bytes_per_second
-        self._fh: Any = None
-        self._start = 0.0
-        self._sent = 0
-        self.written = bytearray()
-
-    @property
-    def is_open(self) -> bool:
-        """Tell whether the serial port is open."""
-        return self._fh is not None
-
-    def describe(self) -> str:
-        """Return ``interface:channel``."""
-        return f'replay:{self.path}'
-
-    def open(self) -> None:
-        """Open the bus (or the replay log); raise TransportError if it cannot."""
-        try:
-            self._fh = self.path.open('rb')
-        except OSError as exc:
-            raise TransportError(f'cannot open replay file {self.path}: {exc}') from exc
-        self._start = time.monotonic()
-        self._sent = 0
-
-    def close(self) -> None:
-        """Shut the bus down; never raises."""
-        if self._fh is not None:
-            self._fh.close()
-        self._fh = None
-
-    def read(self, timeout: float) -> bytes:
-        """Return the next chunk, paced to ``bytes_per_second`` [B/s] if set (b'' at the end)."""
-        if self._fh is None:
-            raise TransportError(f'replay file {self.path} is not open')
-        n = self.chunk_size
-        if self.bytes_per_second:
-            due = int((time.monotonic() - self._start) * self.bytes_per_second) - self._sent
-            if due <= 0:
-                time.sleep(min(timeout, self.chunk_size / self.bytes_per_second))
-                return b''
-            n = min(n, due)
-        data = self._fh.read(n)
-        if not data:
-            time.sleep(timeout)
-            return b''
-        self._sent += len(data)
-        return bytes(data)
-
-    def write(self, data: bytes) -> None:
-        """Keep ``data`` in ``written`` (a replay has no device to send to)."""
-        self.written.extend(data)
 
 
 class CanTransport:

@@ -37,7 +37,6 @@ class DaqTruth:
     # them (pyserial resets the input buffer last), so they may or may not arrive
     uncertain: list[npt.NDArray[np.int64]] = field(default_factory=list)
     garbage_bursts: int = 0
-    garbage_bytes: int = 0
     unplugs: int = 0
 
     def intact_indices(self) -> npt.NDArray[np.int64]:
@@ -179,7 +178,6 @@ class DaqEmulator(_PtyEmulator):
                 out += raw[offsets[prev] : offsets[cut]] + burst
                 prev = cut
                 self.truth.garbage_bursts += 1
-                self.truth.garbage_bytes += len(burst)
             out += raw[offsets[prev] :]
             raw = out
         ok = self.port.write(bytes(raw), timeout=30.0)

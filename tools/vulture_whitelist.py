@@ -1,0 +1,81 @@
+"""Names the dead-code check (vulture, ``make lint`` and ``make test``) must not report.
+
+Each is used, but in a way vulture cannot see: called by rclpy, pytest, the
+standard library or numba, read through ``dataclasses.fields``/``asdict``, a
+string key or a registry. Vulture only reads this file (``_.name`` counts as a
+use of ``name``); it is never imported. Entries marked ``# owner: ...`` are dead
+code in that owner's area, listed here only until they remove it.
+"""
+
+# ROS: rclpy calls the lifecycle transitions of a LifecycleNode (tribo_drivers.nodes.driver_base)
+_.on_configure
+_.on_cleanup
+_.on_shutdown
+# ROS: entity handles kept on the node for its lifetime (timers, subscriptions)
+_._diag_timer
+_._idle_timer
+_._flush_timer
+_._sub
+# ROS: message fields, read by the subscribers (tribo_nvct.nodes.wear_monitor)
+_.wear_volume_se
+_.wear_height
+_.wear_height_se
+_.wear_rate_se
+# ROS: keyword arguments of rclpy.node.Node (tribo_common.node_main.NodeOptions)
+_.cli_args
+_.use_global_arguments
+_.enable_rosout
+_.start_parameter_services
+_.parameter_overrides
+_.allow_undeclared_parameters
+_.automatically_declare_parameters_from_overrides
+# ROS: keyword of rclpy's Executor.spin_once (tribo_common.node_main.SpinsOnce protocol)
+_.timeout_sec
+
+# pytest: module-level marks
+pytestmark
+
+# standard library: html.parser.HTMLParser callbacks (tribo_bringup/test/test_report.py)
+_.handle_starttag
+_.handle_endtag
+_.handle_data
+
+# numba: the overload of kernel.state.with_entry, registered by its decorator
+_with_entry_numba
+
+# registry plug-ins: each effect module's CANDIDATE, collected by discrepancy.candidates
+CANDIDATE
+
+# dataclass fields read through dataclasses.fields / asdict / __dict__
+_.frame_errors  # DriverCounters.as_pairs -> /diagnostics
+_.stamp_jitter_rms  # FaultReport.lines -> bench/bench_daq.py
+_.f_n_hz_se  # DecayResult.to_dict -> tribo decay output
+_.zeta_se  # DecayResult.to_dict
+
+# TypedDict keys read by string subscript (tribo_bringup.report.provenance.Provenance)
+_.git_commit
+_.git_dirty
+_.created
+
+# Temporary: dead code in other areas, until its owner removes it.
+_.rms0  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
+_.rms1  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
+_.wall_single  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
+_.wall_joint  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
+_.unit_bounds  # owner: discrepancy redesign (core/discrepancy/candidates.py)
+_.mask_blocks  # owner: discrepancy redesign (core/discrepancy/fitting/records.py)
+_.blocks_done  # owner: H3, tribo_estimation (core/blockfit/streaming.py)
+_.terminal  # owner: H3, tribo_estimation (core/reference.py)
+_.true_accel  # owner: H3, tribo_estimation (core/reference_records.py)
+_.exc_type  # owner: H3, tribo_estimation (core/rigio.py, __exit__ arguments)
+_.skipped  # owner: H3, tribo_estimation (nodes/model_monitor.py)
+_.eccentricity  # owner: H3, tribo_nvct (core/contact.py)
+_.net_rate_se  # owner: H3, tribo_nvct (core/counting.py)
+_.gross_counts  # owner: H3, tribo_nvct (core/counting.py)
+_.decay  # owner: H3, tribo_nvct (core/counting.py)
+_.density_se  # owner: H3, tribo_nvct (core/profile/result.py)
+_.residual_rms_bq  # owner: H3, tribo_nvct (core/profile/result.py)
+_.detector_activity_ref  # owner: H3, tribo_nvct (core/simulate.py)
+_.signal_rate  # owner: H3, tribo_nvct (core/simulate.py)
+_.height_sys_se  # owner: H3, tribo_nvct (core/wear.py)
+_.OTHER_SHAPES  # owner: H3, tribo_nvct (test/truthgen.py)
