@@ -71,7 +71,8 @@ class RunSummary:
     cluster_seconds
         Time to start and stop the cluster [s].
     failures
-        ``session_id: error`` of each failed session.
+        ``session_id: error`` of each session of the spec that is failed in the
+        store (this run's and earlier ones').
     """
 
     sessions: int
@@ -159,31 +160,22 @@ def analyse(
             if key not in todo:
                 todo[key] = _Pending(s, key, content, 0, [])
         up_to_date = len(prepared) - sum(1 for p in prepared if p[1] in todo)
-        if not todo:
-            if stream is not None:
-                stream.write(
-                    f'campaign {spec.name!r}: {len(prepared)} sessions, all up to date '
-                    f'in {store.root} (nothing analysed)\n'
-                )
-            return RunSummary(len(prepared), 0, 0, up_to_date, 0, time.monotonic() - t0, 0, 0, 0)
-        durations = {p[1]: p[3] for p in prepared}
-        tasks = _plan(todo, durations, spec)
+        tasks = _plan(todo, {p[1]: p[3] for p in prepared}, spec)
         if stream is not None:
+            what = f'{len(todo)} to analyse in {len(tasks)} tasks' if todo else 'nothing to do'
             stream.write(
                 f'campaign {spec.name!r}: {len(prepared)} sessions, {up_to_date} up to date, '
-                f'{len(todo)} to analyse in {len(tasks)} tasks -> {store.root}\n'
+                f'{what} -> {store.root}\n'
             )
-        run = _run(tasks, todo, store, workers, scheduler, stream)
+        run = _run(tasks, todo, store, workers, scheduler, stream) if tasks else (0, 0.0)
+        failures = tuple(
+            f'{s.session_id}: {err}' for s, err in store.failures([p[:2] for p in prepared])
+        )
     done = [p for p in todo.values() if p.tasks == len(p.results)]
-    failures = tuple(
-        f'{p.session.session_id}: {_first_error(p.results)}'
-        for p in done
-        if any(r.error for r in p.results)
-    )
     return RunSummary(
         sessions=len(prepared),
         analysed=len(done),
-        failed=len(failures),
+        failed=sum(1 for p in done if any(r.error for r in p.results)),
         up_to_date=up_to_date,
         tasks=len(tasks),
         seconds=time.monotonic() - t0,

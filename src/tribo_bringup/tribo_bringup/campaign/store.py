@@ -35,7 +35,7 @@ import shutil
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import fields
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from tribo_bringup.errors import CampaignError, StoreBusyError
 
@@ -44,6 +44,8 @@ from .analyses import WEAR_COLUMNS, Cell, Row
 if TYPE_CHECKING:
     import duckdb
     import pyarrow as pa
+
+T = TypeVar('T')
 
 DB_NAME = 'campaign.duckdb'
 SESSIONS_FILE = 'sessions.parquet'
@@ -367,6 +369,31 @@ class Store:
             rows = pq.read_table(prov, columns=['status', 'error_kind']).to_pylist()
             if rows:
                 out[d.name] = (str(rows[0]['status']), str(rows[0]['error_kind'] or ''))
+        return out
+
+    def failures(self, sessions: Sequence[tuple[T, str]]) -> list[tuple[T, str]]:
+        """Return the sessions whose committed result is failed, with the error line.
+
+        Parameters
+        ----------
+        sessions : sequence of (item, key)
+            Anything paired with its session key.
+
+        Returns
+        -------
+        list of (item, error)
+            In the given order.
+        """
+        import pyarrow.parquet as pq
+
+        out: list[tuple[T, str]] = []
+        for item, key in sessions:
+            prov = self.results / key / 'provenance.parquet'
+            if not prov.is_file():
+                continue
+            rows = pq.read_table(prov, columns=['status', 'error']).to_pylist()
+            if rows and rows[0]['status'] == 'failed':
+                out.append((item, str(rows[0]['error'])))
         return out
 
     def commit(self, key: str, tables: Mapping[str, Sequence[Row]]) -> bool:

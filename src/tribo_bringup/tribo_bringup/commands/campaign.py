@@ -120,8 +120,8 @@ def run_analyse(args: argparse.Namespace) -> int:
     )
     if res.failures:
         raise CampaignError(
-            f'{res.failed} of {res.sessions} sessions failed (the others are stored; see '
-            f'the sessions table): {res.failures[0]}'
+            f'{len(res.failures)} of {res.sessions} sessions failed (the others are stored; '
+            f'see the sessions table): {res.failures[0]}'
         )
     return 0
 
