@@ -289,7 +289,6 @@ class Store:
 
     def __init__(self, root: str | Path) -> None:
         self.root = Path(root).resolve()
-        self._lock_fd: int | None = None
 
     @property
     def results(self) -> Path:
@@ -325,12 +324,10 @@ class Store:
             ) from None
         os.ftruncate(fd, 0)
         os.pwrite(fd, f'{os.getpid()}\n'.encode(), 0)
-        self._lock_fd = fd
         try:
             self._prepare()
             yield self
         finally:
-            self._lock_fd = None
             os.ftruncate(fd, 0)
             os.close(fd)
 
