@@ -90,6 +90,8 @@ class Problem:
         Simulation segments (default: :func:`.segments.make_segments`).
     weights : mapping of str to float, optional
         Channel weights [1/unit] (default: :meth:`signal_weights`).
+    block_time : float
+        Length of a time block of the default segments [s].
     """
 
     def __init__(
@@ -101,8 +103,10 @@ class Problem:
         k: float = 2.0,
         segments: Segments | None = None,
         weights: Mapping[str, float] | None = None,
+        block_time: float = 0.25,
     ) -> None:
         self.record = record
+        self.block_time = float(block_time)
         self.rig = rig
         self.drive = drive
         self.k = float(k)
@@ -116,6 +120,7 @@ class Problem:
             else make_segments(
                 record,
                 rig,
+                block_time=self.block_time,
                 dwell_from_start=begins_at_drive_start(
                     record, drive.ramp_time, self.drive_estimate.level
                 ),
@@ -197,6 +202,30 @@ class Problem:
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
+    def like(self, record: Record) -> Problem:
+        """Return the problem of another record with this one's rig, drive and settings.
+
+        The same rig, drive configuration, decay constant k, channel weights, free
+        instrument terms and block length; the segments, drive profile and stick
+        phases are the new record's own.
+
+        Parameters
+        ----------
+        record : Record
+            The other record (e.g. a replica of this one's model).
+
+        Returns
+        -------
+        Problem
+            Its problem.
+        """
+        pb = Problem(
+            record, self.rig, self.drive, k=self.k, weights=self.weights,
+            block_time=self.block_time,
+        )  # fmt: skip
+        pb.free_instrument = self.free_instrument
+        return pb
+
     # ------------------------------------------------------------------ weights
     def signal_weights(self) -> dict[str, float]:
         """Return the channel weights 1/std(measured channel) (a start before any fit).
@@ -267,7 +296,11 @@ class Problem:
         return fr, replace(Extensions(), **ext_vals)
 
     def simulate(
-        self, values: Mapping[str, float], seg_mask: npt.NDArray[np.bool_] | None = None
+        self,
+        values: Mapping[str, float],
+        seg_mask: npt.NDArray[np.bool_] | None = None,
+        *,
+        continuous: bool = False,
     ) -> SimulatedRecord:
         """Simulate the (selected) segments with the model ``values``.
 
@@ -277,12 +310,19 @@ class Problem:
             Model values (see :meth:`model_objects`).
         seg_mask : numpy.ndarray of bool, optional
             Segments to simulate (default: all).
+        continuous : bool
+            Simulate one stretch from the first segment's start state to the record's
+            end (no re-initialisation: the model's own motion, as a record of it would
+            show; ``seg_mask`` is ignored).
 
         Returns
         -------
         SimulatedRecord
             The model output, NaN outside the simulated segments.
         """
+        if continuous:
+            seg_mask = np.zeros(self.segments.n, dtype=bool)
+            seg_mask[0] = True
         fr, ext = self.model_objects(values)
         p = pack_params(self.rig, fr, self.drive, ext)
         rec = self.record
@@ -314,12 +354,21 @@ class Problem:
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
-        shoot(p, states, seg.start[sel], seg.stop[sel], dk.time, dk.speed, rec.dt, n_sub, out)
+        stops = np.full(1, n, dtype=np.int64) if continuous else seg.stop[sel]
+        shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1
-        speed = speed_sensor_output(out[kn.OUT_SPEED], seg, sel, self._speed_start, rec.dt, values)
+        used = (
+            replace(seg, start=seg.start[:1], stop=stops, stick_time=seg.stick_time[:1],
+                    block=seg.block[:1])
+            if continuous
+            else seg
+        )  # fmt: skip
+        sel_used = np.ones(1, dtype=bool) if continuous else sel
+        speed_start = self._speed_start[sel] if continuous else self._speed_start
+        speed = speed_sensor_output(out[kn.OUT_SPEED], used, sel_used, speed_start, rec.dt, values)
         torsion, _ = apply_measurement_transforms(
             ext, rec.time, out[kn.OUT_TORSION].copy(), rec.dt,
-            segments=(seg.start[sel], seg.stop[sel]), measured_first=m_meas,
+            segments=(seg.start[sel], stops), measured_first=m_meas,
         )  # fmt: skip
         covered = np.isfinite(out[kn.OUT_TORSION])
         return SimulatedRecord(
