@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-CORE = Path(__file__).resolve().parents[1] / 'tribo_drivers' / 'core'
+CORE = Path(__file__).resolve().parents[2] / 'tribo_drivers' / 'core'
 
 
 def test_core_does_not_import_rclpy() -> None:

@@ -1,4 +1,4 @@
-"""The emulator's pty never hangs when the driver stops reading."""
+"""The emulator's pty (core/emulators/pty.py) never hangs when the driver stops reading."""
 
 from __future__ import annotations
 
@@ -27,40 +27,6 @@ def test_write_to_a_port_nobody_reads_times_out_and_close_returns() -> None:
         assert not writer.is_alive()
     finally:
         port.close()
-
-
-class _FailingSerial:
-    """pyserial stand-in: one byte arrives, then the device fails (an unplug mid-read)."""
-
-    def __init__(self) -> None:
-        self.timeout: float | None = None
-        self.in_waiting = 40
-        self.calls = 0
-
-    def read(self, size: int) -> bytes:
-        import serial
-
-        self.calls += 1
-        if self.calls == 1:
-            return b'\xa5'
-        raise serial.SerialException('read failed: [Errno 5] Input/output error')
-
-    def close(self) -> None:
-        pass
-
-
-def test_serial_read_keeps_received_bytes_when_the_device_fails_mid_read() -> None:
-    import pytest
-
-    from tribo_drivers.core.transports import SerialTransport
-    from tribo_drivers.errors import TransportError
-
-    tr = SerialTransport('/dev/null-not-opened', 115200)
-    tr._serial = _FailingSerial()
-    # the byte already received is returned; the failure is reported by the next read
-    assert tr.read(0.1) == b'\xa5'
-    with pytest.raises(TransportError, match='Input/output error'):
-        tr.read(0.1)
 
 
 def test_drain_waits_for_the_driver_to_report_every_written_byte() -> None:
