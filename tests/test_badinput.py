@@ -1,4 +1,4 @@
-"""Bad input never hangs and never lies: one test per fix (units, spikes, time bases,
+"""Bad input never hangs and never lies: one test per rule (units, spikes, time bases,
 atomic outputs, YAML, one line and exit 2, bugs shown, Ctrl-C)."""
 
 from __future__ import annotations

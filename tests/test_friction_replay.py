@@ -1,5 +1,5 @@
 """Replay of a recorded bag through the friction_estimator node gives the same
-estimates as `tribo friction` on the same bag (issues 3 and 4).
+estimates as `tribo friction` on the same bag.
 
 The bag is made from the simulator with seeded noise (no DDS needed for that);
 the node sees it through `tribo replay` on its own ROS_DOMAIN_ID, and its

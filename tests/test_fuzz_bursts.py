@@ -1,5 +1,5 @@
 """Bursts (runs of 3-512 corrupted samples: a saturating channel, an ADC glitch) are
-found, repaired, counted per block and left out of the fits (issue 15).
+found, repaired, counted per block and left out of the fits.
 
 Records come from the independent generator (core.reference_records: its own
 equations of motion, not the fit's kernel), with the rig's noise. The property
