@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import validation_doc
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src' / 'tribo_drivers'))
 
@@ -77,4 +78,4 @@ def main() -> int:
 
 
 if __name__ == '__main__':
-    raise SystemExit(main())
+    raise SystemExit(validation_doc.run(__file__, main))

@@ -17,6 +17,8 @@ import sys
 import time
 from pathlib import Path
 
+import validation_doc
+
 ROOT = Path(__file__).resolve().parents[1]
 for pkg in ('tribo_estimation',):
     sys.path.insert(0, str(ROOT / 'src' / pkg))
@@ -127,4 +129,4 @@ def main() -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    sys.exit(validation_doc.run(__file__, main))

@@ -35,6 +35,8 @@ from collections import Counter, defaultdict
 from pathlib import Path
 from typing import TypedDict
 
+import validation_doc
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src' / 'tribo_estimation'))
 
@@ -364,4 +366,4 @@ def main() -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    sys.exit(validation_doc.run(__file__, main))

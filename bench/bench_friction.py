@@ -33,6 +33,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import validation_doc
+
 # one core: OpenBLAS worker threads busy-wait after each call (lstsq in the fit and its
 # standard errors) and would be counted in process_time() as a second core
 for _var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
@@ -305,4 +307,4 @@ def main() -> None:
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(validation_doc.run(__file__, main))

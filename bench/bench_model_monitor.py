@@ -21,6 +21,8 @@ import statistics
 import sys
 from pathlib import Path
 
+import validation_doc
+
 ROOT = Path(__file__).resolve().parents[1]
 for pkg in ('tribo_estimation',):
     sys.path.insert(0, str(ROOT / 'src' / pkg))
@@ -104,4 +106,4 @@ def main() -> int:
 
 
 if __name__ == '__main__':
-    raise SystemExit(main())
+    raise SystemExit(validation_doc.run(__file__, main))

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import validation_doc
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src' / 'tribo_nvct' / 'test'))
@@ -169,4 +170,4 @@ def main() -> None:
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(validation_doc.run(__file__, main))

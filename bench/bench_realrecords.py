@@ -32,6 +32,7 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import validation_doc
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -298,5 +299,5 @@ def main(argv: list[str] | None = None) -> list[Row]:
 
 
 if __name__ == '__main__':
-    main()
+    validation_doc.run(__file__, main)
     sys.exit(0)

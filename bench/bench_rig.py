@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import validation_doc
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src' / 'tribo_estimation'))
@@ -123,4 +124,4 @@ def main() -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    sys.exit(validation_doc.run(__file__, main))
