@@ -137,6 +137,7 @@ class Candidate:
     equation: str = ''
     suggest: str = SUGGEST_MORE
     profile: str = ''
+    family: str = ''
 
     def __post_init__(self) -> None:
         """Check the localiser, the profiled parameter and that parameter names are unique."""
@@ -152,6 +153,11 @@ class Candidate:
                 f'candidate {self.name}: profile {self.profile!r} is not one of its '
                 f'log-scaled parameters {names}'
             )
+
+    @property
+    def family_name(self) -> str:
+        """The effect family this form belongs to (its own name when it is the only form)."""
+        return self.family or self.name
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -243,6 +249,27 @@ def get(name: str) -> Candidate:
 def names() -> tuple[str, ...]:
     """Names of the registered candidates, in registration order."""
     return tuple(_REGISTRY)
+
+
+def families() -> tuple[str, ...]:
+    """Names of the effect families, in registration order of their first form."""
+    return tuple(dict.fromkeys(c.family_name for c in _REGISTRY.values()))
+
+
+def forms(family: str) -> tuple[Candidate, ...]:
+    """Return the forms (candidates) of one effect family, in registration order.
+
+    Raises
+    ------
+    UnknownCandidateError
+        If no candidate belongs to ``family``.
+    """
+    out = tuple(c for c in _REGISTRY.values() if c.family_name == family)
+    if not out:
+        raise UnknownCandidateError(
+            f'unknown effect family {family!r}; known: {sorted(families())}'
+        )
+    return out
 
 
 def all_candidates() -> tuple[Candidate, ...]:

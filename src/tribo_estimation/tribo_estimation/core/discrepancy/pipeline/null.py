@@ -1,0 +1,341 @@
+"""What "nothing missing" looks like for this record: adequacy statistics and their null law.
+
+A model is *adequate* when its residual looks like the record's noise. Per fit,
+:func:`adequacy` gives dimensionless statistics (each large when the model misses
+something):
+
+- ``torsion_moment``, ``speed``: the rms of the channel's residual over the
+  simulated samples divided by the channel's measured white noise
+  (:func:`.noise.measure_noise`) [-];
+- ``blocks``: the largest rms of the torsion-moment residual in a time block over
+  the median block's [-] (a mismatch that changes during the record).
+
+Their distribution under "nothing missing" is measured on this record by a
+parametric bootstrap (:func:`null_law`): the fitted model is simulated as one
+stretch from the record's first segment state (:meth:`..fitting.Problem.simulate`
+with ``continuous``) through the identified drive profile and speed sensor, the
+measured noise (white and AR(1), :class:`.noise.NoiseModel`) is added, and each
+replica is prepared and refitted like the record itself. Thresholds are the
+one-sided prediction bounds of the replicas' log statistics (normal law, Student
+t with B - 1 degrees of freedom, ``sqrt(1 + 1/B)``), at ``alpha`` shared equally
+among the statistics (Bonferroni): the chance that an adequate model fails any
+of them is at most ``alpha``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..candidates import ParamSpec
+from ..fitting import Problem, Record, SimulatedRecord
+from .noise import RAW_CHANNELS, NoiseModel, measure_noise
+
+FloatArray = np.ndarray
+
+#: The adequacy statistics, in report order. The acceleration's residual is reported,
+#: not judged: it is dominated by the jumps of the sampled acceleration at the switching
+#: events, whose sub-sample timing a rig's accelerometer and the model sample differently,
+#: so its null law is not one the replicas reproduce.
+STATISTICS: tuple[str, ...] = ('torsion_moment', 'speed', 'blocks')
+#: Statistics reported beside them.
+REPORTED: tuple[str, ...] = ('angular_acceleration',)
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """Adequacy statistics of one fit (see the module docstring) [-].
+
+    Parameters
+    ----------
+    values : dict of str to float
+        Statistic name -> value [-].
+    noise : NoiseModel
+        The noise measured on this fit.
+    """
+
+    values: dict[str, float]
+    noise: NoiseModel
+
+    def __getitem__(self, name: str) -> float:
+        """Return one statistic [-]."""
+        return self.values[name]
+
+
+def raw_residuals(problem: Problem, sim: SimulatedRecord) -> dict[str, FloatArray]:
+    """Return measured minus simulated per raw channel (NaN off the simulated samples).
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+    sim : SimulatedRecord
+        The model output.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Per :data:`.noise.RAW_CHANNELS` [unit].
+    """
+    rec = problem.record
+    return {c: np.asarray(rec.channel(c) - sim.channel(c), dtype=np.float64) for c in RAW_CHANNELS}
+
+
+def _rms(x: FloatArray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
+
+
+def adequacy(problem: Problem, sim: SimulatedRecord) -> Adequacy:
+    """Return the adequacy statistics of a model's simulation.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+    sim : SimulatedRecord
+        The model's simulation.
+
+    Returns
+    -------
+    Adequacy
+        The statistics and the noise measured on them.
+    """
+    res = raw_residuals(problem, sim)
+    cov = sim.covered
+    noise = measure_noise(res, cov)
+    vals: dict[str, float] = {}
+    for c in (*RAW_CHANNELS,):
+        tot = noise.channel(c).total
+        vals[c] = _rms(res[c][cov]) / tot if tot > 0 else math.inf
+    seg = problem.segments
+    n = problem.record.time.size
+    block_rms = []
+    for b in range(seg.n_blocks):
+        m = seg.sample_mask(n, seg.block == b) & cov
+        if np.count_nonzero(m) > 10:
+            block_rms.append(_rms(res['torsion_moment'][m]))
+    vals['blocks'] = max(block_rms) / float(np.median(block_rms)) if len(block_rms) >= 3 else 1.0
+    return Adequacy(vals, noise)
+
+
+def _record_sticks(problem: Problem) -> np.ndarray:
+    """Return the record's measured stick phases as a sample mask."""
+    n = problem.record.time.size
+    out = np.zeros(n, dtype=bool)
+    phases = problem.segments.stick_phases()
+    if phases is None:
+        return out
+    for a, b in zip(*phases, strict=True):
+        out[int(a) : int(b)] = True
+    return out
+
+
+def replica(
+    problem: Problem, values: Mapping[str, float], noise: NoiseModel, rng: np.random.Generator
+) -> Record:
+    """Return a record of the model ``values`` with the record's measured noise.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem (drive profile, speed sensor, first segment state).
+    values : mapping of str to float
+        The model's values.
+    noise : NoiseModel
+        The noise to add.
+    rng : numpy.random.Generator
+        Random source.
+
+    Returns
+    -------
+    Record
+        The replica, from the first segment's start to the record's end.
+    """
+    sim = problem.simulate(values, continuous=True)
+    i0 = int(np.flatnonzero(sim.covered)[0])
+    rec = problem.record
+    n = rec.time.size - i0
+    chans = {c: sim.channel(c)[i0:] + noise.channel(c).draw(rng, n, rec.dt) for c in RAW_CHANNELS}
+    return Record(
+        rec.time[i0:].copy(),
+        chans['torsion_moment'],
+        chans['angular_acceleration'],
+        chans['speed'],
+    )
+
+
+@dataclass(frozen=True)
+class NullLaw:
+    """The adequacy statistics' distribution under "nothing missing" (module docstring).
+
+    Parameters
+    ----------
+    samples : dict of str to tuple of float
+        Statistic name -> its value on every replica [-].
+    alpha : float
+        Chance that an adequate model fails any statistic [-].
+    drifts : tuple of float
+        The stick kinematics' drift (:attr:`..fitting.SpeedSensor.drift`) of every
+        replica [-].
+    """
+
+    samples: dict[str, tuple[float, ...]]
+    alpha: float
+    drifts: tuple[float, ...] = ()
+
+    @property
+    def replicas(self) -> int:
+        """Number of replicas."""
+        return min((len(v) for v in self.samples.values()), default=0)
+
+    def bound(self, name: str) -> float:
+        """Return the threshold of one statistic [-] (inf without two replicas).
+
+        Parameters
+        ----------
+        name : str
+            One of :data:`STATISTICS`.
+
+        Returns
+        -------
+        float
+            The one-sided prediction bound at ``alpha / len(samples)``.
+        """
+        x = np.log(np.asarray([v for v in self.samples[name] if v > 0 and math.isfinite(v)]))
+        b = x.size
+        if b < 2:
+            return math.inf
+        from scipy.stats import t as student_t
+
+        q = float(student_t.ppf(1.0 - self.alpha / max(len(self.samples), 1), b - 1))
+        return math.exp(float(np.mean(x)) + q * float(np.std(x, ddof=1)) * math.sqrt(1.0 + 1.0 / b))
+
+    def tolerance(self, name: str) -> float:
+        """Return the log excess over the centre that the null law allows [-].
+
+        Two fits of one record whose statistics differ by less than this cannot be
+        told apart by the record (the difference is within what noise gives).
+        """
+        b = self.bound(name)
+        c = self.centre(name)
+        return math.log(b / c) if math.isfinite(b) and c > 0 else math.inf
+
+    def drift_outlier(self, drift: float) -> bool:
+        """Tell whether the record's stick-kinematics drift lies outside its null law.
+
+        Two-sided prediction bound of the replicas' drifts (no Bonferroni share: one
+        statistic, its own gate at ``alpha``); False without the drift's replicas.
+
+        Parameters
+        ----------
+        drift : float
+            The record's drift [-] (:attr:`..fitting.SpeedSensor.drift`).
+
+        Returns
+        -------
+        bool
+            True when the rig or an instrument changes during the record.
+        """
+        x = np.asarray([v for v in self.drifts if math.isfinite(v)])
+        if x.size < 2 or not math.isfinite(drift):
+            return False
+        from scipy.stats import t as student_t
+
+        q = float(student_t.ppf(1.0 - self.alpha / 2.0, x.size - 1))
+        half = q * float(np.std(x, ddof=1)) * math.sqrt(1.0 + 1.0 / x.size)
+        return abs(drift - float(np.mean(x))) > half
+
+    def centre(self, name: str) -> float:
+        """Return the replicas' geometric mean of one statistic [-]."""
+        x = np.log(np.asarray([v for v in self.samples[name] if v > 0 and math.isfinite(v)]))
+        return math.exp(float(np.mean(x))) if x.size else math.nan
+
+    def failing(self, stats: Adequacy) -> tuple[str, ...]:
+        """Return the statistics of ``stats`` beyond their bound (empty: adequate).
+
+        Parameters
+        ----------
+        stats : Adequacy
+            A fit's statistics.
+
+        Returns
+        -------
+        tuple of str
+            The names of the failing statistics.
+        """
+        return tuple(n for n in self.samples if stats.values[n] > self.bound(n))
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form (per statistic: replicas' centre and bound)."""
+        return {
+            'alpha': self.alpha,
+            'replicas': self.replicas,
+            **{n: {'centre': self.centre(n), 'bound': self.bound(n)} for n in self.samples},
+        }
+
+
+def null_law(
+    problem: Problem,
+    values: Mapping[str, float],
+    free: Sequence[ParamSpec],
+    noise: NoiseModel,
+    *,
+    replicas: int,
+    alpha: float,
+    seed: int,
+    max_nfev: int,
+) -> NullLaw:
+    """Measure the adequacy statistics' null law by a parametric bootstrap.
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+    values : mapping of str to float
+        The fitted model (the truth of the replicas).
+    free : sequence of ParamSpec
+        The model's fitted parameters (refitted on every replica).
+    noise : NoiseModel
+        The record's measured noise.
+    replicas : int
+        Number of replicas.
+    alpha : float
+        False-alarm rate of the adequacy decision [-].
+    seed : int
+        Seed of the replicas' noise.
+    max_nfev : int
+        Simulations per replica's refit.
+
+    Returns
+    -------
+    NullLaw
+        The replicas' statistics.
+    """
+    from ..fitting import identify_speed_sensor
+
+    rng = np.random.default_rng(seed)
+    out: dict[str, list[float]] = {n: [] for n in STATISTICS}
+    drifts: list[float] = []
+    for _ in range(replicas):
+        rep = problem.like(replica(problem, values, noise, rng))
+        fo = rep.fit(free, values, max_nfev=max_nfev)
+        st = adequacy(rep, rep.simulate(fo.values))
+        for n in STATISTICS:
+            out[n].append(st.values[n])
+        drifts.append(identify_speed_sensor(rep.record, rep.rig, rep.segments.stick_phases()).drift)
+    return NullLaw({n: tuple(v) for n, v in out.items()}, alpha, tuple(drifts))
+
+
+__all__ = [
+    'STATISTICS',
+    'Adequacy',
+    'NullLaw',
+    'adequacy',
+    'null_law',
+    'raw_residuals',
+    'replica',
+]

@@ -1,0 +1,232 @@
+"""Steps 1 and 2 of the pipeline: prepare each record, fit the baseline.
+
+``prepare`` turns a checked record into a fit problem: the torsion amplifier's lag
+is identified from the chamber kinematics and compensated
+(:func:`..fitting.identify_torsion_lag`), the record is cut into segments that start
+in its stick phases, the drive profile is measured from it
+(:mod:`tribo_estimation.core.drive`) and the speed sensor's lag and offset are
+identified from the stick phases (:func:`..fitting.identify_speed_sensor`).
+
+``fit_baseline`` fits the paper's model (Equ. 1-8: ``mu0``, ``mu_inf``) with the
+speed sensor held, sets the channel weights from its residuals (never above one
+over the channel's noise level), and refits with the speed sensor's lag and offset
+free when the lag is significant; they then stay free in every model of the record
+(:attr:`..fitting.Problem.free_instrument`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tribo_estimation.core.model import DriveProfile, RigParams
+
+from ..fitting import (
+    CHANNELS,
+    MU0,
+    SPEED_LAG,
+    SPEED_OFFSET,
+    Problem,
+    Record,
+    SimulatedRecord,
+    SpeedSensor,
+    TorsionLag,
+    identify_speed_sensor,
+    identify_torsion_lag,
+    torsion_compensated_record,
+)
+from ..stats import noise_floor
+from .ensemble import Ensemble, Fit
+from .policy import Policy, Progress
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """One record ready to fit (step 1).
+
+    Parameters
+    ----------
+    problem : Problem
+        The fit problem of the instrument-compensated record.
+    torsion_lag : TorsionLag
+        The torsion amplifier's identified lag.
+    sensor : SpeedSensor
+        The speed sensor identified from the stick phases (with the stick
+        kinematics' drift, :attr:`..fitting.SpeedSensor.drift`).
+    instrument : dict of str to object
+        The instrument report of ``discrepancy.json``.
+    """
+
+    problem: Problem
+    torsion_lag: TorsionLag
+    sensor: SpeedSensor
+    instrument: dict[str, object] = field(default_factory=dict)
+
+
+def prepare(
+    record: Record, rig: RigParams, drive: DriveProfile, *, k: float, policy: Policy
+) -> Prepared:
+    """Prepare one record: instrument chain, segments, drive profile, speed sensor.
+
+    Parameters
+    ----------
+    record : Record
+        The checked record (torsion moment [N m], acceleration [rad/s^2], speed
+        [rad/s]).
+    rig : RigParams
+        Rig parameters (Tab. 1, F_N, R).
+    drive : DriveProfile
+        RIG.yaml's drive (nominal speed [rad/s]: a default and a check; ramp [s]).
+    k : float
+        Decay constant of Equ. 8 [s/rad].
+    policy : Policy
+        The decision policy (``torsion_lag``, ``block_time``).
+
+    Returns
+    -------
+    Prepared
+        The record's fit problem and its instrument identification.
+    """
+    tq = identify_torsion_lag(record, rig, enabled=policy.torsion_lag)
+    rec = torsion_compensated_record(record, rig, tq.used)
+    pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
+    sensor = identify_speed_sensor(rec, rig, pb.segments.stick_phases())
+    used = sensor.values()
+    instrument: dict[str, object] = {
+        'torsion_lag_tau': tq.report(),
+        'speed_lag_tau': {
+            'value': sensor.tau,
+            'se': sensor.tau_se,
+            'unit': 's',
+            'used': used['speed_lag_tau'],
+        },
+        'speed_offset': {
+            'value': sensor.offset,
+            'se': sensor.offset_se,
+            'unit': 'rad/s',
+            'used': used['speed_offset'],
+        },
+        'speed_mismatch_drift': {'value': sensor.drift, 'se': sensor.drift_se, 'unit': '-'},
+        'stick_samples': sensor.n,
+    }
+    return Prepared(pb, tq, sensor, instrument)
+
+
+def baseline_starts(problem: Problem) -> list[dict[str, float]]:
+    """Return start values of the baseline fit.
+
+    ``mu0`` from the torsion moment at the measured breakaways (the peak of each
+    segment), ``mu_inf`` a fraction of it (Equ. 8).
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+
+    Returns
+    -------
+    list[dict[str, float]]
+        Three starts ``{'mu0', 'mu_inf'}`` (-).
+    """
+    rec = problem.record
+    fnr = problem.rig.F_N * problem.rig.R
+    seg = problem.segments
+    peaks = [
+        float(np.max(np.abs(rec.torsion_moment[a:b])))
+        for a, b in zip(seg.start, seg.stop, strict=True)
+    ]
+    m_s = float(np.median(peaks)) if peaks else float(np.max(np.abs(rec.torsion_moment)))
+    mu0 = max(m_s / fnr, 1e-3) if fnr > 0 else MU0.initial
+    return [{'mu0': mu0, 'mu_inf': f * mu0} for f in (0.7, 0.85, 0.95)]
+
+
+def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[str, float]:
+    """Fit one record's baseline (module docstring); sets its weights and free terms.
+
+    Parameters
+    ----------
+    prep : Prepared
+        The prepared record; its problem's weights and free instrument terms are set.
+    policy : Policy
+        The policy (evaluation budgets).
+    say : Progress
+        Receiver of progress messages.
+
+    Returns
+    -------
+    dict of str to float
+        mu0, mu_inf (Equ. 8) and the speed-sensor values (SI).
+    """
+    pb = prep.problem
+    one = Ensemble([pb])
+    sensor = prep.sensor.values()
+    best: Fit | None = None
+    for s in baseline_starts(pb):
+        start = {'mu0@0': s['mu0'], 'mu_inf@0': s['mu_inf'], **sensor}
+        fo = one.fit(one.specs(), start, max_nfev=policy.screen_nfev, fold=0)
+        if best is None or fo.cost < best.cost:
+            best = fo
+    assert best is not None
+    fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
+    values = {'mu0': fo.values['mu0@0'], 'mu_inf': fo.values['mu_inf@0'], **sensor}
+    sim = pb.simulate(values)
+    pb.set_residual_weights(sim, channel_floors(pb, sim))
+    if sensor['speed_lag_tau'] > 0.0:
+        pb.free_instrument = (SPEED_LAG, SPEED_OFFSET)
+        one = Ensemble([pb])
+        start = {'mu0@0': values['mu0'], 'mu_inf@0': values['mu_inf']}
+        start.update({f'{k}@0': v for k, v in sensor.items()})
+        fo = one.fit(one.specs(), start, max_nfev=policy.fit_nfev)
+        values = one.split(fo.values)[0]
+        inst = prep.instrument
+        for name in ('speed_lag_tau', 'speed_offset'):
+            entry = inst[name]
+            if isinstance(entry, dict):
+                entry['used'] = values[name]
+                entry['se_joint'] = fo.se.get(f'{name}@0', math.nan)
+    say(
+        f'baseline: mu0 = {values["mu0"]:.4f}, mu_inf = {values["mu_inf"]:.4f}, '
+        f'torque rms {pb.torque_rms(pb.simulate(values)):.4g} N m '
+        f'({pb.segments.n} segments)'
+    )
+    return values
+
+
+def channel_floors(problem: Problem, sim: SimulatedRecord) -> dict[str, float]:
+    """Return the noise level of every compared channel [unit] (the weights' floor).
+
+    Parameters
+    ----------
+    problem : Problem
+        The record's fit problem.
+    sim : SimulatedRecord
+        A model's simulation (its covered samples).
+
+    Returns
+    -------
+    dict of str to float
+        Per :data:`..fitting.CHANNELS`.
+    """
+    out: dict[str, float] = {}
+    for ch in CHANNELS:
+        m = problem.measured(ch)[sim.covered]
+        out[ch] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
+    return out
+
+
+def per_record_values(ens: Ensemble, values: Mapping[str, float]) -> list[dict[str, float]]:
+    """Return each record's model values (alias of :meth:`.ensemble.Ensemble.split`)."""
+    return ens.split(values)
+
+
+__all__ = [
+    'Prepared',
+    'baseline_starts',
+    'channel_floors',
+    'fit_record_baseline',
+    'per_record_values',
+    'prepare',
+]

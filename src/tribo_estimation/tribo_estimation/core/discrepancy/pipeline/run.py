@@ -1,0 +1,259 @@
+"""The pipeline's entry: :func:`find_missing_physics` on one record or several.
+
+``prepare`` (checked record, instrument chain, drive profile) -> ``baseline`` (the
+paper's model) -> null law (parametric bootstrap of the baseline) -> ``screen``
+(every form of every candidate family) -> ``decide`` (:mod:`.decide`), repeated for
+up to ``Policy.max_effects`` effects while a round leaves one partial explanation
+that the record singles out; a named model is confirmed against its own null law.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Sequence
+
+import numpy as np
+
+from tribo_estimation.core.model import DriveProfile, RigParams
+from tribo_estimation.errors import InvalidParameterError
+
+from ..fitting import MU0, MU_INF, Record
+from ..localise import localise, torque_residual
+from ..select.baseline import drive_report
+from ..select.unexplained import describe_unexplained
+from ..stats import noise_floor
+from .decide import (
+    CANNOT_TELL_APART,
+    INSTRUMENT,
+    NAMED,
+    NOTHING_MISSING,
+    UNEXPLAINED,
+    Decision,
+    decide,
+    explained,
+)
+from .ensemble import Ensemble, Fit
+from .null import NullLaw, null_law
+from .policy import Policy, Progress, quiet
+from .prepare import Prepared, fit_record_baseline, prepare
+from .result import Effect, MissingPhysics, RecordReport, Traces
+from .screen import FormFit, Model, failing, judge, screen
+
+
+def _null_laws(
+    ens: Ensemble, model: Model, policy: Policy, replicas: int, seed: int
+) -> list[NullLaw]:
+    """Return each record's null law, bootstrapped from ``model``."""
+    laws = []
+    for i, (pb, vals, ad) in enumerate(
+        zip(ens.problems, ens.split(model.values), model.adequacy, strict=True)
+    ):
+        free = [MU0, MU_INF, *pb.free_instrument, *model.params()]
+        laws.append(
+            null_law(
+                pb,
+                vals,
+                free,
+                ad.noise,
+                replicas=replicas,
+                alpha=policy.alpha,
+                seed=seed + 1000 * i,
+                max_nfev=policy.replica_nfev,
+            )
+        )
+    return laws
+
+
+def _single_speed(ens: Ensemble) -> bool:
+    """Tell whether every record ran at one drive speed (within 10 % of the mean)."""
+    speeds: list[float] = []
+    for pb in ens.problems:
+        de = pb.drive_estimate
+        speeds.extend(float(v) for v in de.knot_speed)
+    s = np.abs(np.asarray(speeds))
+    return bool(s.size == 0 or (s.max() - s.min()) <= 0.1 * max(float(s.mean()), 1e-9))
+
+
+def _effect(fit: FormFit, ens: Ensemble, current: Model, laws: Sequence[NullLaw]) -> Effect:
+    sims = ens.simulate(fit.model.values)
+    rms = tuple(pb.torque_rms(s) for pb, s in zip(ens.problems, sims, strict=True))
+    return Effect.of(fit, rms, explained(fit, current, laws))
+
+
+def find_missing_physics(
+    records: Sequence[Record],
+    rig: RigParams,
+    drives: Sequence[DriveProfile],
+    *,
+    k: float = 2.0,
+    policy: Policy | None = None,
+    progress: Progress | None = None,
+    shared_friction: bool = False,
+) -> MissingPhysics:
+    """Find what the rig model misses in one record or several (module docstring).
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The checked records (torsion moment [N m], acceleration [rad/s^2], speed
+        [rad/s]); several are fitted jointly (the effect shared, friction levels,
+        drive and instruments each record's own).
+    rig : RigParams
+        Rig parameters (Tab. 1, F_N, R).
+    drives : sequence of DriveProfile
+        RIG.yaml's drive per record (nominal speed [rad/s], ramp [s]).
+    k : float
+        Decay constant of Equ. 8 [s/rad].
+    policy : Policy or None
+        Rules and budget (None: the offline defaults).
+    progress : Progress or None
+        Receiver of one-line progress messages.
+    shared_friction : bool
+        Several records of one contact at several drive speeds: one friction law.
+
+    Returns
+    -------
+    MissingPhysics
+        The verdict, the named effects or the set the records cannot tell apart, and
+        per record what remains.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the numbers of records and drives differ or there is no record.
+    """
+    pol = policy or Policy()
+    say: Progress = progress or quiet
+    if len(records) != len(drives) or not records:
+        raise InvalidParameterError(f'{len(drives)} drive profiles for {len(records)} records')
+    t_start = _time.perf_counter()
+    deadline = t_start + pol.time_budget
+    preps: list[Prepared] = [
+        prepare(r, rig, d, k=k, policy=pol) for r, d in zip(records, drives, strict=True)
+    ]
+    base_vals = [fit_record_baseline(p, pol, say) for p in preps]
+    ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)
+    start = ens.join(base_vals)
+    if ens.shared_friction:
+        fit0 = ens.fit(ens.specs(), start, max_nfev=pol.fit_nfev)
+    else:
+        fit0 = Fit(start, ens.cost(start), 0, True, {})
+    baseline = judge(ens, (), fit0)
+    laws = _null_laws(ens, baseline, pol, pol.replicas, pol.seed)
+    drift = [law.drift_outlier(p.sensor.drift) for law, p in zip(laws, preps, strict=True)]
+    fails = failing(baseline, laws)
+    say(
+        'baseline statistics: '
+        + '; '.join(
+            ', '.join(f'{n} {a[n]:.3f} (bound {law.bound(n):.3f})' for n in law.samples)
+            for a, law in zip(baseline.adequacy, laws, strict=True)
+        )
+    )
+    current = baseline
+    rounds: list[tuple[Effect, ...]] = []
+    decision: Decision
+    added: list[FormFit] = []
+    if not fails:
+        decision = Decision(
+            NOTHING_MISSING, None, (), (),
+            "the paper's model explains the record down to the noise",
+        )  # fmt: skip
+    else:
+        say(f'baseline inadequate: {", ".join(fails)}')
+        decision = Decision(UNEXPLAINED, None, (), (), 'no family screened')
+        for rnd in range(pol.max_effects):
+            fits = screen(
+                ens, current, laws, pol, say,
+                exclude=[f.family for f in added], deadline=deadline,
+            )  # fmt: skip
+            decision = decide(fits, current, laws, single_speed=_single_speed(ens))
+            rounds.append(tuple(_effect(f, ens, current, laws) for f in fits))
+            say(f'round {rnd + 1}: {decision.kind}: {decision.reason}')
+            if decision.kind in (NAMED, CANNOT_TELL_APART):
+                break
+            singled = len(decision.alternatives) == 1 and decision.alternatives[0].failing
+            if not singled or rnd + 1 >= pol.max_effects or _time.perf_counter() > deadline:
+                break
+            top = decision.alternatives[0]
+            say(f'round {rnd + 1}: {top.family} kept tentatively for the next round')
+            added.append(top)
+            current = top.model
+    named: list[FormFit] = []
+    if decision.kind == NAMED and decision.named is not None:
+        named = [*added, decision.named]
+        final = decision.named.model
+        if pol.confirm_replicas:
+            own = _null_laws(ens, final, pol, pol.confirm_replicas, pol.seed + 7)
+            still = failing(final, own)
+            if still:
+                say(f'not confirmed by its own null law: {", ".join(still)}')
+                decision = Decision(
+                    UNEXPLAINED, None, (decision.named,), decision.partial,
+                    f'{decision.named.family} fits, but its own null law finds '
+                    f'{", ".join(still)} beyond noise',
+                )  # fmt: skip
+                named = []
+        if named and any(drift):
+            decision = Decision(
+                INSTRUMENT, None, (), decision.partial,
+                'the stick phases drift apart from the speed channel beyond their null law: '
+                'the rig or an instrument changes during the record, which no friction '
+                'effect explains',
+            )  # fmt: skip
+            named = []
+    final_model = named[-1].model if named else baseline
+    base_sims = ens.simulate(baseline.values)
+    final_sims = ens.simulate(final_model.values)
+    reports = []
+    for i, (pb, prep, law) in enumerate(zip(ens.problems, preps, laws, strict=True)):
+        bs, fs_ = base_sims[i], final_sims[i]
+        r_final = torque_residual(pb, fs_)[fs_.covered]
+        sigma = noise_floor(r_final)
+        inadequate = bool(law.failing(final_model.adequacy[i]))
+        unexplained = describe_unexplained(pb, fs_, sigma=sigma) if inadequate else []
+        reports.append(
+            RecordReport(
+                baseline=ens.split(baseline.values)[i],
+                final=ens.split(final_model.values)[i],
+                rms_baseline=pb.torque_rms(bs),
+                rms_final=pb.torque_rms(fs_),
+                noise_floor=final_model.adequacy[i].noise.torsion_moment.white,
+                statistics_baseline=dict(baseline.adequacy[i].values),
+                statistics_final=dict(final_model.adequacy[i].values),
+                null=law,
+                noise=final_model.adequacy[i].noise.as_dict(),
+                instrument=dict(prep.instrument),
+                drive=drive_report(pb),
+                drift_outlier=drift[i],
+                unexplained=tuple(unexplained),
+                localisation={'baseline': localise(pb, bs), 'final': localise(pb, fs_)},
+                rejected=pb.segments.rejected,
+            )
+        )
+    prev = baseline
+    named_effects = []
+    for f in named:
+        named_effects.append(_effect(f, ens, prev, laws))
+        prev = f.model
+    run_time = _time.perf_counter() - t_start
+    result = MissingPhysics(
+        verdict=decision.kind,
+        reason=decision.reason,
+        experiment=decision.experiment,
+        named=tuple(named_effects),
+        alternatives=tuple(_effect(f, ens, current, laws) for f in decision.alternatives),
+        partial=tuple(_effect(f, ens, current, laws) for f in decision.partial),
+        records=tuple(reports),
+        rounds=tuple(rounds),
+        policy=pol,
+        run_time=run_time,
+        simulations=ens.n_evals(),
+        traces=tuple(
+            Traces(pb, b, f) for pb, b, f in zip(ens.problems, base_sims, final_sims, strict=True)
+        ),
+    )
+    say(f'{result.summary()} ({run_time:.1f} s, {result.simulations} simulations)')
+    return result
+
+
+__all__ = ['find_missing_physics']
