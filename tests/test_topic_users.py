@@ -1,5 +1,5 @@
-"""The one topic table (tribo_common.topics): relative names, and every user takes its
-names from it (no topic literal elsewhere in the nodes, the bag I/O or the bridge)."""
+"""Every user of topic names takes them from the one topic table (tribo_common.topics): no
+topic literal elsewhere in the nodes, the bag I/O or the bridge."""
 
 from __future__ import annotations
 
@@ -11,24 +11,6 @@ import pytest
 from tribo_common import topics
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def test_names_are_relative_except_diagnostics() -> None:
-    for t in topics.TOPICS:
-        assert t.name.startswith('/') == (t is topics.DIAGNOSTICS), t.name
-        assert t.description and t.rate >= 0.0
-
-
-@pytest.mark.parametrize(
-    ('namespace', 'want'),
-    [('', '/rig/speed'), ('/', '/rig/speed'), ('rigB', '/rigB/rig/speed'),
-     ('/rigB/', '/rigB/rig/speed'), ('/lab/rigB', '/lab/rigB/rig/speed')],
-)  # fmt: skip
-def test_resolve_and_split(namespace: str, want: str) -> None:
-    assert topics.SPEED.resolve(namespace) == want
-    assert topics.split(want) == (topics.normalize_namespace(namespace), topics.SPEED)
-    assert topics.DIAGNOSTICS.resolve(namespace) == '/diagnostics'
-    assert topics.split('/rigB/rig/unknown') is None
 
 
 def test_bagio_and_qos_derive_from_the_table() -> None:
