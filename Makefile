@@ -68,11 +68,12 @@ build:
 	@$(MAKE) -s setup
 
 MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimation \
-	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench
+	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench \
+	validation/tribo_scenarios
 
 test: setup
 	@echo '[test] ruff, mypy, vulture, pytest'
-	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
+	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
 	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
 	@$(IN_ENV) vulture
 	@$(IN_ENV) python -m pytest -q -n $(PYTEST_JOBS) --timeout=600 $(PYTEST_ARGS)
@@ -91,8 +92,8 @@ fuzz: setup
 # vulture: the dead-code check (configuration in pyproject.toml, dynamic uses in
 # tools/vulture_whitelist.py)
 lint: setup
-	@$(IN_ENV) ruff check --no-cache src tests bench tools conftest.py
-	@$(IN_ENV) ruff format --no-cache --check src tests bench tools conftest.py
+	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
+	@$(IN_ENV) ruff format --no-cache --check src tests bench tools validation conftest.py
 	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
 	@$(IN_ENV) vulture
 
