@@ -64,6 +64,8 @@ def iter_messages(
     on_error: OnError = 'raise',
     deserialize: bool = True,
     namespace: str | None = None,
+    start_ns: int | None = None,
+    stop_ns: int | None = None,
 ) -> Iterator[BagMessage]:
     """Yield the messages of a bag in time order.
 
@@ -77,6 +79,9 @@ def iter_messages(
             messages are yielded under the root-namespace names. ``None`` with
             ``topics`` given: when none of them is in the bag but they are in
             exactly one namespace, that one (:func:`find_namespace`).
+        start_ns, stop_ns: only the messages whose bag time stamp [ns] lies in
+            ``[start_ns, stop_ns)`` (a rosbag2 directory seeks there through its
+            index; a bare or cut-off file is scanned).
     """
     bag = Path(path)
     if not bag.exists():
@@ -91,7 +96,7 @@ def iter_messages(
             raise BagError('reading a namespace needs the list of topics to read')
         inner = iter_messages(
             bag, [ns + t for t in topics], on_error=on_error, deserialize=deserialize,
-            namespace='',
+            namespace='', start_ns=start_ns, stop_ns=stop_ns,
         )  # fmt: skip
         for m in inner:
             yield BagMessage(m.topic[len(ns) :], m.msgtype, m.timestamp_ns, m.msg, m.index)
@@ -101,13 +106,19 @@ def iter_messages(
     last: BagMessage | None = None
     try:
         if bag.is_dir() and (bag / 'metadata.yaml').is_file():
-            source: Iterator[tuple[str, str, int, bytes]] = _iter_rosbag2(bag, wanted, store)
+            source: Iterator[tuple[str, str, int, bytes]] = _iter_rosbag2(
+                bag, wanted, store, (start_ns, stop_ns)
+            )
         elif _sqlite_files(bag):
             source = _iter_raw_sqlite(bag, wanted, store)
         else:
             source = _iter_raw_mcap(bag, wanted, store)
         count = 0
         for topic, msgtype, stamp, raw in source:
+            if (start_ns is not None and stamp < start_ns) or (
+                stop_ns is not None and stamp >= stop_ns
+            ):
+                continue
             if not deserialize:
                 last = BagMessage(topic, msgtype, stamp, raw, count)
                 count += 1
@@ -200,7 +211,10 @@ def find_namespace(path: str | Path, topics: Iterable[str]) -> str:
 
 
 def _iter_rosbag2(
-    bag: Path, wanted: set[str] | None, store: Typestore
+    bag: Path,
+    wanted: set[str] | None,
+    store: Typestore,
+    window: tuple[int | None, int | None] = (None, None),
 ) -> Iterator[tuple[str, str, int, bytes]]:
     try:
         reader = Reader(bag)
@@ -228,7 +242,9 @@ def _iter_rosbag2(
         if not conns:
             return
         try:
-            for conn, stamp, raw in reader.messages(connections=conns):
+            for conn, stamp, raw in reader.messages(
+                connections=conns, start=window[0], stop=window[1]
+            ):
                 yield conn.topic, conn.msgtype, int(stamp), bytes(raw)
         except Exception as exc:  # rosbags raises several types
             raise _CorruptError(str(exc)) from exc
