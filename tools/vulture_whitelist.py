@@ -32,9 +32,15 @@ _.automatically_declare_parameters_from_overrides
 # ROS: keyword of rclpy's Executor.spin_once (tribo_common.node_main.SpinsOnce protocol)
 _.timeout_sec
 
+# Python: module-level __getattr__ / __dir__ of a package's lazy exports (PEP 562)
+__getattr__
+__dir__
+
 # pytest: module-level marks
 pytestmark
 
+# standard library: argparse.Action.__call__'s argument (tribo_bringup/commands/discrepancy.py)
+_.option_string
 # standard library: html.parser.HTMLParser callbacks (tribo_bringup/test/test_report.py)
 _.handle_starttag
 _.handle_endtag
@@ -79,8 +85,6 @@ _.detector_activity_ref  # owner: H3, tribo_nvct (core/simulate.py)
 _.signal_rate  # owner: H3, tribo_nvct (core/simulate.py)
 _.height_sys_se  # owner: H3, tribo_nvct (core/wear.py)
 _.OTHER_SHAPES  # owner: H3, tribo_nvct (test/truthgen.py)
-_.task_seconds  # owner: H2, campaigns (tribo_bringup/campaign/runner.py)
-_.cluster_seconds  # owner: H2, campaigns (tribo_bringup/campaign/runner.py)
 _.REPORTED  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
 _._record_sticks  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
 _.is_named  # owner: discrepancy redesign (core/discrepancy/pipeline/result.py)
