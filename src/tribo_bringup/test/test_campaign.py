@@ -31,6 +31,7 @@ from tribo_estimation.core.blockfit import read_blocks_csv
 
 REPO = Path(__file__).resolve().parents[3]
 RIG_YAML = REPO / 'config' / 'rig.yaml'  # mu0 0.13, mu_inf 0.10, ramp 0.5 s
+NVCT_YAML = REPO / 'config' / 'nvct.yaml'
 #: Equal numbers: the campaign calls the same library functions on the same samples.
 EXACT = 1e-12
 
@@ -79,15 +80,18 @@ def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _with_corrupt(campaign: Path, d: Path) -> Path:
-    """Copy of the campaign with a cut MCAP (half its bytes) added to oil B."""
+    """Copy of the campaign with a cut MCAP (half its bytes) added to oil B and wear.
+
+    The wear group is one simulated nVCT counts file (``tribo wear --simulate``).
+    """
     shutil.copytree(campaign, d)
     data = (d / 'runs' / 'b2.mcap').read_bytes()
     (d / 'runs' / 'cut.mcap').write_bytes(data[: len(data) // 2])
-    spec = (
-        (d / 'spec.yaml')
-        .read_text()
-        .replace('      - runs/b4\n', '      - runs/b4\n      - runs/cut.mcap\n')
-    )
+    assert cli.main(['wear', '--simulate', str(d / 'runs' / 'counts.csv')]) == 0
+    spec = (d / 'spec.yaml').read_text()
+    spec = spec.replace('      - runs/b4\n', '      - runs/b4\n      - runs/cut.mcap\n')
+    spec = spec.replace('analyses: [friction]', 'analyses: [friction, wear]')
+    spec += f'  - nvct: {NVCT_YAML}\n    meta: {{oil: A}}\n    sessions: [runs/counts.csv]\n'
     (d / 'spec.yaml').write_text(spec)
     return d / 'spec.yaml'
 
@@ -179,7 +183,7 @@ def test_corrupt_bag_fails_its_session_the_others_are_analysed(
     analysed: tuple[Path, int, str],
 ) -> None:
     store, rc, last = analysed
-    assert rc == 2 and '1 of 5 sessions failed' in last and 'cut.mcap' in last
+    assert rc == 2 and '1 of 6 sessions failed' in last and 'cut.mcap' in last
     _, rows = query(store, 'SELECT session_id, status, error FROM sessions ORDER BY 1')
     status = {r[0]: (r[1], r[2]) for r in rows}
     assert status['runs/cut.mcap'][0] == 'failed'
@@ -214,11 +218,26 @@ def test_query_per_oil_mu0_equals_the_single_session_commands(
     assert got['B'][0] == pytest.approx(0.14, rel=0.01)
 
 
+def test_wear_equals_the_single_session_command(
+    analysed: tuple[Path, int, str], tmp_path: Path
+) -> None:
+    import json
+
+    counts = analysed[0].parent / 'c' / 'runs' / 'counts.csv'
+    out = tmp_path / 'wear'
+    assert cli.main(['wear', str(counts), '--nvct', str(NVCT_YAML), '--out', str(out)]) == 0
+    ref = json.loads((out / 'summary.json').read_text())
+    cols, rows = query(analysed[0], "SELECT * FROM wear WHERE session_id = 'runs/counts.csv'")
+    got = dict(zip(cols, rows[0], strict=True))
+    for key in ('k_w_progressive', 'k_w_running_in', 'progressive_rate_um3_per_min', 'load_N'):
+        assert got[key] == pytest.approx(ref[key], rel=EXACT), key
+
+
 def test_rerun_analyses_nothing(analysed: tuple[Path, int, str], tmp_path: Path) -> None:
     store = analysed[0]
     spec = load_spec(store.parent / 'c' / 'spec.yaml')
     res = analyse(spec, store, workers=1, stream=None)
-    assert (res.analysed, res.up_to_date, res.tasks, res.workers) == (0, 5, 0, 0)
+    assert (res.analysed, res.up_to_date, res.tasks, res.workers) == (0, 6, 0, 0)
     assert len(res.failures) == 1  # the cut bag stays failed: the same bytes fail the same way
 
 
@@ -238,7 +257,8 @@ def test_report_page_in_headless_chromium(analysed: tuple[Path, int, str], tmp_p
     page = (out / 'index.html').read_text()
     for section in ('id="sessions"', 'id="fig45"', 'id="speed"', 'id="motion"'):
         assert section in page
-    assert page.count('data:image/png;base64,') == 3 and 'http' not in page.split('<body>')[1]
+    assert 'id="wear"' in page
+    assert page.count('data:image/png;base64,') == 4 and 'http' not in page.split('<body>')[1]
     if browser is None:
         pytest.skip('no Chromium installed: page checked as text only')
     dom = subprocess.run(
@@ -246,7 +266,7 @@ def test_report_page_in_headless_chromium(analysed: tuple[Path, int, str], tmp_p
          (out / 'index.html').as_uri()],
         capture_output=True, text=True, timeout=120,
     ).stdout  # fmt: skip
-    assert dom.count('<img') == 3 and 'runs/cut.mcap' in dom and 'failed' in dom
+    assert dom.count('<img') == 4 and 'runs/cut.mcap' in dom and 'failed' in dom
 
 
 # --- a real cluster ------------------------------------------------------------------------

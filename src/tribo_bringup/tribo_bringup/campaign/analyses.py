@@ -3,12 +3,14 @@
 A :class:`Task` is one unit of work on a worker: the block fit of one time chunk
 of a session (paper 2.5, Equ. 8), the missing-physics workflow on a window of
 it, or the nVCT wear evaluation of its counts (paper 3, Equ. 8-10). Each calls
-the library functions the single-session commands call (``tribo friction``: the
-checked aligner events through :class:`~tribo_estimation.core.blockfit.BlockEstimator`;
-``tribo discrepancy``: its record reader and
-:func:`~tribo_estimation.core.discrepancy.run_discrepancy`; ``tribo wear``:
-:class:`~tribo_nvct.core.streaming.WearEvaluator`), so a campaign's numbers equal
-the commands'. Nothing here runs a command line or imports rclpy.
+the library API the single-session commands are shells over (``tribo friction``:
+:func:`tribo_estimation.fit_blocks`, or for a time chunk its input stage
+:class:`~tribo_estimation.core.inputs.CheckedInput` and
+:class:`~tribo_estimation.core.blockfit.BlockEstimator`; ``tribo discrepancy``:
+:func:`tribo_estimation.read_record` and :func:`tribo_estimation.find_missing_physics`;
+``tribo wear``: :func:`tribo_nvct.evaluate_wear`), so a
+campaign's numbers equal the commands'. Nothing here runs a command line or
+imports rclpy.
 
 Chunks: a session whose length is known (a rosbag2 directory's metadata) is cut
 into ``chunk_s`` pieces on block boundaries. A chunk after the first reads a
@@ -16,7 +18,7 @@ warm-up of ``ramp_time + 2 block_s`` before its first block (the friction
 observer's 10 Hz complementary filter forgets its start within it, and the
 estimator's start-up flag stays with the session's own start), and keeps only
 the blocks that start inside it; the blocks of all chunks are the blocks of one
-pass over the session.
+pass over the session. A chunk seeks to its window through the bag's index.
 
 Input errors (the packages' specific exceptions: a unit mistake, a truncated
 bag, a missing topic) are returned as the task's one-line ``error``; anything
@@ -101,6 +103,9 @@ class TaskResult:
         One-line error ('' when the analysis ran).
     seconds
         Wall time of the analysis on the worker [s].
+    cpu_seconds
+        CPU time of the worker process during the analysis [s] (below ``seconds``
+        when other processes take the cores).
     internal
         The error is not the input's (a bug, or the task's workers kept dying):
         the next run tries the session again.
@@ -110,6 +115,7 @@ class TaskResult:
     rows: dict[str, list[Row]] = field(default_factory=dict)
     error: str = ''
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
     internal: bool = False
 
 
@@ -176,7 +182,9 @@ def run_task(task: Task) -> TaskResult:
     """
     from tribo_bringup.cli import _error_types
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
+    rows: dict[str, list[Row]] = {}
+    error = ''
     try:
         if task.analysis == 'friction':
             rows = {'blocks': _friction(task)}
@@ -185,8 +193,9 @@ def run_task(task: Task) -> TaskResult:
         else:
             rows = {'wear': [_wear(task)]}
     except _error_types() as exc:
-        return TaskResult(task, error=one_line(exc), seconds=time.perf_counter() - t0)
-    return TaskResult(task, rows, seconds=time.perf_counter() - t0)
+        error = one_line(exc)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return TaskResult(task, rows, error, seconds=wall, cpu_seconds=cpu)
 
 
 def one_line(exc: BaseException) -> str:
@@ -231,126 +240,101 @@ def block_row(r: BlockResult) -> Row:
     return row
 
 
-def _rig_events(task: Task, warm_s: float) -> Iterator[AlignEvent]:
-    """Aligner events of the task's rig input, from ``warm_s`` before its chunk."""
-    from tribo_bringup.commands.friction import csv_events
-    from tribo_bringup.sessions import rig_bag_events
-
-    path = Path(task.path)
-    if task.kind == 'rig_csv':
-        return csv_events(path)
-    ns = task.namespace or None
-    if task.n_chunks == 1 or task.chunk == 0:
-        return rig_bag_events(path, ns)
-    start = task.chunk * task.settings.chunk_s - warm_s
-    stop = (task.chunk + 1) * task.settings.chunk_s + task.settings.block_s
-    return _bag_window_events(path, ns, start - WINDOW_SLACK_S, stop + WINDOW_SLACK_S)
-
-
-def _bag_window_events(
-    path: Path, namespace: str | None, start_s: float, stop_s: float
+def _window_events(
+    path: Path, namespace: str | None, start_ns: int, stop_ns: int
 ) -> Iterator[AlignEvent]:
-    """Aligner events of the rig streams whose bag stamps lie in a window.
-
-    The window is counted from the bag's first rig message [s]; messages outside
-    it are skipped before they are decoded.
-    """
-    from tribo_bringup import bagio
-    from tribo_bringup.errors import BagError
-    from tribo_bringup.sessions import RIG_CHANNELS
+    """Aligner events of a bag's rig streams whose bag stamps lie in ``[start_ns, stop_ns)``."""
+    from tribo_common import topics as topic_table
+    from tribo_common.bag_read import iter_messages
     from tribo_estimation.core.align import ChannelAligner
+    from tribo_estimation.errors import RecordBagError
 
-    store = bagio.typestore()
+    channels = {t.resolve(): t.channel for t in topic_table.RIG_STREAMS}
     aligner = ChannelAligner()
-    t_first: int | None = None
     seen = 0
-    raw_msgs = bagio.iter_messages(
-        path, topics=list(RIG_CHANNELS), namespace=namespace, deserialize=False
-    )
-    for m in raw_msgs:
-        if t_first is None:
-            t_first = m.timestamp_ns
-        rel = (m.timestamp_ns - t_first) * 1e-9
-        if rel < start_s:
-            continue
-        if rel >= stop_s:
-            break
-        ch = RIG_CHANNELS.get(m.topic)
-        if ch is None:
-            continue
-        assert isinstance(m.msg, bytes | bytearray | memoryview)
-        msg = store.deserialize_cdr(bytes(m.msg), m.msgtype)
+    for m in iter_messages(
+        path, topics=list(channels), namespace=namespace, start_ns=start_ns, stop_ns=stop_ns
+    ):
+        msg = m.msg
         seen += 1
         stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
         yield from aligner.push(
-            ch, int(msg.first_index), float(msg.sample_rate), stamp, np.asarray(msg.data)
-        )
+            channels[m.topic], int(msg.first_index), float(msg.sample_rate), stamp,
+            np.asarray(msg.data),
+        )  # fmt: skip
     if seen == 0:
-        raise BagError(f'{path}: no rig stream messages between {start_s:g} and {stop_s:g} s')
+        raise RecordBagError(f'{path}: no rig stream messages in chunk window')
     yield from aligner.flush()
 
 
-def _first_index(task: Task) -> tuple[int, float]:
-    """Return the first sample index and the rate [Hz] of a bag's rig streams."""
-    from tribo_bringup import bagio
-    from tribo_bringup.errors import BagError
-    from tribo_bringup.sessions import RIG_CHANNELS
+def _first_message(path: Path, namespace: str | None) -> tuple[int, float, int]:
+    """Return a bag's first rig message: sample index, rate [Hz] and bag stamp [ns]."""
+    from tribo_common import topics as topic_table
+    from tribo_common.bag_read import iter_messages
+    from tribo_estimation.errors import RecordBagError
 
-    for m in bagio.iter_messages(
-        Path(task.path), topics=list(RIG_CHANNELS), namespace=task.namespace or None
-    ):
-        return int(m.msg.first_index), float(m.msg.sample_rate)
-    raise BagError(f'{task.path}: no rig stream messages')
+    topics = [t.resolve() for t in topic_table.RIG_STREAMS]
+    for m in iter_messages(path, topics=topics, namespace=namespace):
+        return int(m.msg.first_index), float(m.msg.sample_rate), int(m.timestamp_ns)
+    raise RecordBagError(f'{path}: no rig stream messages')
 
 
 def _friction(task: Task) -> list[Row]:
-    """Block fit of one chunk (as ``tribo friction`` with the campaign's block length)."""
-    from tribo_bringup.errors import BagError
+    """Block fit of one chunk (``tribo friction`` with the campaign's block length).
+
+    One chunk: :func:`tribo_estimation.fit_blocks` on the whole session. Several:
+    the same input stage (:class:`~tribo_estimation.core.inputs.CheckedInput`) and
+    estimator on the chunk's window with its warm-up, keeping the blocks that
+    start inside the chunk.
+    """
+    import tribo_estimation as te
     from tribo_estimation.core.blockfit import BlockConfig, BlockEstimator
-    from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.plausibility import Scales, SpikeLog, checked_chunks
+    from tribo_estimation.core.inputs import CheckedInput, bag_events, rig_scales
+    from tribo_estimation.errors import TooShortError
 
     st = task.settings
-    cfg_rig = load_rig_config(task.config)
+    path = Path(task.path)
+    ns = task.namespace or None
+    cfg_rig = te.load_rig(task.config)
+    if task.n_chunks == 1:
+        fit = te.fit_blocks(path, cfg_rig, block_length=st.block_s, namespace=ns)
+        return [block_row(r) for r in fit.results]
     nominal = cfg_rig.drive.nominal_speed
     cfg = BlockConfig(
         block_length=st.block_s,
-        nominal_speed=None if nominal <= 0.0 else nominal,
+        nominal_speed=nominal if nominal > 0.0 else None,
         ramp_time=cfg_rig.drive.ramp_time,
     )
-    lo, hi = -math.inf, math.inf
-    warm_s = cfg_rig.drive.ramp_time + 2.0 * st.block_s
-    if task.n_chunks > 1:
-        i0, fs = _first_index(task)
-        if task.chunk > 0:
-            lo = i0 + round(task.chunk * st.chunk_s * fs)
-        if task.chunk < task.n_chunks - 1:
-            hi = i0 + round((task.chunk + 1) * st.chunk_s * fs)
-    spikes = SpikeLog()
-    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg, repairs=spikes)
-    scales = Scales.of(cfg_rig.rig, cfg_rig.friction, nominal)
-    warnings: list[str] = []
-    events = checked_chunks(_rig_events(task, warm_s), scales, task.path, spikes, warnings)
+    i0, fs, t0_ns = _first_message(path, ns)
+    lo = -math.inf if task.chunk == 0 else i0 + round(task.chunk * st.chunk_s * fs)
+    last = task.chunk == task.n_chunks - 1
+    hi = math.inf if last else i0 + round((task.chunk + 1) * st.chunk_s * fs)
+    if task.chunk == 0:
+        raw = bag_events(path, ns)
+    else:
+        warm_s = cfg_rig.drive.ramp_time + 2.0 * st.block_s + WINDOW_SLACK_S
+        start = task.chunk * st.chunk_s - warm_s
+        stop = (task.chunk + 1) * st.chunk_s + st.block_s + WINDOW_SLACK_S
+        raw = _window_events(path, ns, t0_ns + round(start * 1e9), t0_ns + round(stop * 1e9))
+    stream = CheckedInput(raw, rig_scales(cfg_rig), str(path))
+    est = BlockEstimator(cfg_rig.rig, cfg_rig.friction, cfg, repairs=stream.repairs)
     rows: list[Row] = []
-
-    def keep(blk_first: int) -> bool:
-        return lo <= blk_first < hi
-
     past = False
-    for ev in events:
+    for ev in stream:
         for blk in est.push(ev):
-            if blk.first_index >= hi:
-                past = True
-            elif keep(blk.first_index):
+            past = past or blk.first_index >= hi
+            if lo <= blk.first_index < hi:
                 rows.append(block_row(est.evaluate(blk).result))
         if past:
             break
+    if stream.truncated is not None:
+        raise stream.truncated
     if not past:
         for blk in est.flush():
-            if keep(blk.first_index):
+            if lo <= blk.first_index < hi:
                 rows.append(block_row(est.evaluate(blk).result))
-    if not rows and task.chunk == 0:
-        raise BagError(f'{task.path}: no complete block of data')
+    if not rows:
+        raise TooShortError(f'{path}: no complete block in chunk {task.chunk}')
     return rows
 
 
@@ -358,35 +342,35 @@ def _friction(task: Task) -> list[Row]:
 
 
 def _discrepancy(task: Task) -> Row:
-    """Missing-physics workflow on the window of the settings (as ``tribo discrepancy``)."""
+    """Missing-physics workflow on the settings' window (``tribo discrepancy``)."""
     import json
-    from types import SimpleNamespace
 
-    from tribo_bringup.commands.discrepancy import _load_record
-    from tribo_bringup.report.analyses import discrepancy_finding
-    from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.discrepancy import run_discrepancy
-    from tribo_estimation.core.discrepancy.report import to_dict
+    import tribo_estimation as te
+    from tribo_estimation.results import discrepancy_finding
 
     st = task.settings
-    cfg = load_rig_config(task.config)
-    window = SimpleNamespace(start=st.discrepancy_start_s, duration=st.discrepancy_duration_s)
-    record, truncated, _ = _load_record(Path(task.path), window, cfg)  # type: ignore[arg-type]
-    if truncated is not None:
-        raise truncated
-    result = run_discrepancy(record, cfg.rig, cfg.drive, k=cfg.friction.k)
-    data = to_dict(result)
+    cfg = te.load_rig(task.config)
+    record = te.read_record(
+        task.path,
+        cfg,
+        start=st.discrepancy_start_s,
+        duration=st.discrepancy_duration_s,
+        namespace=task.namespace or None,
+    )
+    found = te.find_missing_physics(record, cfg)
+    result = found.result
+    data = found.as_dict()
     base = result.baseline.params
     return {
         'window_start_s': float(record.time[0]),
         'window_s': float(record.time[-1] - record.time[0]),
-        'added': ', '.join(a.effect for a in result.added),
-        'n_added': len(result.added),
-        'n_unexplained': len(result.unexplained),
-        'not_identifiable': ', '.join(result.blocked),
+        'added': ', '.join(found.added),
+        'n_added': len(found.added),
+        'n_unexplained': len(getattr(result, 'unexplained', ())),
+        'not_identifiable': ', '.join(getattr(result, 'blocked', ())),
         'rms_baseline': float(result.baseline.rms),
         'rms_final': float(result.final.rms),
-        'noise_floor': float(result.noise_floor),
+        'noise_floor': float(getattr(result, 'noise_floor', math.nan)),
         'mu0': float(base.get('mu0', math.nan)),
         'mu_inf': float(base.get('mu_inf', math.nan)),
         'verdict': discrepancy_finding(data),
@@ -398,38 +382,22 @@ def _discrepancy(task: Task) -> Row:
 
 
 def _wear(task: Task) -> Row:
-    """NVCT wear evaluation of the session's counts (as ``tribo wear``)."""
-    from tribo_bringup.sessions import bag_dwells
-    from tribo_nvct.core.config import load_config
-    from tribo_nvct.core.countsio import read_counts_csv
-    from tribo_nvct.core.streaming import WearEvaluator
+    """NVCT wear evaluation of the session's counts (``tribo wear``)."""
+    import tribo_nvct as tn
 
-    cfg = load_config(task.config)
-    path = Path(task.path)
-    if task.kind == 'counts_csv':
-        dwells = list(read_counts_csv(path))
-    else:
-        dwells, truncated = bag_dwells(path)
-        if truncated is not None:
-            raise truncated
-    ev = WearEvaluator(cfg)
-    for d in dwells:
-        ev.add(d)
-    evaluation = ev.evaluation()
-    dwell_s = float(sorted(d.real_time for d in dwells)[len(dwells) // 2])
-    summary = evaluation.summary(cfg, dwell_s)
-    row: Row = {
-        'dwells': len(ev.points),
-        'load_N': float(cfg.load),
-        'stroke_m': float(cfg.stroke),
-        'frequency_hz': float(cfg.frequency),
-        'temperature_K': float(cfg.temperature_K),
-    }
-    for k in WEAR_COLUMNS:
-        v = summary.get(k)
-        row[k] = float(v) if isinstance(v, int | float) else math.nan
+    summary = tn.evaluate_wear(task.path, task.config).summary()
+    row: Row = {'dwells': _number(summary.get('dwells'))}
+    for k in ('load_N', 'stroke_m', 'frequency_hz', 'temperature_K', *WEAR_COLUMNS):
+        row[k] = float(_number(summary.get(k)))
     row['sliding_distance_convention'] = str(summary.get('sliding_distance_convention', ''))
     return row
+
+
+def _number(v: object) -> float | int:
+    """Return a summary number as is; anything else (None, text) as NaN."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return math.nan
+    return v
 
 
 #: Wear summary numbers kept per session (units in the names; k_w in um^3/(N m)).

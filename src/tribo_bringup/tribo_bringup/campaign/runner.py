@@ -66,6 +66,8 @@ class RunSummary:
         Wall time of the run [s].
     task_seconds
         Sum of the analyses' own wall times on the workers [s].
+    task_cpu_seconds
+        Sum of the analyses' CPU times on the workers [s].
     workers
         Workers of the cluster (0: nothing to run, no cluster started).
     cluster_seconds
@@ -82,6 +84,7 @@ class RunSummary:
     tasks: int
     seconds: float
     task_seconds: float
+    task_cpu_seconds: float
     workers: int
     cluster_seconds: float
     failures: tuple[str, ...] = ()
@@ -180,6 +183,7 @@ def analyse(
         tasks=len(tasks),
         seconds=time.monotonic() - t0,
         task_seconds=sum(r.seconds for p in done for r in p.results),
+        task_cpu_seconds=sum(r.cpu_seconds for p in done for r in p.results),
         workers=run[0],
         cluster_seconds=run[1],
         failures=failures,

@@ -116,7 +116,8 @@ def run_analyse(args: argparse.Namespace) -> int:
     print(
         f'{res.sessions} sessions: {res.analysed} analysed ({res.failed} failed), '
         f'{res.up_to_date} up to date; {res.tasks} tasks on {res.workers} workers in '
-        f'{fmt_seconds(res.seconds)} -> {Path(args.store) / "campaign.duckdb"}'
+        f'{fmt_seconds(res.seconds)} ({fmt_seconds(res.cluster_seconds)} starting and '
+        f'stopping the cluster) -> {Path(args.store) / "campaign.duckdb"}'
     )
     if res.failures:
         raise CampaignError(
