@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 from tribo_estimation.core.model import Extensions
+from tribo_estimation.core.signal import iir1
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -60,8 +60,8 @@ def sensor_lag(x: FloatArray, dt: float, tau: float, y_prev: float) -> FloatArra
         The sensor output [N m].
     """
     a = math.exp(-dt / tau)
-    y, _ = lfilter([1.0 - a], [1.0, -a], x, zi=np.array([a * y_prev]))
-    return np.asarray(y)
+    y, _ = iir1(1.0 - a, 0.0, -a, x, a * y_prev)
+    return y
 
 
 def sensor_offset(x: FloatArray, time: FloatArray, ext: Extensions) -> FloatArray:

@@ -27,9 +27,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import lfilter
 
 from tribo_estimation.core.model import RigParams
+from tribo_estimation.core.signal import iir1
 from tribo_estimation.errors import InvalidDataError, InvalidParameterError
 
 
@@ -62,9 +62,9 @@ class FrictionObserver:
         dt = 1.0 / fs
         den = 1.0 + 0.5 * wc * dt
         self._wc = wc
-        self._b = np.array([0.5 * dt / den, 0.5 * dt / den])
-        self._a = np.array([1.0, -(1.0 - 0.5 * wc * dt) / den])
-        self._zi: np.ndarray | None = None
+        self._b = 0.5 * dt / den  # both numerator coefficients
+        self._a1 = -(1.0 - 0.5 * wc * dt) / den
+        self._zi: float | None = None
         self.last_speed = np.zeros(0)
 
     def reset(self, initial_speed: float | None = None) -> None:
@@ -92,19 +92,19 @@ class FrictionObserver:
             x0 = self.initial_speed - self._wc * phi[0]
             zi = self._trap_zi(x0, u[0])
             if u.size > 1:
-                rest, zf = lfilter(self._b, self._a, u[1:], zi=zi)
+                rest, zf = iir1(self._b, self._b, self._a1, u[1:], zi)
                 x = np.concatenate([[x0], rest])
             else:
                 x, zf = np.array([x0]), zi
         else:
-            x, zf = lfilter(self._b, self._a, u, zi=self._zi)
-        self._zi = np.asarray(zf)
-        return np.asarray(x) + self._wc * phi
+            x, zf = iir1(self._b, self._b, self._a1, u, self._zi)
+        self._zi = zf
+        return x + self._wc * phi
 
-    def _trap_zi(self, x_prev: float, u_prev: float) -> np.ndarray:
+    def _trap_zi(self, x_prev: float, u_prev: float) -> float:
         # direct form II transposed state so that the next output is
         # y = -a1*x_prev + b0*u + b1*u_prev
-        return np.array([-self._a[1] * x_prev + self._b[1] * u_prev])
+        return float(-self._a1 * x_prev + self._b * u_prev)
 
     def update(self, torsion: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Friction moment M = I1*a + K1*w1 + M_t [N m] for the next block of samples."""

@@ -1,18 +1,21 @@
 """Signal helpers shared by every fit.
 
 The one noise estimate, the one runs helper, the one smoothed derivative
-(:func:`local_slope`), the one chamber-speed reconstruction and the first-order
-sensor lag.
+(:func:`local_slope`), the one chamber-speed reconstruction, the one first-order
+recursive filter (:func:`iir1`, compiled: scipy.signal takes longer to import than
+a block fit takes) and the first-order sensor lag.
 
 All values keep the unit of their input; ``fs`` in Hz, time constants in s.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -93,13 +96,39 @@ def local_slope(x: FloatArray, dt: float, window: int, order: int = 1) -> FloatA
     FloatArray
         x' [unit of x per s]; zeros when the record is shorter than ``order`` + 2 samples.
     """
-    from scipy.signal import savgol_filter
-
-    n = int(x.shape[0])
+    xx = np.asarray(x, dtype=np.float64)
+    n = int(xx.shape[0])
     win = min(int(window), n - (1 - n % 2))
     if win < order + 2:
         return np.zeros(n)
-    return np.asarray(savgol_filter(x, win, order, deriv=1, delta=dt), dtype=np.float64)
+    h = win // 2
+    centre, edge = _slope_weights(win, order)
+    out = np.empty(n)
+    out[h : n - h] = np.correlate(xx, centre, 'valid')
+    out[:h] = edge @ xx[:win]  # the first window's polynomial at its first h samples
+    out[n - h :] = -(edge @ xx[n - win :][::-1])[::-1]  # mirrored: the last window's
+    return out / dt
+
+
+@functools.cache
+def _slope_weights(win: int, order: int) -> tuple[FloatArray, FloatArray]:
+    """Return the weights of the local polynomial's slope [1/sample].
+
+    ``centre``: the slope at the middle of a window of ``win`` samples from its
+    samples; ``edge``: rows for the slopes at the window's first ``win // 2``
+    samples (the same polynomial, of degree ``order``).
+    """
+    pos = np.arange(win, dtype=np.float64) - win // 2
+    pinv = np.linalg.pinv(np.vander(pos, order + 1, increasing=True))  # coefficients of x
+    powers = np.arange(order + 1, dtype=np.float64)
+    # d/dk of sum_j c_j k^j at k: sum_j j c_j k^(j-1)
+    at = pos[: win // 2, None]
+    deriv = powers[None, 1:] * at ** (powers[None, 1:] - 1.0)
+    centre = pinv[1].copy()
+    edge = deriv @ pinv[1:]
+    centre.setflags(write=False)
+    edge.setflags(write=False)
+    return centre, edge
 
 
 def chamber_speed(torsion: FloatArray, fs: float, c1: float, window: int = 0) -> FloatArray:
@@ -131,6 +160,39 @@ def chamber_speed(torsion: FloatArray, fs: float, c1: float, window: int = 0) ->
     return local_slope(torsion, 1.0 / fs, win, order=3) / c1
 
 
+@njit(cache=True)
+def _iir1(b0: float, b1: float, a1: float, x: FloatArray, z: float) -> tuple[FloatArray, float]:
+    y = np.empty_like(x)
+    for i in range(x.size):
+        y[i] = b0 * x[i] + z
+        z = b1 * x[i] - a1 * y[i]
+    return y, z
+
+
+def iir1(b0: float, b1: float, a1: float, x: FloatArray, z: float) -> tuple[FloatArray, float]:
+    """Filter ``x`` by ``y[n] = b0*x[n] + b1*x[n-1] - a1*y[n-1]`` from the state ``z``.
+
+    The first-order case of ``scipy.signal.lfilter([b0, b1], [1, a1], x, zi=[z])``
+    (direct form II transposed, same operations, same results).
+
+    Parameters
+    ----------
+    b0, b1, a1 : float
+        Filter coefficients [-].
+    x : numpy.ndarray
+        Input samples [unit of x].
+    z : float
+        Filter state before ``x[0]`` (``b1*x[-1] - a1*y[-1]``) [unit of x].
+
+    Returns
+    -------
+    tuple of (numpy.ndarray, float)
+        The output [unit of x] and the state after the last sample.
+    """
+    y, zf = _iir1(float(b0), float(b1), float(a1), np.ascontiguousarray(x, dtype=np.float64), z)
+    return y, float(zf)
+
+
 def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = None) -> FloatArray:
     """First-order sensor lag ``tau*y' = x - y`` of samples ``x`` at period ``dt`` [s].
 
@@ -143,8 +205,6 @@ def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = Non
     generator, :mod:`.reference_records`, has its own implementation on purpose:
     it shares no code with the fits.)
     """
-    from scipy.signal import lfilter
-
     xx = np.asarray(x, dtype=np.float64)
     if tau <= 0.0 or xx.size == 0:
         return xx.copy()
@@ -153,9 +213,36 @@ def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = Non
     y_first = float(xx[0]) if y0 is None else float(y0)
     # state with x[-1] = x[0] such that y[0] = y_first
     y_prev = (y_first - (1.0 - a) * xx[0]) / a
-    zi = np.array([a * y_prev + (c - a) * xx[0]])
-    y, _ = lfilter(np.array([1.0 - c, c - a]), np.array([1.0, -a]), xx, zi=zi)
-    return np.asarray(y, dtype=np.float64)
+    y, _ = iir1(1.0 - c, c - a, -a, xx, a * y_prev + (c - a) * float(xx[0]))
+    return y
+
+
+def running_max(x: FloatArray, width: int) -> FloatArray:
+    """Return the maximum over a centred window of ``width`` samples (edges held).
+
+    ``scipy.ndimage.maximum_filter1d(x, width, mode='nearest')`` without importing
+    scipy.ndimage (which costs more than the block fit that uses this).
+
+    Parameters
+    ----------
+    x : FloatArray
+        Samples [any unit].
+    width : int
+        Window length [samples] (>= 1).
+
+    Returns
+    -------
+    FloatArray
+        The running maximum [unit of x].
+    """
+    xx = np.asarray(x, dtype=np.float64)
+    w = max(1, int(width))
+    if xx.size == 0 or w == 1:
+        return xx.copy()
+    left = w // 2
+    padded = np.concatenate((np.full(left, xx[0]), xx, np.full(w - 1 - left, xx[-1])))
+    out: FloatArray = np.lib.stride_tricks.sliding_window_view(padded, w).max(axis=1)
+    return out
 
 
 def moving_average(x: FloatArray, width: int) -> FloatArray:

@@ -9,11 +9,16 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import maximum_filter1d
 
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.observer import FrictionObserver
-from tribo_estimation.core.signal import chamber_speed, local_slope, noise_level, runs
+from tribo_estimation.core.signal import (
+    chamber_speed,
+    local_slope,
+    noise_level,
+    running_max,
+    runs,
+)
 from tribo_estimation.errors import (
     InvalidDataError,
     InvalidParameterError,
@@ -183,7 +188,7 @@ def _detect_all(
             # back from the drive speed, unlike in a stick where w1 = w2 stays near w0
             u = np.abs(w0 - w1)
             h = max(1, round(_U_WIN * fs))
-            u_loc = maximum_filter1d(u, 2 * h + 1, mode='nearest')
+            u_loc = running_max(u, 2 * h + 1)
             kept: list[tuple[float, float, float, int, int]] = []
             for a, b, sl in zip(
                 starts[:m].tolist(), ends[:m].tolist(), slopes[:m].tolist(), strict=True
