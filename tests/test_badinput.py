@@ -175,13 +175,13 @@ def test_epoch_stamps_give_distinct_blocks(tmp_path: Path, record: list[np.ndarr
 
 
 def test_jitter_resampled_irregular_named(tmp_path: Path, record: list[np.ndarray]) -> None:
-    from tribo_estimation.core.rigio import RigRecord, regularise
+    from tribo_estimation.core.inputs import record_from_arrays
     from tribo_estimation.errors import IrregularSamplingError
 
     t, tq, ac, sp = record
     jit = t + np.random.default_rng(3).uniform(-5e-6, 5e-6, t.size)  # +-1 % at 2 kHz
-    rec, grid = regularise(RigRecord(jit, tq, ac, sp), 'r')
-    assert grid.fs == 2000.0 and 0.005 < grid.max_jitter <= 0.0101
+    rec = record_from_arrays(jit, tq, ac, sp, source='r')
+    assert rec.fs == 2000.0 and 0.005 < rec.findings.max_jitter <= 0.0101
     np.testing.assert_allclose(rec.time, np.arange(t.size) / 2000.0, rtol=0, atol=1e-12)
     out = tmp_path / 'o'
     r = tribo('friction', str(_write(tmp_path / 'j.csv', [jit, tq, ac, sp])), '--rig',
@@ -190,7 +190,7 @@ def test_jitter_resampled_irregular_named(tmp_path: Path, record: list[np.ndarra
     bad = t.copy()
     bad[1000] += 0.4 / 2000.0
     with pytest.raises(IrregularSamplingError, match=r'sample 1001, time 0.5002 s is \+0.40'):
-        regularise(RigRecord(bad, tq, ac, sp), 'r')
+        record_from_arrays(bad, tq, ac, sp, source='r')
 
 
 def test_decay_time_in_ms_is_named(tmp_path: Path) -> None:

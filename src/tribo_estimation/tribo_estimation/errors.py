@@ -7,6 +7,8 @@ Other modules may append further subclasses at the end of this file.
 
 from __future__ import annotations
 
+from tribo_common.errors import BagError, BagTruncatedError
+
 
 class EstimationError(Exception):
     """Base class of all tribo_estimation errors."""
@@ -74,3 +76,11 @@ class UnknownCandidateError(EstimationError, KeyError):
     def __str__(self) -> str:  # KeyError would quote the message
         """Return the message unquoted (KeyError would quote it)."""
         return str(self.args[0]) if self.args else ''
+
+
+class RecordBagError(InvalidDataError, BagError):
+    """A bag gives no rig record (no rig streams, several rigs, unreadable storage)."""
+
+
+class RecordTruncatedError(RecordBagError, BagTruncatedError):
+    """A bag ends early or is corrupt after some good rig samples."""

@@ -26,6 +26,8 @@ import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from tribo_estimation.core.blockfit.figdata import DetailTrace, time_origin
+from tribo_estimation.core.record import RigRecord
 from tribo_estimation.core.signal import runs
 from tribo_estimation.errors import InvalidDataError
 
@@ -40,15 +42,6 @@ _C_FLAG = '0.6'
 def _good_mask(table: BlockTable) -> npt.NDArray[np.bool_]:
     q = np.asarray(table['quality'], dtype=object)
     return np.array([str(v) == 'ok' for v in q], dtype=bool)
-
-
-def time_origin(t_first: float) -> float:
-    """Return the origin [s] of a figure's time axis.
-
-    0 for record time, the first block's start ``t_first`` [s] for wall-clock
-    stamps (bags; anything after 1 Jan 1971).
-    """
-    return float(t_first) if float(t_first) > 3.2e7 else 0.0
 
 
 def _time_axis(table: BlockTable) -> tuple[FloatArray, str]:
@@ -190,32 +183,44 @@ def plot_mu_slip(
     _save(fig, path)
 
 
-@dataclass(frozen=True)
-class DetailTrace:
-    """Signals of one stretch of a run for a Fig. 6 style detail plot.
+def plot_record(record: RigRecord, path: str | os.PathLike[str], title: str = '') -> None:
+    """Plot a record's channels over time: torsion moment, chamber acceleration, shaft speed.
 
-    Attributes
+    Replaced samples (spikes, bursts of the input checks) are marked in red.
+
+    Parameters
     ----------
-    title
-        panel title (e.g. "stick-slip, block at 12 s").
-    time
-        time [s].
-    torsion
-        measured torsion moment C1*phi1 [N m].
-    moment
-        observer friction moment M [N m] (NaN where unknown).
-    simulated
-        torsion moment simulated by the fit [N m] (NaN where not simulated).
-    stick
-        True where the discs stick.
+    record : RigRecord
+        The record (time [s], torsion moment [N m], acceleration [rad/s^2], speed [rad/s]).
+    path : str or PathLike
+        The PNG file.
+    title : str
+        Figure title.
     """
-
-    title: str
-    time: FloatArray
-    torsion: FloatArray
-    moment: FloatArray
-    simulated: FloatArray
-    stick: npt.NDArray[np.bool_]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    rep = record.replaced
+    for ax, name, label in zip(
+        axes,
+        ('torsion_moment', 'angular_acceleration', 'speed'),
+        (
+            'torsion $C_1\\varphi_1$ [N m]',
+            "chamber $\\omega_1'$ [rad/s$^2$]",
+            'shaft $\\omega_2$ [rad/s]',
+        ),
+        strict=True,
+    ):
+        y = record.channel(name)
+        ax.plot(record.time, y, color='k', lw=0.6)
+        if rep.any():
+            ax.plot(record.time[rep], y[rep], '.', color='tab:red', ms=3, label='replaced')
+            ax.legend(fontsize=7, loc='upper right')
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel('time [s]')
+    if title:
+        axes[0].set_title(title)
+    fig.tight_layout()
+    _save(fig, path)
 
 
 def _stick_spans(time: FloatArray, stick: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:

@@ -4,6 +4,8 @@ Every error names the offending file, column, key or value. The ``tribo`` CLI
 answers any :class:`NvctError` with one line and exit code 2.
 """
 
+from tribo_common.errors import BagError, BagTruncatedError
+
 
 class NvctError(Exception):
     """Base class of tribo_nvct errors."""
@@ -55,3 +57,11 @@ class EvaluationError(NvctError):
 
 class StateError(NvctError):
     """A saved evaluator state is corrupt or belongs to another configuration."""
+
+
+class CountsBagError(CountsFileError, BagError):
+    """A bag gives no dwells (no ``/nvct/counts`` messages, unreadable storage)."""
+
+
+class CountsTruncatedError(CountsBagError, BagTruncatedError):
+    """A bag ends early or is corrupt after some good dwells."""

@@ -11,7 +11,6 @@ zeta [-] and their standard errors (``*_se``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -57,46 +56,18 @@ def register(sub: Subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the identification; returns the exit code."""
+    """Run the identification (:func:`tribo_estimation.identify_decay`); returns the exit code."""
     from tribo_bringup.outputs import atomic_output_dir
-    from tribo_estimation.core.decay import identify_free_decay
-    from tribo_estimation.core.plausibility import Scales, check_time_base, despike_chunk
-    from tribo_estimation.core.rigio import read_rig_csv, regularise
+    from tribo_estimation.api import identify_decay, read_record
 
-    rec, grid = regularise(read_rig_csv(args.input), str(args.input))
-    check_time_base(grid.fs, str(args.input))
-    torque, accel, _, spikes = despike_chunk(
-        rec.torsion_moment,
-        rec.angular_acceleration,
-        rec.speed,
-        Scales.from_data(rec.torsion_moment, rec.angular_acceleration, rec.speed),
-    )
-    if spikes.any():
-        print(f'decay: {int(spikes.sum())} spike samples replaced', file=sys.stderr)
-    res = identify_free_decay(
-        rec.time,
-        torque,
-        accel,
-        t_start=args.t_start,
-        t_end=args.t_end,
-    )
+    rec = read_record(args.input)
+    if rec.findings.spikes:
+        print(f'decay: {rec.findings.spikes} spike samples replaced', file=sys.stderr)
+    fit = identify_decay(rec, t_start=args.t_start, t_end=args.t_end)
     out = Path(args.out)
-    data: dict[str, object] = {
-        **res.to_dict(),
-        'units': {
-            'I1': 'kg m^2',
-            'K1': 'N m s/rad',
-            'C1': 'N m/rad',
-            'f_n_hz': 'Hz',
-            'zeta': '-',
-            'torque_offset': 'N m',
-            'accel_offset': 'rad/s^2',
-        },
-        'input': str(args.input),
-        'time_origin_s': grid.t0,
-    }
     with atomic_output_dir(out) as stage:
-        (stage / 'decay.json').write_text(json.dumps(data, indent=2) + '\n')
+        fit.write(stage)
+    res = fit.result
     print(
         f'I1 = {res.I1:.6g} +- {res.I1_se:.2g} kg m^2, K1 = {res.K1:.5g} +- {res.K1_se:.2g} '
         f'N m s/rad, C1 = {res.C1:.6g} +- {res.C1_se:.2g} N m/rad, f_n = {res.f_n_hz:.4f} Hz, '

@@ -26,7 +26,6 @@ import yaml
 
 from tribo_bringup.errors import BringupError, ConfigError
 from tribo_bringup.paths import CONFIG
-from tribo_estimation.core.config import load_rig_config
 
 if TYPE_CHECKING:
     from tribo_bringup.argtypes import Subparsers
@@ -56,7 +55,7 @@ def register(sub: Subparsers) -> None:
         '--effect',
         default='dwell_time_stiction',
         help='hidden effect switched on in the simulated rig, one of the candidates of the '
-        'discrepancy workflow (' + ', '.join(_effect_names()) + '): the rig of '
+        'discrepancy workflow (tribo discrepancy --list-candidates): the rig of '
         'config/rig_hidden_<EFFECT>.yaml if present, else config/rig.yaml with the '
         "candidate's demo values; or 'none' for config/rig.yaml (default %(default)s)",
     )
@@ -78,13 +77,6 @@ def register(sub: Subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _effect_names() -> tuple[str, ...]:
-    """Return the names of the candidate effects of the discrepancy library (the registry)."""
-    from tribo_estimation.core.discrepancy import candidates
-
-    return candidates.names()
-
-
 def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]:
     """Return the RIG.yaml contents with the hidden effect, and the file they came from.
 
@@ -92,6 +84,7 @@ def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]
     if present, else ``config/rig.yaml`` with the candidate's ``demo_effects``.
     """
     from tribo_bringup.report.page import as_mapping
+    from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.discrepancy import candidates
 
     demo_effects: dict[str, float] | None = None
@@ -190,6 +183,7 @@ def run_graph(rig_file: Path, bag: Path, duration: float, bridge: bool) -> list[
 
 def warm_up(rig_file: Path) -> None:
     """Compile (or load from numba's cache) the rig model before the clock starts."""
+    from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.simulate import simulate
 
     _say('preparing the rig model (numba kernel; compiled once, then cached)')

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import sys
 from pathlib import Path
@@ -26,8 +25,6 @@ from tribo_bringup.paths import CONFIG
 
 if TYPE_CHECKING:
     from tribo_bringup.argtypes import Subparsers
-    from tribo_nvct.core.counting import Dwell
-    from tribo_nvct.core.wear import WearPoint
 
 UM3 = 1e-18
 
@@ -114,107 +111,34 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _read_counts(path: Path) -> tuple[list[Dwell], Exception | None]:
-    """Read the dwells of a counts CSV or bag, and the truncation error of a bag that ends early.
-
-    The dwells before the damage are evaluated and written; the error is raised
-    afterwards.
-    """
-    from tribo_nvct.core.countsio import read_counts_csv
-
-    if path.is_file() and path.suffix.lower() in ('.csv', '.txt'):
-        return read_counts_csv(path), None
-    from tribo_bringup.sessions import bag_dwells
-
-    def warn(msg: str) -> None:
-        print(f'wear: {msg}', file=sys.stderr)
-
-    dwells, truncated = bag_dwells(path, warn)
-    return list(dwells), truncated
-
-
 def _evaluate_run(
     counts: Path, nvct: Path, out: Path, args: argparse.Namespace
 ) -> dict[str, object]:
-    from tribo_nvct.core.config import config_from_dict, load_config
-    from tribo_nvct.core.streaming import WearEvaluator
+    """Evaluate one run (:func:`tribo_nvct.evaluate_wear`) and write it into ``out``.
 
-    cfg = load_config(nvct)
-    if args.convention and args.convention != cfg.sliding_convention:
-        raw = dict(cfg.raw, sliding_distance=args.convention)
-        cfg = config_from_dict(raw, nvct.parent, str(nvct))
-    dwells, truncated = _read_counts(counts)
-    ev = WearEvaluator(cfg)
-    n_dup = 0
-    for i, d in enumerate(dwells):
-        if ev.add(d) is None:
-            n_dup += 1
-        if i % 50 == 0:
-            print(f'wear: {counts.name}: dwell {i + 1}/{len(dwells)}', file=sys.stderr)
-    below = [p for p in ev.points if 'below_background' in p.flags]
-    if ev.points and 2 * len(below) > len(ev.points):
-        rates = sorted(p.counts / p.live_time for p in ev.points if p.live_time > 0)
-        raise _err(
-            f'{nvct}: {len(below)} of {len(ev.points)} dwells of {counts.name} counted far '
-            f'fewer counts than the configured background alone gives (background '
-            f'{cfg.background.rate:.4g} counts/s, median measured rate '
-            f'{rates[len(rates) // 2] if rates else math.nan:.4g} counts/s): the background '
-            'or the counts are wrong'
+    A bag that ends early is evaluated up to its damage and written; the error is
+    raised afterwards.
+    """
+    from tribo_nvct.api import evaluate_wear, read_counts
+    from tribo_nvct.errors import CountsTruncatedError
+
+    data = read_counts(counts, keep_truncated=True)
+    if data.truncated:
+        print(
+            f'wear: warning: {data.truncated}; using the {len(data)} dwells before it',
+            file=sys.stderr,
         )
-    evaluation = ev.evaluation()
-    dwell_s = float(sorted(d.real_time for d in dwells)[len(dwells) // 2])
-    summary = evaluation.summary(cfg, dwell_s)
-    pts = ev.points
-    summary.update(
-        {
-            'input': str(counts),
-            'nvct_config': str(nvct),
-            'label': cfg.label,
-            'nuclide': cfg.nuclide.name,
-            'tagged_activity_bq': cfg.tagged_activity,
-            'tagged_area_um2': cfg.tagged_area / 1e-12,
-            'contact_area_um2': cfg.contact_area / 1e-12,
-            'k_A': cfg.k_A,
-            'load_N': cfg.load,
-            'stroke_m': cfg.stroke,
-            'frequency_hz': cfg.frequency,
-            'temperature_K': cfg.temperature_K,
-            'dwells': len(pts),
-            'repeated_dwells_ignored': n_dup,
-            'input_truncated': str(truncated) if truncated else None,
-            'not_mixed_until_s': cfg.circuit.mixing_time if cfg.circuit else 0.0,
-            'flag_counts': {
-                f: sum(1 for p in pts if f in p.flags)
-                for f in ('not_mixed', 'beyond_profile', 'below_detection_limit', 'gap')
-            },
-            'systematic_relative_se_at_end': (
-                pts[-1].volume_sys_se / pts[-1].volume
-                if pts and math.isfinite(pts[-1].volume) and pts[-1].volume > 0
-                else math.nan
-            ),
-        }
-    )
-    if cfg.contact is not None:
-        c = cfg.contact
-        summary['contact'] = {
-            'kind': c.kind,
-            'half_width_circ_mm': c.half_width_circ * 1e3,
-            'half_width_axial_mm': c.half_width_axial * 1e3,
-            'p_max_MPa': c.p_max / 1e6,
-            'p_mean_MPa': c.p_mean / 1e6,
-        }
-    out.mkdir(parents=True, exist_ok=True)
-    _write_csv(out / 'wear.csv', pts)
-    (out / 'summary.json').write_text(
-        json.dumps(_jsonable(summary), indent=2, allow_nan=False) + '\n', encoding='utf-8'
-    )
-    if not args.no_plots:
-        from tribo_nvct.plots import plot_wear_run
 
-        plot_wear_run(out / 'wear.png', pts, evaluation, cfg)
-    if truncated is not None:
-        raise truncated  # results of the good part are written; exit 2 names the damage
-    return summary
+    def progress(i: int, n: int) -> None:
+        print(f'wear: {counts.name}: dwell {i}/{n}', file=sys.stderr)
+
+    wear = evaluate_wear(data, nvct, convention=args.convention, progress=progress)
+    wear.write(out)
+    if not args.no_plots:
+        wear.plot(out)
+    if wear.truncated:
+        raise CountsTruncatedError(wear.truncated)  # results of the good part are written
+    return wear.summary()
 
 
 def _jsonable(x: object) -> object:
@@ -226,55 +150,6 @@ def _jsonable(x: object) -> object:
     if isinstance(x, list | tuple):
         return [_jsonable(v) for v in x]
     return x
-
-
-def _write_csv(path: Path, pts: list[WearPoint]) -> None:
-    cols = [
-        't',
-        't_start',
-        't_end',
-        'wear_volume_um3',
-        'wear_volume_se_um3',
-        'wear_volume_sys_se_um3',
-        'wear_height_nm',
-        'wear_height_se_nm',
-        'tagged_volume_um3',
-        'tagged_volume_se_um3',
-        'activity_bq',
-        'activity_se_bq',
-        'counts',
-        'live_time',
-        'usable',
-        'quality',
-    ]
-    with path.open('w', newline='', encoding='utf-8') as fh:
-        fh.write(
-            '# units: t, t_start, t_end, live_time in s (test time); volumes um^3; heights nm;\n'
-        )
-        fh.write('# activity Bq at the depth-profile reference date; quality: ok or flags\n')
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for p in pts:
-            w.writerow(
-                [
-                    f'{p.t_end:.3f}',
-                    f'{p.t_start:.3f}',
-                    f'{p.t_end:.3f}',
-                    f'{p.volume / UM3:.6g}',
-                    f'{p.volume_se / UM3:.6g}',
-                    f'{p.volume_sys_se / UM3:.6g}',
-                    f'{p.height * 1e9:.6g}',
-                    f'{p.height_se * 1e9:.6g}',
-                    f'{p.tagged_volume / UM3:.6g}',
-                    f'{p.tagged_volume_se / UM3:.6g}',
-                    f'{p.activity:.6g}',
-                    f'{p.activity_se:.6g}',
-                    p.counts,
-                    f'{p.live_time:.6f}',
-                    int(p.usable),
-                    p.quality,
-                ]
-            )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,8 +13,9 @@
   (paper section 3, Equ. 8-10);
 - ``streams.csv``: sample continuity of every SampleBlock topic;
 - ``analyses/<name>/``: the outputs of the offline analyses (block fit, nVCT
-  evaluation, discrepancy workflow), run in this process through the library
-  functions their commands call (:mod:`.analyses`).
+  evaluation, discrepancy workflow), the registered analyses of
+  :mod:`tribo_bringup.analyses`, run in this process through the Python API their
+  commands are shells over (:mod:`.analyses` runs them).
 
 A section whose input is missing (topic not in the bag, an analysis failing) is
 shown as unavailable with the reason; the report itself never fails because of
@@ -30,7 +31,7 @@ Modules: :mod:`.scan` (bag scan), :mod:`.analyses` (offline analyses),
 
 from __future__ import annotations
 
-from .analyses import ANALYSES, AnalysisOutcome, discrepancy_finding
+from .analyses import AnalysisOutcome, discrepancy_finding
 from .build import ReportResult, build_report, load_rig
 from .page import clean_json, fmt
 from .provenance import git_state, provenance
@@ -38,7 +39,6 @@ from .scan import BagScan, RigWindow, read_rig_window, scan_bag, stick_flags
 from .sections import DETAIL_S, UM3, analysis_section, block_table, detail_trace, summary_lines
 
 __all__ = [
-    'ANALYSES',
     'DETAIL_S',
     'UM3',
     'AnalysisOutcome',

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from tribo_bringup.analyses import AnalysisInputs
 from tribo_bringup.errors import BagError, ConfigError
 from tribo_bringup.outputs import atomic_output_dir
 from tribo_estimation.errors import EstimationError
@@ -88,34 +89,35 @@ def _rig_params(rig: str | Path | None) -> tuple[RigParams | None, str]:
 
 def _run_analyses(
     todo: Sequence[str],
-    bag: Path,
+    inputs: AnalysisInputs,
     stage: Path,
     counts: Mapping[str, int],
-    analysis_rig: Path | None,
-    nvct: Path | None,
-    discrepancy_window: tuple[float, float],
     notes: Mapping[str, str],
     say: Progress,
 ) -> list[an.AnalysisOutcome]:
+    """Run the registered analyses ``todo`` whose inputs are there (:mod:`..analyses`)."""
+    from tribo_bringup import analyses
+
     out: list[an.AnalysisOutcome] = []
     for key in todo:
-        note = notes.get(key, '')
-        if key == 'wear':
-            if nvct is None:
-                out.append(an.failed(key, 'no NVCT.yaml given (--nvct)'))
-            elif not counts.get('/nvct/counts'):
-                out.append(an.failed(key, 'no /nvct/counts in the bag'))
-            else:
-                out.append(an.run_analysis(key, an.wear_work(bag, nvct), stage, say, note))
-        elif analysis_rig is None:
-            out.append(an.failed(key, 'no RIG.yaml given (--rig)'))
-        elif key == 'friction':
-            work = an.friction_work(bag, analysis_rig)
-            out.append(an.run_analysis(key, work, stage, say, note))
+        analysis = analyses.get(key)
+        reason = analyses.missing(analysis, inputs, counts)
+        if reason:
+            out.append(an.failed(key, reason))
         else:
-            work = an.discrepancy_work(bag, analysis_rig, discrepancy_window, say)
-            out.append(an.run_analysis(key, work, stage, say, note))
+            out.append(an.run_analysis(analysis, inputs, stage, say, notes.get(key, '')))
     return out
+
+
+def _offline_blocks(outcomes: Sequence[an.AnalysisOutcome]) -> list[dict[str, object]]:
+    """Return the offline block fit's blocks as /friction/estimate dicts (none if it failed)."""
+    from tribo_bringup import bridge_core as bc
+    from tribo_estimation.results import BlockFit
+
+    for res in outcomes:
+        if res.key == 'friction' and res.ok and isinstance(res.result, BlockFit):
+            return [an.block_estimate(r, bc.FRICTION_FIELDS) for r in res.result.results]
+    return []
 
 
 def build_report(
@@ -180,10 +182,19 @@ def build_report(
     say(f'reading {bag_p}')
     scan = scan_bag(bag_p)
     rig_params, rig_note = _rig_params(rig)
-    todo = [a for a in analyses if a in an.ANALYSES and a != 'discrepancy']
+    from tribo_bringup import analyses as registry
+
+    todo = [a for a in analyses if a in registry.MODULES and a != 'discrepancy']
     if discrepancy:
         todo.append('discrepancy')
     a_rig = analysis_rig if analysis_rig is not None else rig
+    inputs = AnalysisInputs(
+        bag_p,
+        Path(a_rig) if a_rig is not None else None,
+        Path(nvct) if nvct is not None else None,
+        discrepancy_window,
+        say,
+    )
     results: dict[str, Any] = {'analyses': {}}
     with atomic_output_dir(out_p) as stage:
         sections: list[Section] = [
@@ -191,32 +202,20 @@ def build_report(
             rig_section(rig_data, rig_s, results),
         ]
         wear_sec = wear_section(scan, nvct_cfg, results, stage)
-        outcomes = _run_analyses(
-            todo,
-            bag_p,
-            stage,
-            scan.counts,
-            Path(a_rig) if a_rig is not None else None,
-            Path(nvct) if nvct is not None else None,
-            discrepancy_window,
-            notes or {},
-            say,
-        )
+        outcomes = _run_analyses(todo, inputs, stage, scan.counts, notes or {}, say)
         for res in outcomes:
             results['analyses'][res.key] = res.status()
-        offline = next((r for r in outcomes if r.key == 'friction' and r.ok), None)
         if scan.estimates:
             ests, source = scan.estimates, 'live estimator, /friction/estimate'
         else:
-            ests = offline.blocks if offline is not None else []
-            source = 'offline fit, tribo friction'
+            ests, source = _offline_blocks(outcomes), 'offline fit, tribo friction'
         say('friction section and plots')
         sections += friction_section(ests, source, results, stage, bag_p, rig_params, rig_note)
         sections.append(wear_sec)
         mon_sec = monitor_section(scan, results, stage)
         if mon_sec is not None:
             sections.append(mon_sec)
-        sections += [analysis_section(r, an.ANALYSES[r.key]) for r in outcomes]
+        sections += [analysis_section(r, registry.get(r.key).title) for r in outcomes]
         prov = provenance(command)
         results['provenance'] = prov
         summary = summary_lines(results)

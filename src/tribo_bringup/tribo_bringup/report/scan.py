@@ -20,7 +20,6 @@ import numpy.typing as npt
 from tribo_bringup import bagio
 from tribo_bringup import bridge_core as bc
 from tribo_bringup.errors import BagError
-from tribo_bringup.sessions import rig_bag_events
 from tribo_common import topics as topic_table
 from tribo_estimation.errors import EstimationError
 
@@ -143,10 +142,11 @@ def read_rig_window(path: str | Path, first_index: int, seconds: float) -> RigWi
         no rig stream in the bag, or the bag is truncated before the window.
     """
     from tribo_estimation.core.align import AlignedChunk, RestartEvent
+    from tribo_estimation.core.inputs import bag_events
 
     chunks: list[AlignedChunk] = []
     end: int | None = None
-    for ev in rig_bag_events(Path(path)):  # the generator (and the bag) closes on return
+    for ev in bag_events(Path(path)):  # the generator (and the bag) closes on return
         if isinstance(ev, RestartEvent) and chunks:
             break  # a new stream epoch reuses the indices
         if not isinstance(ev, AlignedChunk):

@@ -42,8 +42,8 @@ from .page import (
 from .scan import BagScan, read_rig_window, stick_flags
 
 if TYPE_CHECKING:
+    from tribo_estimation.core.blockfit.figdata import DetailTrace
     from tribo_estimation.core.model import RigParams
-    from tribo_estimation.plots import DetailTrace
     from tribo_nvct.core.config import NvctConfig
 
 NS = 1_000_000_000
@@ -177,7 +177,7 @@ def detail_trace(
     axis [s] from ``t_ref``, the first block's start. None when the bag has no rig
     samples there.
     """
-    from tribo_estimation.plots import DetailTrace
+    from tribo_estimation.core.blockfit.figdata import DetailTrace
 
     t_start = as_float(est['t_start'])
     span = as_float(est['t_end']) - t_start if est.get('t_end') is not None else seconds

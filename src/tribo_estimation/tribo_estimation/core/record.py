@@ -19,12 +19,18 @@ spike and burst samples, warnings, stamp jitter, gaps, a bag that ends early).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from tribo_estimation.errors import InvalidDataError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -244,6 +250,101 @@ class RigRecord:
             The column in its unit (:data:`CHANNEL_UNITS`).
         """
         return np.asarray(getattr(self, name), dtype=np.float64)
+
+    def columns(self) -> dict[str, FloatArray]:
+        """Return the record's columns by name (the channels, then ``replaced``).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            :data:`CHANNELS` in their units, ``replaced`` (1.0 at replaced samples).
+        """
+        cols = {name: self.channel(name) for name in CHANNELS}
+        cols['replaced'] = self.replaced.astype(np.float64)
+        return cols
+
+    def rows(self) -> list[dict[str, float]]:
+        """Return one plain dict per sample (:meth:`columns`).
+
+        Returns
+        -------
+        list of dict
+            Column name -> value.
+        """
+        cols = self.columns()
+        names = list(cols)
+        return [dict(zip(names, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+
+    def to_frame(self) -> pd.DataFrame:
+        """Return :meth:`columns` as a pandas DataFrame (pandas is imported then).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per sample.
+        """
+        import pandas as pd
+
+        return pd.DataFrame(self.columns())
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the record as a rig CSV file (``docs/ARCHITECTURE.md``, "Rig CSV").
+
+        The time column is :attr:`time` (the drive's time base); the source and
+        :attr:`time_origin` go into ``# key: value`` comments.
+
+        Parameters
+        ----------
+        path : str or PathLike
+            The CSV file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
+        from tribo_estimation.core.rigio import write_rig_csv
+
+        write_rig_csv(
+            Path(path),
+            self.time,
+            self.torsion_moment,
+            self.angular_acceleration,
+            self.speed,
+            extra=self.extra_columns(),
+            metadata={'source': self.source, 'time_origin_s': repr(self.time_origin)},
+        )
+        return Path(path)
+
+    def extra_columns(self) -> dict[str, FloatArray]:
+        """Return the columns a rig CSV carries after the four channels (none).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            Empty for a measured record.
+        """
+        return {}
+
+    def plot(self, path: str | os.PathLike[str], title: str = '') -> Path:
+        """Draw the record's channels over time into a PNG file.
+
+        Parameters
+        ----------
+        path : str or PathLike
+            The PNG file.
+        title : str
+            Figure title (default: the source).
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
+        from tribo_estimation.plots import plot_record
+
+        plot_record(self, path, title=title or self.source)
+        return Path(path)
 
     def window(self, start: float = 0.0, duration: float = 0.0) -> RigRecord:
         """Return the samples from ``start`` after the first sample for ``duration``.

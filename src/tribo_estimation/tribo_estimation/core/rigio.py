@@ -2,18 +2,23 @@
 
 Header ``time,torsion_moment,angular_acceleration,speed`` (s, N m, rad/s^2, rad/s);
 extra columns after these (the simulator's truth ``friction_moment,slip_speed,stick``)
-are kept in :attr:`RigRecord.extra`. Lines starting with ``#`` are comments;
+are kept in :attr:`CsvBlock.extra`. Lines starting with ``#`` are comments;
 ``# key: value`` comments are returned as metadata. Blank lines are skipped.
 
 Readers check every value: a missing column, a non-numeric or non-finite value,
 a time that does not increase, or a speed whose magnitude says rpm instead of
 rad/s raise a specific :class:`EstimationError` naming the file, the column and
 the line. :func:`iter_rig_csv` reads long files block by block with the same
-checks (a one-hour 10 kHz file is never loaded at once).
+checks (a one-hour 10 kHz file is never loaded at once). The rows read are raw
+stamped samples (:class:`CsvBlock`); :mod:`tribo_estimation.core.inputs` puts them
+on the regular time grid (:func:`estimate_rate`, :func:`grid_positions`,
+:func:`resample_on_grid`) and through the input checks into a
+:class:`~tribo_estimation.core.record.RigRecord`.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -48,14 +53,14 @@ UNITS: dict[str, str] = {
 MAX_SPEED = 100.0
 
 
-@dataclass(frozen=True)
-class RigRecord:
-    """A block of rig samples read from or written to a rig CSV file.
+@dataclass(frozen=True, eq=False)
+class CsvBlock:
+    """Rows of a rig CSV file as written: stamped samples, not yet checked.
 
-    ``time`` [s], ``torsion_moment`` [N m], ``angular_acceleration`` [rad/s^2],
-    ``speed`` [rad/s]; ``extra`` further columns by name; ``metadata`` the
-    ``# key: value`` comments; ``first_line`` the file line of the first sample
-    (1-based).
+    ``time`` [s] (the stamps as written: epoch or relative, possibly jittered),
+    ``torsion_moment`` [N m], ``angular_acceleration`` [rad/s^2], ``speed``
+    [rad/s]; ``extra`` further columns by name; ``metadata`` the ``# key: value``
+    comments; ``first_line`` the file line of the first sample (1-based).
     """
 
     time: np.ndarray
@@ -186,11 +191,13 @@ def _parse_header(fh: IO[str], path: Path) -> tuple[list[str], dict[str, str], i
     raise TooShortError(f'{path}: no header line (expected {",".join(COLUMNS)})')
 
 
-def _parse_rows(lines: list[str], numbers: list[int], names: list[str], path: Path) -> np.ndarray:
+def _parse_rows(
+    lines: list[str], numbers: list[int], names: list[str], path: Path, use: list[int]
+) -> np.ndarray:
     ncol = len(names)
     try:
-        data = np.loadtxt(lines, delimiter=',', dtype=float, ndmin=2)
-        if data.shape[1] != ncol:
+        data = np.loadtxt(lines, delimiter=',', dtype=float, ndmin=2, usecols=use)
+        if data.shape[1] != len(use):
             raise ValueError
         return data
     except ValueError:
@@ -249,9 +256,9 @@ def _check_block(
             )
 
 
-def _record(data: np.ndarray, names: list[str], meta: dict[str, str], first_line: int) -> RigRecord:
+def _block(data: np.ndarray, names: list[str], meta: dict[str, str], first_line: int) -> CsvBlock:
     cols = {n: np.ascontiguousarray(data[:, i]) for i, n in enumerate(names)}
-    return RigRecord(
+    return CsvBlock(
         time=cols.pop('time'),
         torsion_moment=cols.pop('torsion_moment'),
         angular_acceleration=cols.pop('angular_acceleration'),
@@ -263,24 +270,43 @@ def _record(data: np.ndarray, names: list[str], meta: dict[str, str], first_line
 
 
 def iter_rig_csv(
-    path: str | Path, block_size: int = 10_000, *, max_speed: float | None = MAX_SPEED
-) -> Iterator[RigRecord]:
-    """Yield the file in blocks of ``block_size`` samples, checking every value.
+    path: str | Path,
+    block_size: int = 10_000,
+    *,
+    max_speed: float | None = MAX_SPEED,
+    extra: bool = True,
+) -> Iterator[CsvBlock]:
+    """Yield the file in blocks of up to ``block_size`` lines, checking every value.
 
     Time must increase across block boundaries too. ``max_speed`` [rad/s]: speeds of
     larger magnitude raise :class:`UnitError` (``None`` switches the check off).
-    Bytes that are not UTF-8 raise :class:`InvalidDataError` naming the file.
+    ``extra``: also read the columns after the four channels (else they are skipped
+    unread). Bytes that are not UTF-8 raise :class:`InvalidDataError` naming the file.
     """
     p = Path(path)
     try:
-        yield from _iter_rig_csv(p, block_size, max_speed)
+        yield from _iter_rig_csv(p, block_size, max_speed, extra)
     except UnicodeDecodeError as exc:
         raise InvalidDataError(
             f'{p}: not a UTF-8 text rig CSV (undecodable byte {exc.object[exc.start]:#04x})'
         ) from None
 
 
-def _iter_rig_csv(p: Path, block_size: int, max_speed: float | None) -> Iterator[RigRecord]:
+def _data_lines(batch: list[str], first: int) -> tuple[list[str], list[int]]:
+    """Return the data lines of a batch of file lines and their line numbers (1-based)."""
+    lines: list[str] = []
+    numbers: list[int] = []
+    for k, raw in enumerate(batch):
+        s = raw.strip()
+        if s and not s.startswith('#'):
+            lines.append(s)
+            numbers.append(first + k)
+    return lines, numbers
+
+
+def _iter_rig_csv(
+    p: Path, block_size: int, max_speed: float | None, extra: bool
+) -> Iterator[CsvBlock]:
     if block_size < 1:
         raise InvalidDataError(f'block_size must be >= 1, got {block_size}')
     try:
@@ -289,40 +315,38 @@ def _iter_rig_csv(p: Path, block_size: int, max_speed: float | None) -> Iterator
         raise InvalidDataError(f'{p}: cannot open rig CSV ({exc.strerror})') from exc
     with fh:
         names, meta, line_no = _parse_header(fh, p)
+        use = list(range(len(names))) if extra else [names.index(c) for c in COLUMNS]
+        used = [names[i] for i in use]
         last_time = float('nan')
-        lines: list[str] = []
-        numbers: list[int] = []
         any_rows = False
-        for raw in fh:
-            line_no += 1
-            s = raw.strip()
-            if not s or s.startswith('#'):
+        while batch := list(itertools.islice(fh, block_size)):
+            first = line_no + 1
+            line_no += len(batch)
+            # fast path: a batch of data lines only (comments and blank lines are rare)
+            lines, numbers = batch, list(range(first, first + len(batch)))
+            if '#' in ''.join(batch):
+                lines, numbers = _data_lines(batch, first)
+            if not lines:
                 continue
-            lines.append(s)
-            numbers.append(line_no)
-            if len(lines) >= block_size:
-                data = _parse_rows(lines, numbers, names, p)
-                _check_block(data, np.asarray(numbers), names, p, last_time, max_speed)
-                last_time = float(data[-1, names.index('time')])
-                any_rows = True
-                yield _record(data, names, meta, numbers[0])
-                lines, numbers = [], []
-        if lines:
-            data = _parse_rows(lines, numbers, names, p)
-            _check_block(data, np.asarray(numbers), names, p, last_time, max_speed)
+            data = _parse_rows(lines, numbers, names, p, use)
+            if data.shape[0] != len(lines):  # blank lines inside the batch
+                lines, numbers = _data_lines(batch, first)
+                data = _parse_rows(lines, numbers, names, p, use)
+            _check_block(data, np.asarray(numbers), used, p, last_time, max_speed)
+            last_time = float(data[-1, used.index('time')])
             any_rows = True
-            yield _record(data, names, meta, numbers[0])
+            yield _block(data, used, meta, numbers[0])
         if not any_rows:
             raise TooShortError(f'{p}: no data rows after the header')
 
 
-def read_rig_csv(path: str | Path, *, max_speed: float | None = MAX_SPEED) -> RigRecord:
+def read_rig_csv(path: str | Path, *, max_speed: float | None = MAX_SPEED) -> CsvBlock:
     """Read a whole rig CSV file (for long files prefer :func:`iter_rig_csv`)."""
     blocks = list(iter_rig_csv(path, 100_000, max_speed=max_speed))
     if len(blocks) == 1:
         return blocks[0]
     extra_names = list(blocks[0].extra)
-    return RigRecord(
+    return CsvBlock(
         time=np.concatenate([b.time for b in blocks]),
         torsion_moment=np.concatenate([b.torsion_moment for b in blocks]),
         angular_acceleration=np.concatenate([b.angular_acceleration for b in blocks]),
@@ -339,25 +363,6 @@ def read_rig_csv(path: str | Path, *, max_speed: float | None = MAX_SPEED) -> Ri
 JITTER_TOL = 0.25
 #: Jitter below this fraction of the sample interval is snapped, not interpolated.
 JITTER_SNAP = 0.01
-
-
-@dataclass(frozen=True)
-class TimeGrid:
-    """A regular time base: sample ``i`` at ``t0 + i / fs``.
-
-    Attributes
-    ----------
-    t0
-        time of the first sample as written in the file (epoch or relative) [s].
-    fs
-        sample rate [Hz].
-    max_jitter
-        largest distance of a written time from the grid [sample intervals].
-    """
-
-    t0: float
-    fs: float
-    max_jitter: float = 0.0
 
 
 def estimate_rate(t: np.ndarray, source: str = '<record>') -> float:
@@ -447,32 +452,3 @@ def resample_on_grid(idx: np.ndarray, frac: np.ndarray, values: np.ndarray) -> n
     pos = idx + frac
     out: np.ndarray = np.interp(idx.astype(np.float64), pos, values)
     return out
-
-
-def regularise(rec: RigRecord, source: str = '<record>') -> tuple[RigRecord, TimeGrid]:
-    """Put the record on a regular time base relative to its first sample.
-
-    Returns the record with ``time = index / fs`` [s] (gaps kept as missing grid
-    points) and every channel resampled onto the grid where the stamps jitter, and
-    the :class:`TimeGrid` (``t0`` is the first written time, e.g. an epoch stamp;
-    also put into ``metadata['time_origin_s']``).
-    """
-    fs = estimate_rate(rec.time, source)
-    t_ref = centred_anchor(rec.time, fs)
-    idx, frac = grid_positions(rec.time, fs, t_ref, 0, source)
-    idx = idx - idx[0]
-
-    def rs(v: np.ndarray) -> np.ndarray:
-        return resample_on_grid(idx, frac, np.asarray(v, dtype=np.float64))
-
-    grid = TimeGrid(float(rec.time[0]), fs, float(np.max(np.abs(frac))) if frac.size else 0.0)
-    out = RigRecord(
-        time=idx.astype(np.float64) / fs,
-        torsion_moment=rs(rec.torsion_moment),
-        angular_acceleration=rs(rec.angular_acceleration),
-        speed=rs(rec.speed),
-        extra={k: rs(v) for k, v in rec.extra.items()},
-        metadata={**rec.metadata, 'time_origin_s': repr(grid.t0)},
-        first_line=rec.first_line,
-    )
-    return out, grid

@@ -73,6 +73,20 @@ class SimResult(RigRecord):
     event_kinds: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     source: str = 'simulation'
 
+    def extra_columns(self) -> dict[str, np.ndarray]:
+        """Return the truth a rig CSV carries after the four channels.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``friction_moment`` [N m], ``slip_speed`` [rad/s], ``stick`` (1.0 sticking).
+        """
+        return {
+            'friction_moment': self.friction_moment,
+            'slip_speed': self.slip_speed,
+            'stick': self.stick.astype(np.float64),
+        }
+
 
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):

@@ -1,13 +1,25 @@
-"""Counts CSV: ``t_start,t_end,counts,live_time`` (s, s, counts, s); ``#`` lines are comments."""
+"""Detector counts in: a counts CSV or the ``/nvct/counts`` messages of a bag.
+
+Counts CSV: ``t_start,t_end,counts,live_time`` (s, s, counts, s); ``#`` lines are
+comments. :func:`read_counts` reads either into :class:`Counts`; every dwell is
+validated (:class:`~tribo_nvct.core.counting.Dwell`) and an error names the file and
+the line or message.
+"""
 
 from __future__ import annotations
 
 import csv
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 from tribo_nvct.core.counting import Dwell
-from tribo_nvct.errors import CountsError, CountsFileError
+from tribo_nvct.errors import (
+    CountsBagError,
+    CountsError,
+    CountsFileError,
+    CountsTruncatedError,
+)
 
 COLUMNS = ('t_start', 't_end', 'counts', 'live_time')
 
@@ -50,3 +62,97 @@ def read_counts_csv(path: str | Path) -> list[Dwell]:
     if not out:
         raise CountsFileError(f'{p}: no data rows')
     return out
+
+
+@dataclass(frozen=True)
+class Counts:
+    """The dwells of one nVCT test, as read.
+
+    Attributes
+    ----------
+    dwells : tuple of Dwell
+        One per detector dwell (test time [s], counts, live time [s]).
+    source : str
+        The file or bag read.
+    truncated : str
+        The error of a bag that ends early ('' if none): the dwells before it.
+    """
+
+    dwells: tuple[Dwell, ...]
+    source: str
+    truncated: str = ''
+
+    def __len__(self) -> int:
+        """Return the number of dwells."""
+        return len(self.dwells)
+
+
+def _bag_dwells(path: Path) -> tuple[list[Dwell], str]:
+    """Read the dwells of ``/nvct/counts`` in a bag, and the damage of one that ends early."""
+    from tribo_common import topics
+    from tribo_common.bag_read import iter_messages
+    from tribo_common.errors import BagError, BagTruncatedError
+
+    topic = topics.NVCT_COUNTS.resolve()
+    out: list[Dwell] = []
+    truncated = ''
+    try:
+        for m in iter_messages(path, [topic]):
+            msg = m.msg
+            try:
+                out.append(
+                    Dwell(
+                        float(msg.t_start), float(msg.t_end), int(msg.counts), float(msg.live_time)
+                    )
+                )
+            except CountsError as exc:
+                raise type(exc)(f'{path}: message #{m.index}: {exc}') from None
+    except BagTruncatedError as exc:
+        truncated = str(exc)
+    except BagError as exc:
+        raise CountsBagError(str(exc)) from None
+    if not out:
+        raise (
+            CountsTruncatedError(truncated)
+            if truncated
+            else CountsBagError(f'{path}: no {topic} messages')
+        )
+    return out, truncated
+
+
+def read_counts(path: str | Path, *, keep_truncated: bool = False) -> Counts:
+    """Read the dwells of a counts CSV or of a bag's ``/nvct/counts``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Counts CSV (``.csv``, ``.txt``) or a bag directory / ``.mcap`` file.
+    keep_truncated : bool
+        A bag that ends early gives the dwells before the damage
+        (``Counts.truncated`` names it) instead of raising.
+
+    Returns
+    -------
+    Counts
+        The validated dwells.
+
+    Raises
+    ------
+    CountsFileError
+        The CSV cannot be read, lacks a column or holds a bad value (names the line).
+    CountsError
+        A dwell is invalid (negative counts, live time beyond the dwell, ...).
+    CountsBagError
+        No such file or bag, or a bag without ``/nvct/counts``;
+        :class:`~tribo_nvct.errors.CountsTruncatedError` for a bag that ends early
+        (unless ``keep_truncated``).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise CountsBagError(f'{p}: no such file or bag')
+    if p.is_file() and p.suffix.lower() in ('.csv', '.txt'):
+        return Counts(tuple(read_counts_csv(p)), str(p))
+    dwells, truncated = _bag_dwells(p)
+    if truncated and not keep_truncated:
+        raise CountsTruncatedError(truncated)
+    return Counts(tuple(dwells), str(p), truncated)

@@ -34,8 +34,8 @@ from .csvio import (
     FILE_COLUMNS,
     REQUIRED_COLUMNS,
     BlockCsvWriter,
+    block_row,
     read_blocks_csv,
-    results_as_dicts,
     results_table,
 )
 from .evaluate import MIN_BREAKAWAYS, evaluate_block, is_saturated
@@ -71,6 +71,7 @@ __all__ = [
     'MomentChunk',
     'PendingBlock',
     'StreamingPipeline',
+    'block_row',
     'estimate_blocks',
     'evaluate_block',
     'fit_block',
@@ -78,7 +79,6 @@ __all__ = [
     'initial_k',
     'is_saturated',
     'read_blocks_csv',
-    'results_as_dicts',
     'results_table',
     'with_flags',
 ]

@@ -10,7 +10,6 @@ import csv
 import math
 import os
 from collections.abc import Iterable
-from dataclasses import fields
 from typing import TextIO
 
 import numpy as np
@@ -60,6 +59,32 @@ def _fmt(v: float) -> str:
     return 'nan' if not math.isfinite(v) else repr(float(v))  # round-trip: epoch stamps
 
 
+def block_row(r: BlockResult) -> dict[str, float | int | str]:
+    """Return one row of ``blocks.csv`` as plain values (:data:`FILE_COLUMNS` order).
+
+    Parameters
+    ----------
+    r : BlockResult
+        The block.
+
+    Returns
+    -------
+    dict
+        Column name -> value (SI; ``quality`` ``ok`` or the ``;``-joined flags).
+    """
+    row: dict[str, float | int | str] = {}
+    for c in FILE_COLUMNS:
+        if c == 'quality':
+            row[c] = r.quality_str
+        elif c == 'motion':
+            row[c] = r.motion
+        elif c in ('n_sticks', 'spikes', 'bursts'):
+            row[c] = int(getattr(r, c))
+        else:
+            row[c] = float(getattr(r, c))
+    return row
+
+
 class BlockCsvWriter:
     """Write :class:`BlockResult` rows to ``blocks.csv`` as they come (streaming).
 
@@ -78,25 +103,8 @@ class BlockCsvWriter:
         """Append one block."""
         self._w.writerow(
             [
-                _fmt(r.t_start),
-                _fmt(r.t_end),
-                _fmt(r.mu0),
-                _fmt(r.mu_inf),
-                _fmt(r.mu0_se),
-                _fmt(r.mu_inf_se),
-                _fmt(r.moment_min),
-                _fmt(r.moment_max),
-                _fmt(r.moment_mean),
-                r.motion,
-                str(r.n_sticks),
-                _fmt(r.stick_fraction),
-                _fmt(r.rms_residual),
-                _fmt(r.w0),
-                _fmt(r.drive_mismatch),
-                _fmt(r.speed_offset),
-                r.quality_str,
-                str(r.spikes),
-                str(r.bursts),
+                v if isinstance(v, str) else _fmt(v) if isinstance(v, float) else str(v)
+                for v in block_row(r).values()
             ]
         )
         self._fh.flush()
@@ -162,8 +170,3 @@ def results_table(results: Iterable[BlockResult]) -> dict[str, np.ndarray]:
         else:
             out[c] = np.array([float(getattr(r, c)) for r in rs], dtype=float)
     return out
-
-
-def results_as_dicts(results: Iterable[BlockResult]) -> list[dict[str, object]]:
-    """Results as plain dicts (all dataclass fields)."""
-    return [{f.name: getattr(r, f.name) for f in fields(r)} for r in results]

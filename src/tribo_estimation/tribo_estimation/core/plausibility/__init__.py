@@ -58,7 +58,6 @@ from tribo_estimation.core.plausibility.spikes import (
     find_bursts,
     find_spikes,
     repair,
-    repair_summary,
     running_median,
 )
 from tribo_estimation.core.plausibility.stream import (
@@ -98,6 +97,5 @@ __all__ = [
     'find_spikes',
     'mad_sigma',
     'repair',
-    'repair_summary',
     'running_median',
 ]

@@ -299,30 +299,3 @@ def despike_chunk(
     a, ma = despike(accel, sa)
     v, mv = despike(speed, sv)
     return t, a, v, mt | ma | mv
-
-
-def repair_summary(mask: npt.NDArray[np.bool_]) -> dict[str, int | str]:
-    """Summarise the replaced samples of a record for a report.
-
-    Parameters
-    ----------
-    mask : numpy.ndarray
-        True at the replaced samples (:func:`despike_chunk`).
-
-    Returns
-    -------
-    dict
-        ``spikes``: replaced samples [-], ``bursts``: runs of 3 or more of them
-        [-], ``quality``: ``ok``, or ``spikes``/``bursts`` (``;``-separated) as
-        in ``blocks.csv``.
-    """
-    from tribo_estimation.core.signal import runs
-
-    st, en = runs(mask)
-    n_bursts = int(np.count_nonzero(en - st >= 3))
-    flags = [f for f, on in (('spikes', bool(np.any(en - st < 3))), ('bursts', n_bursts > 0)) if on]
-    return {
-        'spikes': int(np.count_nonzero(mask)),
-        'bursts': n_bursts,
-        'quality': ';'.join(flags) or 'ok',
-    }

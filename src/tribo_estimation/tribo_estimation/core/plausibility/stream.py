@@ -96,7 +96,8 @@ class ChunkChecker:
 
     The first ``check_samples`` samples are held and checked once (time base and
     channels, :func:`check_time_base`, :func:`check_channels`; warnings collect in
-    :attr:`warnings`) before anything is passed on; spikes of every
+    :attr:`warnings`; the channels only against physical scales, not against a
+    record's own, :attr:`Scales.from_record`) before anything is passed on; spikes of every
     :class:`~tribo_estimation.core.align.AlignedChunk` are repaired
     (:func:`despike_chunk`, judged across chunk boundaries) and logged in ``log``.
     A failed check raises its :class:`~tribo_estimation.errors.InvalidDataError`
@@ -137,16 +138,17 @@ class ChunkChecker:
             return
         try:
             check_time_base(chunks[0].sample_rate, self.source, self.scales.f_stick_slip)
-            self.warnings.extend(
-                check_channels(
-                    np.concatenate([c.torsion for c in chunks]),
-                    np.concatenate([c.accel for c in chunks]),
-                    np.concatenate([c.speed for c in chunks]),
-                    self.scales,
-                    self.source,
-                    whole_record=False,
+            if not self.scales.from_record:  # a record's own scales are no physical bound
+                self.warnings.extend(
+                    check_channels(
+                        np.concatenate([c.torsion for c in chunks]),
+                        np.concatenate([c.accel for c in chunks]),
+                        np.concatenate([c.speed for c in chunks]),
+                        self.scales,
+                        self.source,
+                        whole_record=False,
+                    )
                 )
-            )
         except InvalidDataError as exc:
             self._failure = exc
             self._held.clear()

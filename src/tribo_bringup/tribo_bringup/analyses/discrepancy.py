@@ -1,0 +1,70 @@
+"""Analysis ``discrepancy``: the missing-physics workflow of ``tribo discrepancy``.
+
+Reads the window of the session's rig streams (:func:`tribo_estimation.read_record`)
+and calls :func:`tribo_estimation.find_missing_physics` with the command's defaults.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .base import AnalysisInputs, AnalysisResult
+
+if TYPE_CHECKING:
+    from tribo_estimation.results import MissingPhysics
+
+
+class DiscrepancyAnalysis:
+    """The missing-physics workflow on a window of a session (:mod:`.base`)."""
+
+    name = 'discrepancy'
+    title = 'Discrepancy workflow: missing physics (tribo discrepancy)'
+    inputs: tuple[str, ...] = ('rig', '/rig/torsion_moment')
+
+    def call(self, inp: AnalysisInputs) -> str:
+        """Return the library call in one line."""
+        start, duration = inp.window
+        rig = inp.rig.name if inp.rig is not None else '?'
+        span = f'{duration:g} s' if duration > 0 else 'to the end'
+        return (
+            f'find_missing_physics(read_record({inp.source.name}, start {start:g} s, {span}), '
+            f'rig of {rig})'
+        )
+
+    def run(self, inp: AnalysisInputs) -> MissingPhysics:
+        """Read the window and run the workflow."""
+        from tribo_estimation.api import find_missing_physics, read_record
+
+        assert inp.rig is not None
+        start, duration = inp.window
+        rec = read_record(
+            inp.source,
+            inp.rig,
+            start=start,
+            duration=duration,
+            keep_truncated=True,
+            progress=inp.progress,
+        )
+        return find_missing_physics(rec, inp.rig, progress=lambda s: inp.progress(f'  {s}'))
+
+    def summary(self, result: AnalysisResult) -> dict[str, object]:
+        """Return the baseline, the effects added and the final model, and the input's damage."""
+        from tribo_estimation.results import MissingPhysics
+
+        assert isinstance(result, MissingPhysics)
+        data = result.as_dict()
+        out: dict[str, object] = {k: data[k] for k in ('baseline', 'added', 'final') if k in data}
+        cut = result.inputs[0].truncated if result.inputs else ''
+        if cut:
+            out['input_truncated'] = cut
+        return out
+
+    def finding(self, result: AnalysisResult) -> str:
+        """Return the effects found and the residual before and after, in one line."""
+        from tribo_estimation.results import MissingPhysics
+
+        assert isinstance(result, MissingPhysics)
+        return result.finding()
+
+
+ANALYSIS = DiscrepancyAnalysis()
