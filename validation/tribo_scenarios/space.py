@@ -116,6 +116,7 @@ import math
 import numpy as np
 
 from .errors import InvalidRequestError
+from .layout import BEARING_W_REG
 from .spec import (
     ChannelSpec,
     DriveSpec,
@@ -400,7 +401,7 @@ def draw_drive(rng: np.random.Generator, duration: float, kind: str | None = Non
 # --- instrument ------------------------------------------------------------------------
 
 
-def _hum(rng: np.random.Generator, white: float, mains: float) -> tuple[tuple[float, ...], ...]:
+def _hum(rng: np.random.Generator, white: float) -> tuple[tuple[float, ...], ...]:
     """Return (amplitudes, phases) of the hum harmonics 1-5 on one channel."""
     fund = lu(rng, 0.2, 3.0) * white
     amps = [fund]
@@ -438,7 +439,7 @@ def _channel(
     phases: tuple[float, ...] = ()
     hum_freq = 0.0
     if hum > 0.0 and rng.random() < 0.6:
-        amps, phases = _hum(rng, white, hum)
+        amps, phases = _hum(rng, white)
         hum_freq = hum
     n_spikes, scale = 0, 0.0
     if spikes and rng.random() < 0.5:
@@ -616,7 +617,7 @@ def draw_effect(
     elif name == 'bearing_friction':
         mb = lu(rng, 1e-4, 0.02) * frm
         if form == 'coulomb':
-            p = {'M_b': mb, 'w_r': 0.01}
+            p = {'M_b': mb, 'w_r': BEARING_W_REG}
             lib = {'bearing_moment': mb}
         elif form == 'coulomb_tanh':
             p = {'M_b': mb, 'w_r': lu(rng, 0.005, 0.05)}

@@ -157,11 +157,6 @@ class EffectSpec:
             return f'out_of_library:{self.name}'
         return self.name
 
-    @property
-    def measurement_only(self) -> bool:
-        """Return whether the effect changes only the torque channel, not the dynamics."""
-        return self.name in ('torque_offset', 'torque_sensor_lag')
-
 
 @dataclass(frozen=True)
 class ScenarioSpec:
