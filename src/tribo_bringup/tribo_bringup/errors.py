@@ -14,3 +14,11 @@ class BringupError(Exception):
 
 class ConfigError(BringupError):
     """A configuration file or parameter is missing or invalid."""
+
+
+class CampaignError(BringupError):
+    """A campaign spec, store or query is invalid (names the file, key or statement)."""
+
+
+class StoreBusyError(CampaignError):
+    """Another campaign run holds the store (names the store and the holder's pid)."""
