@@ -71,8 +71,20 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {first} (see {self.prog} --help)\n')
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every available subcommand."""
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """Build the argument parser with every available subcommand (or just ``only``).
+
+    Parameters
+    ----------
+    only : str or None
+        Register this subcommand alone (the command line names it: the other
+        command modules need not be imported).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``tribo`` parser.
+    """
     parser = OneLineParser(
         prog='tribo',
         description='Model-assisted tribometry on a ROS 2 graph: stick-slip friction '
@@ -80,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
     sub.required = True
-    for name in COMMANDS:
+    for name in COMMANDS if only is None else (only,):
         try:
             mod = importlib.import_module(f'tribo_bringup.commands.{name}')
         except ModuleNotFoundError as exc:
@@ -93,9 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``tribo`` command; returns the process exit code."""
-    parser = build_parser()
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(args_in[0] if args_in and args_in[0] in COMMANDS else None)
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(args_in)
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
     try:
