@@ -13,7 +13,7 @@ from tribo_estimation.core.config import load_rig_config
 from tribo_estimation.core.model import DriveProfile, pack_params
 from tribo_estimation.core.shooting import shoot, stuck_kinematics, stuck_states
 
-CFG = load_rig_config(Path(__file__).resolve().parents[3] / 'config' / 'rig.yaml')
+CFG = load_rig_config(Path(__file__).resolve().parents[4] / 'config' / 'rig.yaml')
 DT = 1e-4
 
 

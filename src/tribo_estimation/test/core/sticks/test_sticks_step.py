@@ -23,7 +23,7 @@ from tribo_estimation.core.reference_records import (
 )
 from tribo_estimation.core.sticks import MIN_STICK, StickReport, find_sticks
 
-CONFIG = Path(__file__).resolve().parents[3] / 'config'
+CONFIG = Path(__file__).resolve().parents[5] / 'config'
 CFG = load_rig_config(CONFIG / 'rig.yaml')
 #: issue 11 item 3: start and end of every stick within 0.3 ms, counts within 5 %
 TOL = 3e-4

@@ -22,7 +22,7 @@ from tribo_estimation.errors import (
     UnitError,
 )
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[4]
 HEADER = 'time,torsion_moment,angular_acceleration,speed'
 
 
