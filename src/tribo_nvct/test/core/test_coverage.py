@@ -15,7 +15,7 @@ from tribo_nvct.core.config import config_from_dict
 from tribo_nvct.core.counting import Dwell
 from tribo_nvct.core.streaming import WearEvaluator
 
-from .truthgen import SHAPES, Truth, random_case
+from ..truthgen import SHAPES, Truth, random_case
 
 UM3 = 1e-18
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-CORE = Path(__file__).resolve().parents[1] / 'tribo_nvct' / 'core'
+CORE = Path(__file__).resolve().parents[2] / 'tribo_nvct' / 'core'
 
 
 def test_core_has_no_rclpy_import() -> None:

@@ -18,7 +18,7 @@ from tribo_nvct.core.streaming import WearEvaluator
 from tribo_nvct.core.wear import activity_to_wear
 from tribo_nvct.errors import NvctConfigError
 
-from .conftest import CONFIG_DIR
+from ..conftest import CONFIG_DIR
 
 N_SEEDS = 50
 

@@ -13,7 +13,7 @@ from tribo_nvct.core.simulate import ForwardSimulator
 from tribo_nvct.core.streaming import WearEvaluator
 from tribo_nvct.errors import StateError
 
-from .conftest import CONFIG_DIR
+from ..conftest import CONFIG_DIR
 
 
 def _same(a: float, b: float) -> bool:

@@ -19,7 +19,7 @@ from typing import Any
 
 import pytest
 
-from .conftest import CONFIG_DIR, REPO
+from ..conftest import CONFIG_DIR, REPO
 
 pytestmark = pytest.mark.ros
 
