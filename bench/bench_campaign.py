@@ -50,6 +50,12 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _cpu_s() -> float:
+    """CPU time (user + system) of the calling process so far [s]."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def generate(d: Path, n: int, duration: float, discrepancy: bool) -> Path:
     """Write the rigs, ``n`` session bags and the spec into ``d``; return the spec."""
     text = (ROOT / 'config' / 'rig.yaml').read_text()
@@ -81,8 +87,12 @@ def generate(d: Path, n: int, duration: float, discrepancy: bool) -> Path:
     return spec
 
 
-def run(spec: Path, store: Path, workers: int) -> tuple[RunSummary, float, list[float]]:
-    """Analyse on a fresh local cluster; return (summary, cluster start [s], peak MB/worker)."""
+def run(spec: Path, store: Path, workers: int) -> tuple[RunSummary, float, list[float], float]:
+    """Analyse on a fresh local cluster.
+
+    Returns (summary, cluster start [s], peak MB per worker, CPU seconds of every
+    process of the run: workers, scheduler and client).
+    """
     from dask.distributed import Client, LocalCluster
 
     t0 = time.perf_counter()
@@ -92,12 +102,14 @@ def run(spec: Path, store: Path, workers: int) -> tuple[RunSummary, float, list[
     client = Client(cluster)
     start_s = time.perf_counter() - t0
     try:
+        c0, w0 = _cpu_s(), sum(client.run(_cpu_s).values())
         res = analyse(load_spec(spec), store, scheduler=cluster.scheduler_address, stream=None)
+        cpu = _cpu_s() - c0 + sum(client.run(_cpu_s).values()) - w0
         mem = sorted(client.run(_peak_rss_mb).values())
     finally:
         client.close()
         cluster.close()
-    return res, start_s, mem
+    return res, start_s, mem, cpu
 
 
 def scan_rate(bag: Path) -> float:
@@ -128,9 +140,10 @@ def main() -> None:
         )
         results = {}
         for workers in (1, 2):
-            res, start_s, mem = run(spec, work / f'store{workers}', workers)
+            res, start_s, mem, cpu = run(spec, work / f'store{workers}', workers)
             results[workers] = res
             over = (res.seconds * workers - res.task_seconds) / n
+            extra = cpu - res.task_cpu_seconds
             print(
                 f'{workers} worker(s): wall {res.seconds:.1f} s (cluster start {start_s:.1f} s '
                 f'apart), analyses {res.task_seconds:.1f} s of worker time '
@@ -138,7 +151,10 @@ def main() -> None:
                 f'{res.tasks} tasks, '
                 f'{res.analysed} sessions ({res.failed} failed); overhead per session '
                 f'{over:.2f} s of worker time; peak memory per worker '
-                f'{", ".join(f"{m:.0f}" for m in mem)} MB'
+                f'{", ".join(f"{m:.0f}" for m in mem)} MB; CPU of all its processes '
+                f'{cpu:.1f} s, of which {extra:.1f} s ({100 * extra / cpu:.1f} %) beyond the '
+                f'analyses ({extra / n:.2f} s per session); the run got '
+                f'{cpu / res.seconds:.2f} cores'
             )
         w1, w2 = results[1], results[2]
         print(f'speed-up 2 vs 1 worker: {w1.seconds / w2.seconds:.2f}x')
