@@ -37,7 +37,12 @@ _LAG_WIN = 0.1
 
 
 def estimate_torsion_lag(
-    torsion: np.ndarray, accel: np.ndarray, fs: float, c1: float, max_lag: float = MAX_TORSION_LAG
+    torsion: np.ndarray,
+    accel: np.ndarray,
+    fs: float,
+    c1: float,
+    max_lag: float = MAX_TORSION_LAG,
+    min_lag: float = 0.0,
 ) -> float:
     """First-order lag of the torsion channel relative to the accelerometer [s].
 
@@ -47,11 +52,13 @@ def estimate_torsion_lag(
     acceleration and ``g`` a gain ratio. ``tau`` minimises the residual of that
     model over 0.1 s windows (each with its own ``g`` and quadratic trend, which
     absorb the integration constants, an accelerometer offset and gain errors);
-    search on [0, ``max_lag``]: a 0.5 ms grid, halving steps down to 0.1 ms, then a
+    search on [``min_lag``, ``max_lag``]: a 0.5 ms grid, halving steps down to 0.1 ms, then a
     parabola. A few ms per second of 10 kHz data; within about 2 % (+-20 us) of
     lags up to 2 ms at the noise of config/rig.yaml (the trapezoid integral of the
-    acceleration's jumps at stick boundaries biases it slightly low). A lag of the
-    accelerometer itself reads as a smaller (clipped at 0) torsion lag.
+    acceleration's jumps at stick boundaries biases it slightly low). A negative
+    value (``min_lag`` < 0 allows it) is a lag of the accelerometer itself,
+    ``a_meas = lag(a)``: then ``P = P_meas + |tau|*W_meas`` exactly (the inverse lag of
+    the double integral), and the model is ``y = g*C1*(P + |tau|*W)``.
     """
     dt = 1.0 / fs
     w = chamber_speed_integral(accel, dt)
@@ -70,7 +77,10 @@ def estimate_torsion_lag(
     syy = float(np.sum(y * y))
 
     def rss(tau: float) -> float:
-        x = detrended(c1 * (phi - tau * first_order_lag(w, dt, tau)))
+        if tau < 0.0:
+            x = detrended(c1 * (phi - tau * w))
+        else:
+            x = detrended(c1 * (phi - tau * first_order_lag(w, dt, tau)))
         sxx = np.sum(x * x, axis=1)
         sxy = np.sum(x * y, axis=1)
         ok = sxx > 0.0
@@ -79,21 +89,21 @@ def estimate_torsion_lag(
     cache: dict[float, float] = {}
 
     def f(tau: float) -> float:
-        tau = min(max(round(tau, 9), 0.0), max_lag)
+        tau = min(max(round(tau, 9), min_lag), max_lag)
         if tau not in cache:
             cache[tau] = rss(tau)
         return cache[tau]
 
     # coarse grid, then halving steps around the best point, then a parabola
     step = 5.0 * _LAG_STEP
-    best = min(np.arange(0.0, max_lag + 0.5 * step, step).tolist(), key=f)
+    best = min(np.arange(min_lag, max_lag + 0.5 * step, step).tolist(), key=f)
     while step > 1.01 * _LAG_STEP:
         step = max(_LAG_STEP, 0.5 * step)
         best = min((best - step, best, best + step), key=f)
-    best = min(max(round(best, 9), 0.0), max_lag)
+    best = min(max(round(best, 9), min_lag), max_lag)
     a, b, c = f(best - _LAG_STEP), f(best), f(best + _LAG_STEP)
     den = a - 2.0 * b + c
-    if 0.0 < best < max_lag and den > 0.0:
+    if min_lag < best < max_lag and den > 0.0:
         return float(best + 0.5 * (a - c) / den * _LAG_STEP)
     return float(best)
 

@@ -60,6 +60,9 @@ _TQ_LAG_PIECE = 1.0
 _TQ_LAG_MEAN_WIN = 0.005
 #: Smallest torsion lag taken as real [s] (the block fit's threshold).
 MIN_TORSION_LAG = 1e-4
+#: Largest accelerometer lag behind the torsion moment that is identified [s] (an
+#: accelerometer's bandwidth is a kilohertz or more; its lag a fraction of a ms).
+MAX_ACCEL_LAG = 1e-3
 
 
 @dataclass(frozen=True)
@@ -69,13 +72,14 @@ class TorsionLag:
     Parameters
     ----------
     tau : float
-        The lag [s] (NaN: not estimated).
+        The lag of the torsion channel relative to the accelerometer [s] (NaN: not
+        estimated); negative: the accelerometer lags the torsion moment by ``-tau``.
     se : float
         Its standard error [s] (spread of the estimates on the record pieces).
     n : int
         Number of record pieces estimated on.
     used : float
-        The lag compensated [s] (0 = none).
+        The lag compensated [s] (0 = none; negative: the accelerometer's).
     """
 
     tau: float
@@ -130,7 +134,11 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
         try:
             tau = float(
                 estimate_torsion_lag(
-                    record.torsion_moment[a:b], record.angular_acceleration[a:b], fs, rig.C1
+                    record.torsion_moment[a:b],
+                    record.angular_acceleration[a:b],
+                    fs,
+                    rig.C1,
+                    min_lag=-MAX_ACCEL_LAG,
                 )
             )
         except (ValueError, np.linalg.LinAlgError):
@@ -143,9 +151,9 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     tau = float(np.median(arr))
     se = float(1.2533 * np.std(arr, ddof=1) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
     ok = (
-        tau >= MIN_TORSION_LAG
-        and tau < 0.98 * MAX_TORSION_LAG
-        and (not math.isfinite(se) or tau > 3.0 * se)
+        abs(tau) >= MIN_TORSION_LAG
+        and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
+        and (not math.isfinite(se) or abs(tau) > 3.0 * se)
     )
     return TorsionLag(tau, se, arr.size, tau if ok else 0.0)
 
@@ -168,14 +176,21 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     rig : RigParams
         Rig parameters (C1, Tab. 1).
     tau : float
-        Lag to take out [s] (<= 0: the record unchanged).
+        Lag to take out [s] (0: the record unchanged; negative: the accelerometer's
+        lag ``-tau``, inverted on the acceleration).
 
     Returns
     -------
     Record
         The record with the compensated torsion moment [N m].
     """
-    if tau <= 0.0:
+    if tau < 0.0:
+        # the accelerometer's lag inverted: a = a_meas + |tau|*a_meas'
+        acc = record.angular_acceleration
+        return replace(
+            record, angular_acceleration=np.asarray(acc - tau * np.gradient(acc, record.dt))
+        )
+    if tau == 0.0:
         return record
     fs = record.fs
     dt = record.dt
@@ -213,6 +228,11 @@ class SpeedSensor:
         over the record, relative to the mean stick speed [-] (NaN: not estimated).
     drift_se : float
         Its standard error [-].
+    gain : float
+        The speed channel's gain relative to the chamber speed from the torsion
+        moment [-] (1: not identified, the sticks all at one speed).
+    gain_se : float
+        Its standard error [-].
     """
 
     tau: float
@@ -222,6 +242,8 @@ class SpeedSensor:
     n: int
     drift: float = math.nan
     drift_se: float = math.nan
+    gain: float = 1.0
+    gain_se: float = math.nan
 
     def drifting(self) -> bool:
         """Tell whether the stick-phase kinematics drift during the record.
@@ -390,6 +412,20 @@ def identify_speed_sensor(
     cl = np.concatenate(cl_l)
     d = record.speed[idx] - w[idx]
     X = np.column_stack((np.ones(idx.size), -acc[idx]))
+    gain, gain_se = 1.0, math.nan
+    # y = g*lag(w) + b: regressed as w = (y - b)/g + (tau/g)*y' (the speed channel is the
+    # regressor: its noise is far below that of w from the torsion moment's slope); the
+    # gain is used where 1/g is beyond 3 standard errors from 1 (sticks all at one speed
+    # make it collinear with the offset: a large error)
+    fit_g = _cluster_lstsq(
+        np.column_stack((np.ones(idx.size), record.speed[idx], acc[idx])), w[idx], cl
+    )
+    if fit_g is not None:
+        inv, inv_se = float(fit_g[0][1]), float(fit_g[1][1])
+        if math.isfinite(inv_se) and abs(inv - 1.0) > 3.0 * inv_se and 0.5 < inv < 2.0:
+            gain, gain_se = 1.0 / inv, inv_se / (inv * inv)
+            d = record.speed[idx] / gain - w[idx]
+            X = np.column_stack((np.ones(idx.size), -acc[idx] / gain))
     fit = _cluster_lstsq(X, d, cl)
     if fit is None:
         return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
@@ -397,7 +433,107 @@ def identify_speed_sensor(
     tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
     return SpeedSensor(
-        tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se
+        tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
+        gain, gain_se,
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AccelSensor:
+    """The accelerometer's gain and offset relative to the torsion moment's kinematics.
+
+    Parameters
+    ----------
+    gain : float
+        Gain [-] (1: not significant).
+    gain_se : float
+        Its standard error [-].
+    offset : float
+        Zero offset [rad/s^2] (0: not significant).
+    offset_se : float
+        Its standard error [rad/s^2].
+    """
+
+    gain: float = 1.0
+    gain_se: float = math.nan
+    offset: float = 0.0
+    offset_se: float = math.nan
+
+    def correct(self, accel: FloatArray) -> FloatArray:
+        """Return the acceleration with the sensor's gain and offset taken out [rad/s^2]."""
+        return (accel - self.offset) / self.gain
+
+    def report(self) -> dict[str, object]:
+        """Return the ``accel_sensor`` entry of ``discrepancy.json``."""
+        return {
+            'gain': self.gain,
+            'gain_se': self.gain_se,
+            'offset': self.offset,
+            'offset_se': self.offset_se,
+            'unit': 'rad/s^2',
+        }
+
+
+def identify_accel_sensor(
+    record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None
+) -> AccelSensor:
+    """Identify the accelerometer's gain and offset from the stick phases, friction-free.
+
+    While the discs stick the chamber speed is ``w = (dM_t/dt)/C1`` (Equ. 4) and the
+    accelerometer shows ``a = g*w' + b``; integrated over a stick phase,
+    ``A(t) = g*w(t) + b*t + c`` with one constant per phase: a linear regression over
+    the phases' interiors (each demeaned; standard errors cluster-robust over the
+    phases). Each term is used where beyond 3 standard
+    errors.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record (torsion lag compensated).
+    rig : RigParams
+        Rig parameters (C1).
+    runs : tuple of (IntArray, IntArray) or None
+        First and stop sample of each stick phase (None: no stick phases).
+
+    Returns
+    -------
+    AccelSensor
+        The gain and offset.
+    """
+    if runs is None:
+        return AccelSensor()
+    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    acc = record.angular_acceleration
+    dt = record.dt
+    guard = CHAMBER_HALF + 3
+    rows_a: list[FloatArray] = []
+    rows_w: list[FloatArray] = []
+    rows_t: list[FloatArray] = []
+    cl_l: list[IntArray] = []
+    for k, (a, b) in enumerate(zip(*runs, strict=True)):
+        lo, hi = int(a) + guard, int(b) - guard
+        if hi - lo < 10:
+            continue
+        x = acc[lo:hi]
+        big = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)))
+        tt = np.arange(hi - lo) * dt
+        for arr, dest in ((big, rows_a), (w[lo:hi], rows_w), (tt, rows_t)):
+            dest.append(arr - float(np.mean(arr)))
+        cl_l.append(np.full(hi - lo, k, dtype=np.int64))
+    if len(cl_l) < 3:
+        return AccelSensor()
+    # A = g*w + b*t + c (w from the torsion moment's slope: its noise is far below the
+    # integrated acceleration's, which lies in the dependent variable)
+    X = np.column_stack((np.concatenate(rows_w), np.concatenate(rows_t)))
+    fit = _cluster_lstsq(X, np.concatenate(rows_a), np.concatenate(cl_l))
+    if fit is None:
+        return AccelSensor()
+    (g_v, b_v), (g_sev, b_sev) = fit
+    g, g_se, b, b_se = float(g_v), float(g_sev), float(b_v), float(b_sev)
+    use_g = math.isfinite(g_se) and abs(g - 1.0) > 3.0 * g_se and g > 0.5
+    use_b = math.isfinite(b_se) and abs(b) > 3.0 * b_se
+    return AccelSensor(
+        float(g) if use_g else 1.0, float(g_se), float(b) if use_b else 0.0, float(b_se)
     )
 
 

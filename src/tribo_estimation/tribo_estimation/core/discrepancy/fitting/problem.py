@@ -267,7 +267,8 @@ class Problem:
         Parameters
         ----------
         values : mapping of str to float
-            Model values (``mu0``, ``mu_inf``, Extensions fields, instrument terms).
+            Model values (``mu0``, ``mu_inf``, the decay constant ``k`` of Equ. 8 [s/rad]
+            (default: the problem's), Extensions fields, instrument terms).
 
         Returns
         -------
@@ -283,7 +284,7 @@ class Problem:
         ext_vals = {
             k: float(v)
             for k, v in values.items()
-            if k not in ('mu0', 'mu_inf') and k not in INSTRUMENT_FIELDS
+            if k not in ('mu0', 'mu_inf', 'k') and k not in INSTRUMENT_FIELDS
         }
         unknown = set(ext_vals) - EXT_FIELDS
         if unknown:
@@ -291,7 +292,7 @@ class Problem:
         fr = FrictionLaw(
             max(float(values.get('mu0', MU0.initial)), 0.0),
             max(float(values.get('mu_inf', MU_INF.initial)), 0.0),
-            self.k,
+            float(values.get('k', self.k)),
         )
         return fr, replace(Extensions(), **ext_vals)
 

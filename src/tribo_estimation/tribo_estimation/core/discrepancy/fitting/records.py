@@ -40,6 +40,9 @@ EXT_FIELDS: frozenset[str] = frozenset(f.name for f in fields(Extensions))
 #: Friction parameters of the baseline (Equ. 8), fitted in every model.
 MU0 = ParamSpec('mu0', '-', 0.0, 2.0, 0.01, 0.1)
 MU_INF = ParamSpec('mu_inf', '-', 0.0, 2.0, 0.01, 0.1)
+#: The decay constant k of Equ. 8 [s/rad], fitted with the levels (RIG.yaml's value is
+#: the start: a preset such as the paper's 2 s/rad is rarely the contact's).
+K_DECAY = ParamSpec('k', 's/rad', 0.05, 100.0, 1.0, 2.0, log=True)
 
 #: Instrument model of the shaft-speed channel, fitted with the baseline:
 #: first-order sensor lag [s] and zero offset [rad/s]. The simulated shaft speed

@@ -35,11 +35,6 @@ UNKNOWN_DWELL = (
 )
 
 
-#: A stick phase whose discs already move together this long before its detected
-#: onset [s] began earlier than detected: its dwell is unknown.
-EARLY_STICK = 2e-3
-
-
 def stuck_before_onset(
     record: Record, rig: RigParams, s_start: IntArray, s_stop: IntArray
 ) -> FloatArray:
@@ -200,7 +195,9 @@ def make_segments(
     ``mu_s(t_stick)``) is unknown, so no segment starts in it and its samples are
     not fitted (listed in ``rejected``) -- unless ``dwell_from_start``: the record
     begins at the drive's start from rest (:func:`begins_at_drive_start`), where
-    the stick began with the record.
+    the stick began with the record. A stick phase whose discs already moved
+    together before its detected onset (:func:`stuck_before_onset`) began there: its
+    dwell clock starts at that earlier instant.
 
     Parameters
     ----------
@@ -253,24 +250,14 @@ def make_segments(
         for k, a in enumerate(s_start)
         if cut[k] and slip[k] <= limit
     ]
-    # a stick phase that began well before its detected onset has no known dwell
-    # either: no segment starts in it, its samples stay in the segment before, whose
-    # simulation dates the stick's onset itself
+    # a stick phase whose discs already moved together before its detected onset began
+    # earlier: its dwell clock starts where they began to move together
     early = stuck_before_onset(record, rig, s_start, s_stop)
-    late = (early > EARLY_STICK) & ~cut & (slip <= limit)
-    rejected += [
-        (
-            float(record.time[int(a)]),
-            f'stick began {1e3 * early[k]:.3g} ms before its detected onset (the shaft and '
-            'chamber speeds agree there): its dwell is unknown (fitted in the segment before)',
-        )
-        for k, a in enumerate(s_start)
-        if late[k]
-    ]
+    onset = np.asarray(onset, dtype=np.float64) - early
     cand = [
         (int(a) + min(delay, (int(b) - int(a)) // 2), k)
         for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-        if slip[k] <= limit and not cut[k] and not late[k]
+        if slip[k] <= limit and not cut[k]
     ]
     if len(cand) < 3:
         # a stick phase (the start-up from rest) has no sliding state: sliding
@@ -306,7 +293,7 @@ def make_segments(
         unknown_dwell=tuple(
             (int(a), int(b))
             for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-            if (cut[k] or late[k]) and slip[k] <= limit
+            if cut[k] and slip[k] <= limit
         ),
     )
 

@@ -24,12 +24,12 @@ from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.errors import InvalidParameterError
 
 from ..candidates import ParamSpec
-from ..fitting import MU0, MU_INF, Problem, SimulatedRecord
+from ..fitting import K_DECAY, MU0, MU_INF, Problem, SimulatedRecord
 
 FloatArray = npt.NDArray[np.float64]
 
-#: The friction levels of the baseline (Equ. 8).
-LEVELS: tuple[ParamSpec, ParamSpec] = (MU0, MU_INF)
+#: The friction law of the baseline (Equ. 8): its levels and decay constant.
+LEVELS: tuple[ParamSpec, ParamSpec, ParamSpec] = (MU0, MU_INF, K_DECAY)
 
 
 def own(name: str, i: int) -> str:

@@ -7,7 +7,7 @@ in its stick phases, the drive profile is measured from it
 (:mod:`tribo_estimation.core.drive`) and the speed sensor's lag and offset are
 identified from the stick phases (:func:`..fitting.identify_speed_sensor`).
 
-``fit_baseline`` fits the paper's model (Equ. 1-8: ``mu0``, ``mu_inf``) with the
+``fit_baseline`` fits the paper's model (Equ. 1-8: ``mu0``, ``mu_inf``, ``k``) with the
 speed sensor held, sets the channel weights from its residuals (never above one
 over the channel's noise level), and refits with the speed sensor's lag and offset
 free when the lag is significant; they then stay free in every model of the record
@@ -17,8 +17,7 @@ free when the lag is significant; they then stay free in every model of the reco
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -34,6 +33,7 @@ from ..fitting import (
     SimulatedRecord,
     SpeedSensor,
     TorsionLag,
+    identify_accel_sensor,
     identify_speed_sensor,
     identify_torsion_lag,
     torsion_compensated_record,
@@ -93,7 +93,20 @@ def prepare(
     tq = identify_torsion_lag(record, rig, enabled=policy.torsion_lag)
     rec = torsion_compensated_record(record, rig, tq.used)
     pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
-    sensor = identify_speed_sensor(rec, rig, pb.segments.stick_phases())
+    sticks = pb.segments.stick_phases()
+    accel = identify_accel_sensor(rec, rig, sticks)
+    sensor = identify_speed_sensor(rec, rig, sticks)
+    speed_gain = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
+    if accel.gain != 1.0 or accel.offset != 0.0 or sensor.gain != 1.0:
+        # the channels in the torsion moment's frame (a common gain of all three is
+        # the torque's calibration: it scales mu0 and mu_inf alike)
+        rec = replace(
+            rec,
+            angular_acceleration=accel.correct(rec.angular_acceleration),
+            speed=rec.speed / sensor.gain,
+        )
+        pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
+        sensor = identify_speed_sensor(rec, rig, pb.segments.stick_phases())
     used = sensor.values()
     instrument: dict[str, object] = {
         'torsion_lag_tau': tq.report(),
@@ -110,6 +123,8 @@ def prepare(
             'used': used['speed_offset'],
         },
         'speed_mismatch_drift': {'value': sensor.drift, 'se': sensor.drift_se, 'unit': '-'},
+        'speed_gain': speed_gain,
+        'accel_sensor': accel.report(),
         'stick_samples': sensor.n,
     }
     return Prepared(pb, tq, sensor, instrument)
@@ -158,28 +173,26 @@ def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[s
     Returns
     -------
     dict of str to float
-        mu0, mu_inf (Equ. 8) and the speed-sensor values (SI).
+        mu0, mu_inf, k (Equ. 8) and the speed-sensor values (SI).
     """
     pb = prep.problem
     one = Ensemble([pb])
     sensor = prep.sensor.values()
     best: Fit | None = None
     for s in baseline_starts(pb):
-        start = {'mu0@0': s['mu0'], 'mu_inf@0': s['mu_inf'], **sensor}
+        start = one.join([{**s, 'k': pb.k, **sensor}])
         fo = one.fit(one.specs(), start, max_nfev=policy.screen_nfev, fold=0)
         if best is None or fo.cost < best.cost:
             best = fo
     assert best is not None
     fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
-    values = {'mu0': fo.values['mu0@0'], 'mu_inf': fo.values['mu_inf@0'], **sensor}
+    values = one.split(fo.values)[0]
     sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
     if sensor['speed_lag_tau'] > 0.0:
         pb.free_instrument = (SPEED_LAG, SPEED_OFFSET)
         one = Ensemble([pb])
-        start = {'mu0@0': values['mu0'], 'mu_inf@0': values['mu_inf']}
-        start.update({f'{k}@0': v for k, v in sensor.items()})
-        fo = one.fit(one.specs(), start, max_nfev=policy.fit_nfev)
+        fo = one.fit(one.specs(), one.join([values]), max_nfev=policy.fit_nfev)
         values = one.split(fo.values)[0]
         inst = prep.instrument
         for name in ('speed_lag_tau', 'speed_offset'):
@@ -189,6 +202,7 @@ def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[s
                 entry['se_joint'] = fo.se.get(f'{name}@0', math.nan)
     say(
         f'baseline: mu0 = {values["mu0"]:.4f}, mu_inf = {values["mu_inf"]:.4f}, '
+        f'k = {values["k"]:.3g} s/rad, '
         f'torque rms {pb.torque_rms(pb.simulate(values)):.4g} N m '
         f'({pb.segments.n} segments)'
     )
@@ -217,16 +231,10 @@ def channel_floors(problem: Problem, sim: SimulatedRecord) -> dict[str, float]:
     return out
 
 
-def per_record_values(ens: Ensemble, values: Mapping[str, float]) -> list[dict[str, float]]:
-    """Return each record's model values (alias of :meth:`.ensemble.Ensemble.split`)."""
-    return ens.split(values)
-
-
 __all__ = [
     'Prepared',
     'baseline_starts',
     'channel_floors',
     'fit_record_baseline',
-    'per_record_values',
     'prepare',
 ]

@@ -17,7 +17,7 @@ import numpy as np
 from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.errors import InvalidParameterError
 
-from ..fitting import MU0, MU_INF, Record
+from ..fitting import Record
 from ..localise import localise, torque_residual
 from ..select.baseline import drive_report
 from ..select.unexplained import describe_unexplained
@@ -32,7 +32,7 @@ from .decide import (
     decide,
     explained,
 )
-from .ensemble import Ensemble, Fit
+from .ensemble import LEVELS, Ensemble, Fit
 from .null import NullLaw, null_law
 from .policy import Policy, Progress, quiet
 from .prepare import Prepared, fit_record_baseline, prepare
@@ -48,7 +48,7 @@ def _null_laws(
     for i, (pb, vals, ad) in enumerate(
         zip(ens.problems, ens.split(model.values), model.adequacy, strict=True)
     ):
-        free = [MU0, MU_INF, *pb.free_instrument, *model.params()]
+        free = [*LEVELS, *pb.free_instrument, *model.params()]
         laws.append(
             null_law(
                 pb,
