@@ -216,7 +216,7 @@ def test_profile_model_key_checked(tmp_path: Path) -> None:
     from tribo_nvct.core.config import load_config
     from tribo_nvct.errors import NvctConfigError
 
-    from .conftest import CONFIG_DIR
+    from ...conftest import CONFIG_DIR
 
     raw = yaml.safe_load((CONFIG_DIR / 'nvct.yaml').read_text())
     raw['depth_profile'] = str(CONFIG_DIR / 'depth_profile.csv')
