@@ -41,7 +41,7 @@ pytestmark
 
 # standard library: argparse.Action.__call__'s argument (tribo_bringup/commands/discrepancy.py)
 _.option_string
-# standard library: html.parser.HTMLParser callbacks (tribo_bringup/test/test_report.py)
+# standard library: html.parser.HTMLParser callbacks (tribo_bringup/test/report/test_report.py)
 _.handle_starttag
 _.handle_endtag
 _.handle_data

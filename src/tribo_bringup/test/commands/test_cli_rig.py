@@ -11,7 +11,7 @@ import pytest
 from tribo_bringup.cli import main
 from tribo_estimation.core.rigio import read_rig_csv
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[4]
 
 
 def test_simulate_then_decay(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip('tribo_bringup.cli')
 from tribo_bringup.cli import main
 
-CONFIG_DIR = Path(__file__).resolve().parents[3] / 'config'
+CONFIG_DIR = Path(__file__).resolve().parents[4] / 'config'
 
 
 def test_simulate_then_evaluate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

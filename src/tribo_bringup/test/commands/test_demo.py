@@ -15,7 +15,7 @@ import yaml
 from tribo_bringup.commands import demo
 from tribo_bringup.errors import ConfigError
 
-CONFIG = Path(__file__).resolve().parents[3] / 'config'
+CONFIG = Path(__file__).resolve().parents[4] / 'config'
 
 
 def test_every_candidate_effect_has_a_demo_rig() -> None:

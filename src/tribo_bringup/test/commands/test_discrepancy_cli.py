@@ -18,7 +18,7 @@ import pytest
 pytest.importorskip('tribo_bringup')
 from tribo_bringup.cli import main
 
-CONFIG = Path(__file__).resolve().parents[3] / 'config'
+CONFIG = Path(__file__).resolve().parents[4] / 'config'
 
 
 @pytest.fixture(scope='module')

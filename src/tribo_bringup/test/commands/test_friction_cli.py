@@ -16,7 +16,7 @@ from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
 from tribo_estimation.core.rigio import write_rig_csv
 from tribo_estimation.core.simulate import NoiseSpec, SimResult, simulate
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[4]
 RIG_YAML = REPO / 'config' / 'rig.yaml'  # mu0 0.13, mu_inf 0.10, 30 rpm, ramp 0.5 s
 TRUTH = FrictionLaw(0.13, 0.10, 2.0)
 W0 = 3.14159

@@ -197,7 +197,7 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         ''.join(f'{k}: {v}\n' for k, v in RIG.items())
         + 'effects: {stiction_gain: 0.02, stiction_tau: 0.05}\n'
     )
-    nvct = Path(__file__).resolve().parents[3] / 'config' / 'nvct.yaml'
+    nvct = Path(__file__).resolve().parents[4] / 'config' / 'nvct.yaml'
     bad_rig = base / 'bad_rig.yaml'  # the offline fit must fail on it, the report must not
     bad_rig.write_text('I1: 0.0109\n')
     res = build_report(
@@ -236,7 +236,7 @@ def test_friction_table_matches_csv_and_truth(report: dict[str, Any]) -> None:
     assert kv['mu0_max'] == fmt(fr['mu0_max']) and kv['blocks_ok'] == '2'
 
 
-NVCT = Path(__file__).resolve().parents[3] / 'config' / 'nvct.yaml'
+NVCT = Path(__file__).resolve().parents[4] / 'config' / 'nvct.yaml'
 
 
 def test_wear_summary_and_k_w(report: dict[str, Any]) -> None:
@@ -519,7 +519,7 @@ def test_report_imports_no_command_module() -> None:
     """The report and the analyses call library functions, never ``commands.*``."""
     import ast
 
-    pkg = Path(__file__).resolve().parents[1] / 'tribo_bringup'
+    pkg = Path(__file__).resolve().parents[2] / 'tribo_bringup'
     files = [*sorted((pkg / 'report').glob('*.py')), *sorted((pkg / 'analyses').glob('*.py'))]
     assert len(files) >= 7
     for f in files:
