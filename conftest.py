@@ -7,7 +7,19 @@ pytest-xdist worker N is moved by 40*N) with localhost-only discovery.
 
 from __future__ import annotations
 
+import functools
 import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pytest
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.simulate import SimResult
+
+#: The repository root.
+REPO = Path(__file__).resolve().parent
 
 try:  # property-based suite (tests/test_fuzz_*.py): HYPOTHESIS_PROFILE=ci (default) or fuzz
     from hypothesis import HealthCheck, settings
@@ -39,3 +51,32 @@ _worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
 _index = int(_worker[2:]) if _worker.startswith('gw') and _worker[2:].isdigit() else 0
 os.environ['ROS_DOMAIN_ID'] = str(11 + 40 * (_index % 3) + os.getpid() % 30)
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+
+
+@functools.cache
+def _simulated(rig: str, duration: float, fs: float, noise: bool, seed: int) -> SimResult:
+    import tribo_estimation as te
+
+    return te.simulate(REPO / 'config' / rig, duration, fs=fs, noise=noise, seed=seed)
+
+
+@pytest.fixture(scope='session')
+def sim_record() -> Callable[..., SimResult]:
+    """Return the one factory of simulated rig records for the tests (cached per process).
+
+    ``sim_record(duration=3.0, fs=10_000.0, *, rig='rig.yaml', noise=True, seed=1)``
+    simulates ``config/<rig>`` (a ``SimResult``: a ``RigRecord`` plus the truth). The
+    same arguments return the same object: copy an array before changing it.
+    """
+
+    def make(
+        duration: float = 3.0,
+        fs: float = 10_000.0,
+        *,
+        rig: str = 'rig.yaml',
+        noise: bool = True,
+        seed: int = 1,
+    ) -> SimResult:
+        return _simulated(rig, float(duration), float(fs), bool(noise), int(seed))
+
+    return make
