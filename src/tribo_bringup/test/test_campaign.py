@@ -176,6 +176,24 @@ def test_chunked_session_equals_the_single_session_command(tmp_path: Path) -> No
         np.testing.assert_allclose([r[col] for r in rows], ref[col], rtol=EXACT, err_msg=col)
 
 
+def test_discrepancy_task_equals_the_single_session_command(campaign: Path, tmp_path: Path) -> None:
+    import json
+
+    bag = campaign / 'runs' / 'a4'
+    st = Settings(discrepancy_start_s=0.5, discrepancy_duration_s=1.0)
+    res = run_task(Task('k', 'discrepancy', 0, 1, str(bag), 'bag', str(RIG_YAML), '', st))
+    assert res.error == ''
+    row = res.rows['discrepancy'][0]
+    out = tmp_path / 'disc'
+    args = ['discrepancy', str(bag), '--rig', str(RIG_YAML), '--out', str(out)]
+    assert cli.main([*args, '--start', '0.5', '--duration', '1.0', '--no-plots']) == 0
+    ref = json.loads((out / 'discrepancy.json').read_text())
+    assert row['verdict'] == ref['verdict'] and row['finding'] == ref['finding']
+    assert row['rms_baseline'] == pytest.approx(ref['baseline']['rms'], rel=EXACT)
+    assert row['mu0'] == pytest.approx(ref['baseline']['params']['mu0'], rel=EXACT)
+    assert row['window_s'] == pytest.approx(1.0, abs=2e-4)  # 10 kHz: one sample
+
+
 # --- the analysed store ------------------------------------------------------------------
 
 

@@ -32,7 +32,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -140,9 +140,11 @@ def session_duration(path: Path, kind: str) -> float:
     from tribo_common.yamlio import load_yaml
 
     try:
-        meta = load_yaml(path / 'metadata.yaml', BagError, 'bag metadata')
-        info = meta['rosbag2_bagfile_information']
-        return float(info['duration']['nanoseconds']) * 1e-9
+        meta = cast(
+            'dict[str, dict[str, dict[str, int]]]',
+            load_yaml(path / 'metadata.yaml', BagError, 'bag metadata'),
+        )
+        return float(meta['rosbag2_bagfile_information']['duration']['nanoseconds']) * 1e-9
     except (BagError, KeyError, TypeError, ValueError):
         return math.nan
 
@@ -342,11 +344,17 @@ def _friction(task: Task) -> list[Row]:
 
 
 def _discrepancy(task: Task) -> Row:
-    """Missing-physics workflow on the settings' window (``tribo discrepancy``)."""
+    """Missing-physics workflow on the settings' window (``tribo discrepancy``).
+
+    The row is taken from the result's ``discrepancy.json`` content (its
+    ``as_dict``): verdict, one-line finding, the families named or left apart,
+    the torque residual rms of the baseline and final model [N m], the noise
+    floor [N m], the baseline's mu0 and mu_inf, and the whole report as JSON.
+    """
     import json
 
     import tribo_estimation as te
-    from tribo_estimation.results import discrepancy_finding
+    from tribo_bringup.report.page import clean_json
 
     st = task.settings
     cfg = te.load_rig(task.config)
@@ -357,25 +365,38 @@ def _discrepancy(task: Task) -> Row:
         duration=st.discrepancy_duration_s,
         namespace=task.namespace or None,
     )
-    found = te.find_missing_physics(record, cfg)
-    result = found.result
-    data = found.as_dict()
-    base = result.baseline.params
+    data = te.find_missing_physics(record, cfg).as_dict()
+    base = _mapping(data.get('baseline'))
+    params = _mapping(base.get('params'))
+
+    def names(key: str) -> str:
+        items = data.get(key)
+        seq = items if isinstance(items, list) else []
+        return ', '.join(str(_mapping(e).get('family', _mapping(e).get('effect'))) for e in seq)
+
+    unexplained = data.get('unexplained')
     return {
         'window_start_s': float(record.time[0]),
         'window_s': float(record.time[-1] - record.time[0]),
-        'added': ', '.join(found.added),
-        'n_added': len(found.added),
-        'n_unexplained': len(getattr(result, 'unexplained', ())),
-        'not_identifiable': ', '.join(getattr(result, 'blocked', ())),
-        'rms_baseline': float(result.baseline.rms),
-        'rms_final': float(result.final.rms),
-        'noise_floor': float(getattr(result, 'noise_floor', math.nan)),
-        'mu0': float(base.get('mu0', math.nan)),
-        'mu_inf': float(base.get('mu_inf', math.nan)),
-        'verdict': discrepancy_finding(data),
-        'result_json': json.dumps(data, allow_nan=False),
+        'verdict': str(data.get('verdict', '')),
+        'finding': str(data.get('finding', '')),
+        'reason': str(data.get('reason', '')),
+        'experiment': str(data.get('experiment', '')),
+        'added': names('added'),
+        'cannot_tell_apart': names('cannot_tell_apart'),
+        'n_unexplained': len(unexplained) if isinstance(unexplained, list) else 0,
+        'rms_baseline': float(_number(base.get('rms'))),
+        'rms_final': float(_number(_mapping(data.get('final')).get('rms'))),
+        'noise_floor': float(_number(data.get('noise_floor'))),
+        'mu0': float(_number(params.get('mu0'))),
+        'mu_inf': float(_number(params.get('mu_inf'))),
+        'result_json': json.dumps(clean_json(data), allow_nan=False, default=str),
     }
+
+
+def _mapping(x: object) -> dict[str, object]:
+    """Return a JSON object as a dict (anything else as an empty one)."""
+    return {str(k): v for k, v in x.items()} if isinstance(x, dict) else {}
 
 
 # --- wear --------------------------------------------------------------------------

@@ -322,10 +322,11 @@ def _verdict_section(
     from tribo_bringup.report.page import Section, table
 
     rows = [
-        [d.get('session_id'), _oil(by_id.get(str(d.get('session_id')))), d.get('verdict')]
+        [d.get('session_id'), _oil(by_id.get(str(d.get('session_id')))), d.get('verdict'),
+         d.get('finding')]
         for d in disc
-    ]
-    body = table(rows, ('session', 'oil', 'missing physics'), 'verdicts') + (
+    ]  # fmt: skip
+    body = table(rows, ('session', 'oil', 'verdict', 'missing physics'), 'verdicts') + (
         '<p>' + html.escape('Torque residual RMS in N m; the effects named were tried on a '
                             'window of each session (settings discrepancy_*).') + '</p>'
     )  # fmt: skip

@@ -389,7 +389,7 @@ def _summary(tables: Mapping[str, Sequence[Row]]) -> str:
         mean = f', mu0 {sum(mu0) / len(mu0):.4f}' if mu0 else ''
         parts.append(f'{len(blocks)} blocks ({len(good)} ok{mean}, {"/".join(motions) or "-"})')
     for d in tables.get('discrepancy', ()):
-        parts.append(f'discrepancy: {d.get("verdict")}')
+        parts.append(f'discrepancy: {d.get("finding")}')
     for w in tables.get('wear', ()):
         kw = w.get('k_w_progressive')
         parts.append(f'wear: k_w progressive {kw:.4g} um^3/(N m)' if isinstance(kw, float) else '')

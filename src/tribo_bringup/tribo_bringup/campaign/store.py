@@ -54,7 +54,7 @@ EMPTY_KEY = '_empty'
 LOCK_FILE = '.lock'
 
 #: Version of the store's table layout (part of every key: a new layout re-analyses).
-LAYOUT_VERSION = '1'
+LAYOUT_VERSION = '2'
 
 #: Column types of the per-key tables besides ``key``: ``float``, ``int``, ``str``, ``bool``.
 #: The blocks columns are the fields of :class:`~tribo_estimation.core.blockfit.BlockResult`.
@@ -73,16 +73,18 @@ _PROVENANCE_COLUMNS: dict[str, str] = {
 _DISCREPANCY_COLUMNS: dict[str, str] = {
     'window_start_s': 'float',
     'window_s': 'float',
+    'verdict': 'str',
+    'finding': 'str',
+    'reason': 'str',
+    'experiment': 'str',
     'added': 'str',
-    'n_added': 'int',
+    'cannot_tell_apart': 'str',
     'n_unexplained': 'int',
-    'not_identifiable': 'str',
     'rms_baseline': 'float',
     'rms_final': 'float',
     'noise_floor': 'float',
     'mu0': 'float',
     'mu_inf': 'float',
-    'verdict': 'str',
     'result_json': 'str',
 }
 _WEAR_COLUMNS: dict[str, str] = {
