@@ -82,7 +82,9 @@ class Outcome:
     candidate explains; ``baseline_ratio`` / ``final_ratio`` the baseline's / final
     model's torsion-moment residual rms over the workflow's noise floor [-]; ``params``
     the named effects' parameters (SI); ``seconds`` wall time of the command [s];
-    ``error`` the command's last line when it failed ('' otherwise).
+    ``error`` the command's last line when it failed ('' otherwise); ``cpu_seconds``
+    the command's CPU time in this process [s] (single-threaded: the wall time of an
+    unloaded core).
     """
 
     named: tuple[str, ...]
@@ -94,6 +96,7 @@ class Outcome:
     params: dict[str, float]
     seconds: float
     error: str = ''
+    cpu_seconds: float = math.nan
 
 
 def analyse(scenario_dir: Path) -> Outcome:
@@ -125,14 +128,16 @@ def analyse(scenario_dir: Path) -> Outcome:
     argv = ['discrepancy', str(scenario_dir / 'record.csv'), '--rig',
             str(scenario_dir / 'rig.yaml'), '--out', str(out), '--no-plots']  # fmt: skip
     t0 = time.perf_counter()
+    c0 = time.process_time()
     log = scenario_dir / 'discrepancy.log'
     with log.open('w') as fh, contextlib.redirect_stderr(fh), contextlib.redirect_stdout(fh):
         code = tribo(argv)
     seconds = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     if code != 0:
         lines = [s for s in log.read_text().splitlines() if s.strip()]
         last = lines[-1] if lines else f'exit code {code}'
-        return Outcome((), (), (), False, math.nan, math.nan, {}, seconds, last)
+        return Outcome((), (), (), False, math.nan, math.nan, {}, seconds, last, cpu)
     doc = json.loads((out / 'discrepancy.json').read_text())
     named = tuple(str(a['effect']) for a in doc['added'])
     undecidable = [str(n) for n in doc.get('not_identifiable', [])]
@@ -152,6 +157,7 @@ def analyse(scenario_dir: Path) -> Outcome:
         final_ratio=float(doc['final']['rms']) / floor,
         params=params,
         seconds=seconds,
+        cpu_seconds=cpu,
     )
 
 
@@ -313,6 +319,12 @@ def _worst(xs: Iterable[float]) -> float:
     return max(v) if v else math.nan
 
 
+def _cost(r: Row) -> float:
+    """Return the workflow's CPU time of a row [s] (its wall time if not measured)."""
+    c = r.outcome.cpu_seconds
+    return c if math.isfinite(c) else r.outcome.seconds
+
+
 def _met(ok: bool, n: int = 1) -> str:
     """Return 'met' / 'NOT met', or 'no case' when nothing was there to judge."""
     if n == 0:
@@ -335,7 +347,8 @@ def _describe(r: Row) -> str:
         f'seed {r.seed}: {r.effect} ({r.form}, snr {r.snr:.3g}) {lab["drive"]} {lab["fs"]} '
         f'{lab["motion"]} {r.duration:.1f} s, speed lag {lab["speed_lag"]}, shaft config '
         f'{lab["config_shaft"]}, k {lab["config_k"]} -> {said}; baseline '
-        f'{o.baseline_ratio:.2f}x, final {o.final_ratio:.2f}x floor, {o.seconds:.0f} s'
+        f'{o.baseline_ratio:.2f}x, final {o.final_ratio:.2f}x floor, {_cost(r):.0f} s CPU '
+        f'({o.seconds:.0f} s wall)'
     )
 
 
@@ -364,7 +377,7 @@ def targets(rows: Sequence[Row]) -> list[str]:
     named_ok = [r for r in eff if r.cls == 'correct']
     finals = [r.outcome.final_ratio for r in named_ok]
     perrs = [r.perr for r in named_ok if r.own_form and math.isfinite(r.perr)]
-    secs = [r.outcome.seconds for r in rows]
+    secs = [_cost(r) for r in rows]
     f_rate = len(first) / len(dec) if dec else math.nan
     d_rate = len(dec) / len(eff) if eff else math.nan
     c_rate = len(ctrl_clean) / len(ctrl) if ctrl else math.nan
@@ -388,8 +401,8 @@ def targets(rows: Sequence[Row]) -> list[str]:
         f'named parameters, own forms ({len(perrs)}): median error {100 * _med(perrs):.1f} %, '
         f'worst {100 * _worst(perrs):.1f} % (target {T_PARAM:.0%}): '
         f'{_met(_worst(perrs) <= T_PARAM, len(perrs))}',
-        f'workflow wall time per record ({_med(r.duration for r in rows):.1f} s median '
-        f'length): median {_med(secs):.1f} s, worst {_worst(secs):.1f} s (target <= '
+        f'workflow CPU time per record ({_med(r.duration for r in rows):.1f} s median '
+        f'length, one core): median {_med(secs):.1f} s, worst {_worst(secs):.1f} s (target <= '
         f'{T_SECONDS:g} s per 8 s record): {_met(_worst(secs) <= T_SECONDS, len(secs))}',
     ]
 
@@ -399,7 +412,7 @@ def per_condition(rows: Sequence[Row]) -> list[str]:
 
     Columns: records; effect records; decided %; first named = hidden of decided;
     wrong names (effect); controls clean; out-of-library clean; median final ratio of
-    correct names; median workflow seconds.
+    correct names; median workflow CPU seconds.
 
     Parameters
     ----------
@@ -438,7 +451,7 @@ def per_condition(rows: Sequence[Row]) -> list[str]:
                 f'{frac(len(dec), len(eff)):>9s}{frac(len(first), len(dec)):>11s}{wrong:>6d}'
                 f'{frac(sum(r.cls == "control_clean" for r in ctrl), len(ctrl)):>9s}'
                 f'{frac(sum(r.cls == "ool_clean" for r in ool), len(ool)):>8s}'
-                f'{fin:>7.2f}{_med(r.outcome.seconds for r in g):>6.0f}'
+                f'{fin:>7.2f}{_med(_cost(r) for r in g):>6.0f}'
             )
     return out
 
@@ -481,7 +494,7 @@ def worst_cases(rows: Sequence[Row]) -> list[str]:
     ctrl = sorted((r for r in rows if r.category == 'none' and not r.outcome.error),
                   key=lambda r: -r.outcome.baseline_ratio)  # fmt: skip
     section('controls with the largest baseline residual, 3', ctrl[:3])
-    slow = sorted(rows, key=lambda r: -r.outcome.seconds)
+    slow = sorted(rows, key=lambda r: -_cost(r))
     section('slowest, 3', slow[:3])
     return out
 
@@ -529,10 +542,12 @@ def report(
         print(f'  {line}')
     gen = [r.gen_seconds for r in rows]
     secs = [r.outcome.seconds for r in rows]
+    cpu = [_cost(r) for r in rows]
     print(
         f'\ntiming: generator median {_med(gen):.2f} s, worst {_worst(gen):.2f} s per record '
-        f'(simulation, when first made); workflow median {_med(secs):.1f} s, worst '
-        f'{_worst(secs):.1f} s'
+        f'(wall, when first made); workflow CPU median {_med(cpu):.1f} s, worst '
+        f'{_worst(cpu):.1f} s; wall median {_med(secs):.1f} s, worst {_worst(secs):.1f} s '
+        f'(load average at the end {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)'
     )
 
 
@@ -594,6 +609,7 @@ def read_log(path: str) -> list[Row]:
             {k: num(v) for k, v in o['params'].items()},
             num(o['seconds']),
             str(o['error']),
+            num(o.get('cpu_seconds')),
         )
         rows.append(
             Row(
@@ -692,7 +708,8 @@ def main() -> int:
         o = r.outcome
         print(
             f'[{done}/{len(seeds)}] seed {r.seed}: {r.effect} ({r.form}, snr {r.snr:.3g}) -> '
-            f'{r.cls}: {",".join(o.named) or o.error or "-"} ({o.seconds:.0f} s)',
+            f'{r.cls}: {",".join(o.named) or o.error or "-"} ({_cost(r):.0f} s CPU, '
+            f'{o.seconds:.0f} s wall)',
             file=sys.stderr,
             flush=True,
         )
