@@ -391,3 +391,28 @@ def test_store_refuses_a_second_lock_holder(tmp_path: Path) -> None:
         Store(tmp_path).lock(),
     ):
         pass
+
+
+def test_progress_bar_eta_and_status_lines(monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    from tribo_bringup.campaign import progress as pg
+
+    now = [100.0]
+    monkeypatch.setattr(pg.time, 'monotonic', lambda: now[0])
+    out = io.StringIO()
+    bar = pg.Progress(tasks=4, sessions=2, stream=out)  # t0 = 100 s
+    now[0] = 110.0
+    bar.task_done()  # 1 of 4 tasks after 10 s: 30 s to go
+    assert bar.eta() == pytest.approx(30.0, abs=1e-9)
+    bar.session_done('runs/a: ok, 2 blocks', ok=True)
+    now[0] = 115.0
+    bar.task_done()  # 2 of 4 after 15 s: 15 s to go
+    assert bar.eta() == pytest.approx(15.0, abs=1e-9)
+    text = out.getvalue()
+    assert '[1/2] runs/a: ok, 2 blocks\n' in text
+    assert '1/4 tasks, 0/2 sessions, 10.0 s, ETA 30.0 s' in text
+    assert '2/4 tasks' not in text  # into a pipe a bar line at most every 10 s
+    bar.close()
+    assert out.getvalue().endswith('2/4 tasks, 1/2 sessions, 15.0 s, ETA 15.0 s\n')
+    assert pg.fmt_seconds(3725.0) == '1 h 02 min' and pg.fmt_seconds(185.0) == '3 min 05 s'
