@@ -41,6 +41,10 @@ pytestmark
 
 # standard library: argparse.Action.__call__'s argument (tribo_bringup/commands/discrepancy.py)
 _.option_string
+# standard library: the context-manager protocol's __exit__ arguments (core/rigio.py)
+_.exc_type
+# scipy: solve_ivp reads an event function's ``terminal`` attribute (core/reference.py)
+_.terminal
 # standard library: html.parser.HTMLParser callbacks (tribo_bringup/test/report/test_report.py)
 _.handle_starttag
 _.handle_endtag
@@ -70,21 +74,6 @@ _.wall_single  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
 _.wall_joint  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
 _.unit_bounds  # owner: discrepancy redesign (core/discrepancy/candidates.py)
 _.mask_blocks  # owner: discrepancy redesign (core/discrepancy/fitting/records.py)
-_.blocks_done  # owner: H3, tribo_estimation (core/blockfit/streaming.py)
-_.terminal  # owner: H3, tribo_estimation (core/reference.py)
-_.true_accel  # owner: H3, tribo_estimation (core/reference_records.py)
-_.exc_type  # owner: H3, tribo_estimation (core/rigio.py, __exit__ arguments)
-_.skipped  # owner: H3, tribo_estimation (nodes/model_monitor.py)
-_.eccentricity  # owner: H3, tribo_nvct (core/contact.py)
-_.net_rate_se  # owner: H3, tribo_nvct (core/counting.py)
-_.gross_counts  # owner: H3, tribo_nvct (core/counting.py)
-_.decay  # owner: H3, tribo_nvct (core/counting.py)
-_.density_se  # owner: H3, tribo_nvct (core/profile/result.py)
-_.residual_rms_bq  # owner: H3, tribo_nvct (core/profile/result.py)
-_.detector_activity_ref  # owner: H3, tribo_nvct (core/simulate.py)
-_.signal_rate  # owner: H3, tribo_nvct (core/simulate.py)
-_.height_sys_se  # owner: H3, tribo_nvct (core/wear.py)
-_.OTHER_SHAPES  # owner: H3, tribo_nvct (test/truthgen.py)
 _.REPORTED  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
 _._record_sticks  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
 _.is_named  # owner: discrepancy redesign (core/discrepancy/pipeline/result.py)

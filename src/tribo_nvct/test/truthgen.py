@@ -39,8 +39,6 @@ DWELL_S = 60.0
 N_DWELLS = 240
 WINDOW_S = (120 * 60.0, 180 * 60.0)
 SHAPES = ('flat_erfc', 'exponential', 'linear_ramp')
-#: Outside the evaluation's parametric families: 0.6 exp(-z/p1) + 0.4 exp(-z/p2).
-OTHER_SHAPES = ('two_exponentials',)
 
 
 @dataclass(frozen=True)

@@ -188,6 +188,7 @@ class WearResult:
                 'half_width_axial_mm': c.half_width_axial * 1e3,
                 'p_max_MPa': c.p_max / 1e6,
                 'p_mean_MPa': c.p_mean / 1e6,
+                'eccentricity': c.eccentricity,
             }
         return out
 

@@ -163,7 +163,7 @@ class RecordTruth:
     drive speed [rad/s], ``stick`` mask, ``sticks`` exact stick phases
     ``(start, end)`` in record time [s] (clipped to the record), ``chamber_speed``
     w1 and ``shaft_speed`` w2 [rad/s], ``slip_speed`` [rad/s], ``friction_moment``
-    M [N m], clean ``true_torsion`` C1*phi1 [N m] and ``true_accel`` w1' [rad/s^2].
+    M [N m], clean ``true_torsion`` C1*phi1 [N m].
     """
 
     spec: RecordSpec
@@ -180,7 +180,6 @@ class RecordTruth:
     slip_speed: np.ndarray
     friction_moment: np.ndarray
     true_torsion: np.ndarray
-    true_accel: np.ndarray
 
     def sticks_between(
         self, t0: float, t1: float, min_duration: float = 0.0
@@ -309,7 +308,6 @@ def make_record(spec: RecordSpec) -> RecordTruth:
         slip_speed=sim.slip_speed[sl].copy(),
         friction_moment=sim.friction_moment[sl].copy(),
         true_torsion=sim.torsion_moment[sl].copy(),
-        true_accel=sim.angular_acceleration[sl].copy(),
     )
 
 

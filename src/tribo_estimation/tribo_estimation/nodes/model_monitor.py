@@ -95,7 +95,6 @@ class ModelMonitorNode(Node):
         self._cond = threading.Condition(self._lock)
         self._pending: tuple[WindowData, float] | None = None
         self._closing = False
-        self.skipped = 0
         self.published = 0
         self._pub = self.create_publisher(ModelDiscrepancy, OUTPUT_TOPIC, history_qos())
         self._gate = PublishGate()
@@ -153,9 +152,7 @@ class ModelMonitorNode(Node):
                 continue
             for w in due:
                 with self._cond:
-                    if self._pending is not None:
-                        self.skipped += 1
-                    self._pending = (w, offset)
+                    self._pending = (w, offset)  # a window not yet taken is skipped
                     self._cond.notify()
 
     # ----------------------------------------------------------------- worker

@@ -150,16 +150,12 @@ class ActivityEstimate:
     """Activity released into the oil, decay-corrected to the reference date.
 
     activity: A [Bq]; se: statistical (Poisson) standard error [Bq];
-    net_rate, net_rate_se: background-subtracted, dead-time-corrected count rate [1/s];
-    gross_counts: registered counts; decay: applied decay factor [-].
+    net_rate: background-subtracted, dead-time-corrected count rate [1/s].
     """
 
     activity: float
     se: float
     net_rate: float
-    net_rate_se: float
-    gross_counts: int
-    decay: float
 
 
 def counts_to_activity(
@@ -176,7 +172,7 @@ def counts_to_activity(
     net = rate - background.rate
     net_se = math.sqrt(rate_var + background.se**2)
     c = decay_factor(dwell.t_start, dwell.t_end, lam, offset_s)
-    return ActivityEstimate(k_det * net * c, k_det * net_se * c, net, net_se, dwell.counts, c)
+    return ActivityEstimate(k_det * net * c, k_det * net_se * c, net)
 
 
 def currie_detection_limit_counts(background_counts: float) -> float:

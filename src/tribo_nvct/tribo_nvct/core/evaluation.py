@@ -341,6 +341,7 @@ class Evaluation:
                 'bootstrap_replicas': self.profile_replicas,
                 'aic': dict(cfg.profile.aic),
                 'chi2_red': cfg.profile.chi2_red,
+                'residual_rms_bq': cfg.profile.residual_rms_bq,
             },
             'flags': list(self.flags),
         }

@@ -102,9 +102,8 @@ class ForwardSimulator:
         else:
             seen = released
         lam = cfg.decay_constant
-        self.detector_activity_ref = seen  # [Bq], reference date
-        rate = seen * np.exp(-lam * (cfg.reference_offset_s + tg)) / cfg.k_det  # [1/s]
-        self.signal_rate = rate
+        # seen [Bq] at the reference date -> count rate [1/s]
+        rate = seen * np.exp(-lam * (cfg.reference_offset_s + tg)) / cfg.k_det
         # Expected true (dead-time free) counts per dwell: integral of rate + background.
         cum = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tg))])
         sig = np.interp(self.t_end, tg, cum) - np.interp(self.t_start, tg, cum)

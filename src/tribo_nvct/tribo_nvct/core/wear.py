@@ -46,7 +46,7 @@ class WearPoint:
 
     t_start, t_end [s] test time; counts; live_time [s];
     activity, activity_se: released activity at the profile reference date [Bq];
-    height, height_se: mean wear height h [m] (statistical SE); height_sys_se: systematic [m];
+    height, height_se: mean wear height h [m] (statistical SE);
     tagged_volume, tagged_volume_se: V_I = h*A_I [m^3];
     volume, volume_se, volume_sys_se: V_W = V_I*k_A [m^3];
     flags: subset of not_mixed, beyond_profile, below_detection_limit, below_background, gap.
@@ -60,7 +60,6 @@ class WearPoint:
     activity_se: float
     height: float
     height_se: float
-    height_sys_se: float
     tagged_volume: float
     tagged_volume_se: float
     volume: float
@@ -138,7 +137,6 @@ def make_point(
         activity_se=released_se,
         height=h,
         height_se=h_se,
-        height_sys_se=h_sys,
         tagged_volume=h * A_I,
         tagged_volume_se=h_se * A_I,
         volume=h * A_c,

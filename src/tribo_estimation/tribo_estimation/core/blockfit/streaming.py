@@ -70,7 +70,6 @@ class BlockEstimator:
         self._epoch_first: int | None = None  # first index of the current epoch
         self._epoch_t0 = math.nan
         self._observer: FrictionObserver | None = None
-        self.blocks_done = 0
         #: Observer friction moment of the last chunk pushed [N m] (for /friction/moment).
         self.last_moment: FloatArray = np.zeros(0)
 
@@ -170,9 +169,7 @@ class BlockEstimator:
     # ---------------------------------------------------------------- evaluate
     def evaluate(self, blk: PendingBlock) -> BlockDetail:
         """Fit one collected block (see :func:`evaluate_block`)."""
-        det = evaluate_block(self.rig, self.friction, self.cfg, blk)
-        self.blocks_done += 1
-        return det
+        return evaluate_block(self.rig, self.friction, self.cfg, blk)
 
     def feed(self, event: AlignEvent) -> list[BlockDetail]:
         """Collect and evaluate in one go (offline use)."""

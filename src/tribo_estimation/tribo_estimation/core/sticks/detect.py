@@ -460,18 +460,15 @@ def detect_sticks(
     min_duration: float = MIN_STICK,
     speed_threshold: float | None = None,
     n_sigma: float = 4.0,
-    corner_hz: float = 20.0,
     torsion_lag: float | None = None,
 ) -> list[StickPhase]:
     """Return the stick phases of at least ``min_duration`` [s] in a record.
 
-    Phases (start, end [s]) as :func:`find_sticks` finds them (``corner_hz`` is
-    accepted for compatibility and unused). A stick still running at the start
+    Phases (start, end [s]) as :func:`find_sticks` finds them. A stick still running at the start
     (end) of the record starts (ends) at its first (last) sample. Cost: a few
     vector passes over the record plus compiled work per candidate (about 1 ms
     per 1 s block at 10 kHz).
     """
-    del corner_hz
     t, mt, ac, w2 = _checked(time, torsion, accel, speed, min_duration, n_sigma)
     tau = _resolve_lag(t, mt, ac, rig, torsion_lag)
     phases, _ = _detect_all(t, mt, ac, w2, rig, speed_threshold, n_sigma, tau)

@@ -24,7 +24,7 @@ class DepthProfile:
     z_grid: depth [m] from 0 to ``max_depth``.
     cumulative: F(z) = integral_0^z rho_I [Bq/m^2] (non-decreasing).
     cumulative_se: standard error of F [Bq/m^2] (delta method of the chosen model).
-    density: rho_I(z) [Bq/m^3] (>= 0), density_se its standard error.
+    density: rho_I(z) [Bq/m^3] (>= 0).
     residual_rms_bq: RMS residual of the layer-removal fit [Bq] (NaN for analytic profiles).
     model: chosen model (``erfc``, ``exponential``, ``ramp``, ``piecewise/<k>``, ``analytic``).
     aic: (model, AIC) of every candidate fitted; chi2_red: chi^2/dof of the chosen fit.
@@ -34,7 +34,6 @@ class DepthProfile:
     cumulative: FloatArray
     cumulative_se: FloatArray
     density: FloatArray
-    density_se: FloatArray
     residual_rms_bq: float = math.nan
     model: str = 'analytic'
     aic: tuple[tuple[str, float], ...] = ()

@@ -85,14 +85,13 @@ def fit_depth_profile(
     if F[-1] <= 0.0:
         raise ProfileNotDecreasingError(f'{data.source}: remaining activity does not decrease')
     rho = prob.grid_rho(best)
-    F_se, rho_se = prob.grid_se(best, s2)
+    F_se, _ = prob.grid_se(best, s2)
     rms = float(math.sqrt(np.mean((A - best.fitted) ** 2)))
     return DepthProfile(
         prob.zg,
         np.maximum.accumulate(F),
         F_se,
         rho,
-        rho_se,
         residual_rms_bq=rms,
         model=best.name,
         aic=tuple((f.name, f.aic) for f in fits),
