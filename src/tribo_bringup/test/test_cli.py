@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from tribo_bringup.cli import COMMANDS, build_parser, main
+
+REPO = Path(__file__).resolve().parents[3]
 
 #: Imported by no ``--help``: they belong to the commands' runs.
 HEAVY = ('numba', 'scipy', 'matplotlib', 'pandas', 'rclpy', 'tribo_estimation.core.discrepancy')
@@ -57,3 +60,26 @@ def test_list_candidates_prints_the_registry(capsys: pytest.CaptureFixture[str])
     out = capsys.readouterr().out
     for c in candidates.all_candidates():
         assert c.description in out, c.name
+
+
+def test_friction_imports_only_what_it_runs(tmp_path: Path) -> None:
+    """``tribo friction --no-plots`` loads neither the discrepancy package, matplotlib,
+    pandas nor scipy.signal/stats (the block fit needs none of them)."""
+    import tribo_estimation as te
+
+    csv = te.simulate(REPO / 'config' / 'rig.yaml', 1.2).write(tmp_path / 'r.csv')
+    unused = (
+        'tribo_estimation.core.discrepancy', 'matplotlib', 'pandas', 'scipy.signal',
+        'scipy.stats', 'rclpy',
+    )  # fmt: skip
+    code = (
+        'import sys\n'
+        'from tribo_bringup.cli import main\n'
+        'assert main(sys.argv[1:]) == 0\n'
+        f'print(sorted(m for m in {unused!r} if m in sys.modules))\n'
+    )
+    argv = [sys.executable, '-c', code, 'friction', str(csv), '--rig',
+            str(REPO / 'config' / 'rig.yaml'), '--out', str(tmp_path / 'o'), '--no-plots',
+            '--quiet']  # fmt: skip
+    out = subprocess.run(argv, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == '[]', out.stdout[-300:]
