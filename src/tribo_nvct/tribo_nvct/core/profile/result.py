@@ -129,7 +129,7 @@ class DepthProfile:
             raise DepthProfileError('analytic density must be finite and >= 0')
         F = np.concatenate([[0.0], np.cumsum(0.5 * (rho[1:] + rho[:-1]) * np.diff(z))])
         zero = np.zeros_like(z)
-        return cls(z, F, zero, rho, zero.copy())
+        return cls(z, F, zero, rho)
 
 
 def _invert(
