@@ -24,6 +24,9 @@ def test_registry_holds_one_module_per_analysis() -> None:
             assert callable(getattr(a, method)), (name, method)
     with pytest.raises(KeyError):
         analyses.get('nothing')
+    # a report runs every registered analysis not on request: the long one is asked for
+    assert analyses.defaults() == ('friction', 'wear')
+    assert analyses.get('discrepancy').on_request
 
 
 def test_missing_inputs_are_named() -> None:

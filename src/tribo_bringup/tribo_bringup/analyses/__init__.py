@@ -2,7 +2,8 @@
 
 One module per analysis, each with one ``ANALYSIS`` object; :data:`MODULES` is the
 registry (in the order the report shows them). A new analysis the report shows is
-one module here, its name in :data:`MODULES`, and its test.
+one module here, its name in :data:`MODULES`, and its test: the report runs every
+registered analysis that is not ``on_request`` (:func:`defaults`).
 """
 
 from __future__ import annotations
@@ -49,11 +50,17 @@ def names() -> tuple[str, ...]:
     return tuple(MODULES)
 
 
+def defaults() -> tuple[str, ...]:
+    """Return the analyses a report runs unless told otherwise (not ``on_request``)."""
+    return tuple(n for n in MODULES if not get(n).on_request)
+
+
 __all__ = [
     'MODULES',
     'Analysis',
     'AnalysisInputs',
     'AnalysisResult',
+    'defaults',
     'get',
     'missing',
     'names',

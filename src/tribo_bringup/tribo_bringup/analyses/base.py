@@ -76,11 +76,14 @@ class Analysis(Protocol):
     inputs : tuple of str
         What it needs: ``rig`` / ``nvct`` (a config of :class:`AnalysisInputs`) or a
         topic of the bag (names starting with ``/``).
+    on_request : bool
+        Runs in a report only when asked for (a long analysis); else by default.
     """
 
     name: str
     title: str
     inputs: tuple[str, ...]
+    on_request: bool
 
     def call(self, inp: AnalysisInputs) -> str:
         """Return the library call it makes, in one line (shown with the results)."""

@@ -20,6 +20,7 @@ class DiscrepancyAnalysis:
     name = 'discrepancy'
     title = 'Discrepancy workflow: missing physics (tribo discrepancy)'
     inputs: tuple[str, ...] = ('rig', '/rig/torsion_moment')
+    on_request = True
 
     def call(self, inp: AnalysisInputs) -> str:
         """Return the library call in one line."""

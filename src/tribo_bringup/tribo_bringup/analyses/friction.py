@@ -20,6 +20,7 @@ class FrictionAnalysis:
     name = 'friction'
     title = 'Offline block-wise friction fit (tribo friction)'
     inputs: tuple[str, ...] = ('rig', '/rig/torsion_moment')
+    on_request = False
 
     def call(self, inp: AnalysisInputs) -> str:
         """Return the library call in one line."""

@@ -19,6 +19,7 @@ class WearAnalysis:
     name = 'wear'
     title = 'Offline nVCT wear evaluation (tribo wear)'
     inputs: tuple[str, ...] = ('nvct', '/nvct/counts')
+    on_request = False
 
     def call(self, inp: AnalysisInputs) -> str:
         """Return the library call in one line."""

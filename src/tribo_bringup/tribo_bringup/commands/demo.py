@@ -301,7 +301,6 @@ def run(args: argparse.Namespace) -> int:
         nvct=CONFIG / 'nvct.yaml',
         discrepancy=not args.no_discrepancy,
         analysis_rig=nominal_file,
-        analyses=('friction', 'wear'),
         discrepancy_window=window,
         notes=report_notes,
         command=['tribo', *sys.argv[1:]]

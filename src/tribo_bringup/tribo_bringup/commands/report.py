@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         rig=args.rig,
         nvct=args.nvct,
         discrepancy=args.discrepancy,
-        analyses=() if args.no_analyses else ('friction', 'wear'),
+        analyses=() if args.no_analyses else None,
         command=['tribo', *sys.argv[1:]] if Path(sys.argv[0]).name != 'pytest' else None,
     )
     print(f'report: {res.html}')

@@ -129,7 +129,7 @@ def build_report(
     discrepancy: bool = False,
     discrepancy_window: tuple[float, float] = (0.0, 0.0),
     analysis_rig: str | Path | None = None,
-    analyses: Sequence[str] = ('friction', 'wear'),
+    analyses: Sequence[str] | None = None,
     notes: Mapping[str, str] | None = None,
     command: Sequence[str] | None = None,
     progress: Progress | None = None,
@@ -155,8 +155,8 @@ def build_report(
         RIG.yaml given to the analyses (default ``rig``); e.g. the nominal
         rig without the hidden effects the simulated rig ran with.
     analyses
-        offline analyses to run besides the discrepancy workflow
-        (``friction``, ``wear``).
+        registered analyses to run (:mod:`tribo_bringup.analyses`; default: every one
+        not ``on_request``, i.e. ``friction`` and ``wear``).
     notes
         a note per analysis shown in its section (e.g. analysed window).
     command
@@ -184,8 +184,9 @@ def build_report(
     rig_params, rig_note = _rig_params(rig)
     from tribo_bringup import analyses as registry
 
-    todo = [a for a in analyses if a in registry.MODULES and a != 'discrepancy']
-    if discrepancy:
+    chosen = registry.defaults() if analyses is None else analyses
+    todo = [a for a in chosen if a in registry.MODULES]
+    if discrepancy and 'discrepancy' not in todo:
         todo.append('discrepancy')
     a_rig = analysis_rig if analysis_rig is not None else rig
     inputs = AnalysisInputs(
