@@ -5,13 +5,18 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
 from test_fuzz_commands import base_record, tribo
 
 from conftest import ROOT
+
+if TYPE_CHECKING:
+    from tribo_estimation.core.simulate import SimResult
 
 RIG = ROOT / 'config' / 'rig.yaml'
 NVCT = ROOT / 'config' / 'nvct.yaml'
@@ -30,16 +35,9 @@ def _blocks(out: Path) -> list[dict[str, str]]:
 
 
 @pytest.fixture(scope='module')
-def record() -> list[np.ndarray]:
+def record(sim_record: Callable[..., SimResult]) -> list[np.ndarray]:
     """3.2 s of the shipped rig at 2 kHz with noise (three whole 1 s blocks)."""
-    from tribo_estimation.core.config import load_rig_config
-    from tribo_estimation.core.simulate import simulate
-
-    cfg = load_rig_config(RIG)
-    r = simulate(
-        cfg.rig, cfg.friction, cfg.drive, 3.2, 2000.0, noise=cfg.noise,
-        seed=np.random.default_rng(7),
-    )  # fmt: skip
+    r = sim_record(3.2, 2000.0, seed=7)
     return [r.time, r.torsion_moment, r.angular_acceleration, r.speed]
 
 
