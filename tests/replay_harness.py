@@ -11,7 +11,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-from conftest import ROOT, Proc, tribo_cmd, wait_for
+from support import ROOT, Proc, tribo_cmd, wait_for
 
 #: How long a process may take to start (the numba kernel may compile) [s].
 START_TIMEOUT = 120.0

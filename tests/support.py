@@ -1,9 +1,9 @@
-"""Shared fixtures of the cross-package tests.
+"""Helpers of the cross-package tests: processes, the CLI, waiting, rig bags.
 
-Tests that use DDS get their own ROS_DOMAIN_ID (derived from the pid, so
-parallel runs do not see each other) and localhost-only discovery.
-Processes started for a test run in their own session and are stopped with
-SIGINT to the process group, then waited for.
+Imported as ``from support import ...`` (a module name of its own: every test
+folder has a conftest.py, and which one ``import conftest`` finds depends on the
+collection order). Processes started for a test run in their own session and
+are stopped with SIGINT to the process group, then waited for.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -80,15 +79,6 @@ class Proc:
     def output(self) -> str:
         """Everything the process printed so far."""
         return self.log_path.read_text(errors='replace')
-
-
-@pytest.fixture
-def procs(tmp_path: Path) -> Iterator[list[Proc]]:
-    """Start processes with ``procs.append(Proc(...))``; all are stopped at the end."""
-    started: list[Proc] = []
-    yield started
-    for p in reversed(started):
-        p.stop()
 
 
 def tribo_cmd(*args: str) -> list[str]:

@@ -11,9 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
+from support import ROOT
 from test_fuzz_commands import base_record, tribo
-
-from conftest import ROOT
 
 if TYPE_CHECKING:
     from tribo_estimation.core.simulate import SimResult

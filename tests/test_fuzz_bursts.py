@@ -22,9 +22,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support import ROOT
 from test_fuzz_commands import LIMIT_S, check_failure, tribo, workdir
-
-from conftest import ROOT
 
 RIG = ROOT / 'config' / 'rig.yaml'
 FS = 10_000.0

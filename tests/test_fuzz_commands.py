@@ -35,8 +35,7 @@ import numpy as np
 import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
-
-from conftest import ROOT
+from support import ROOT
 
 RIG = ROOT / 'config' / 'rig.yaml'
 NVCT = ROOT / 'config' / 'nvct.yaml'

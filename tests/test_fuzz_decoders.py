@@ -15,8 +15,8 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support import ROOT
 
-from conftest import ROOT
 from tribo_drivers.core import counter_protocol as cp
 from tribo_drivers.core import daq_protocol as dp
 from tribo_drivers.errors import DriverError

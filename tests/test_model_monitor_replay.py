@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from replay_harness import replay, start_node, start_recorder
+from support import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, wait_for
 
-from conftest import ROOT, Proc, bag_so_far, make_rig_bag, requires_ros, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]

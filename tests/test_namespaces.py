@@ -10,8 +10,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from support import ROOT, Proc, requires_ros, tribo_cmd, wait_for
 
-from conftest import ROOT, Proc, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]

@@ -17,8 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-
-from conftest import ROOT, Proc, requires_ros, wait_for
+from support import ROOT, Proc, requires_ros, wait_for
 
 pytestmark = [requires_ros, pytest.mark.ros]
 
@@ -112,7 +111,7 @@ def test_driver_refuses_a_parameter_of_the_wrong_type(module: str, param: str) -
 def test_tribo_run_ends_cleanly_on_double_sigint(tmp_path: Path, procs: list[Proc]) -> None:
     """The one-process graph: a second Ctrl-C during the shutdown neither cuts it short
     (exit 0, the summary printed) nor loses the wear state."""
-    from conftest import tribo_cmd
+    from support import tribo_cmd
 
     state = tmp_path / 'wear_state.json'
     run = Proc(
@@ -159,6 +158,7 @@ def test_busy_model_monitor_ends_cleanly_on_sigint(
     deadline = time.monotonic() + 60.0
     busy = 0.0
     while time.monotonic() < deadline and busy < 0.7:
+        assert mon.popen.poll() is None, mon.output()  # the monitor runs
         c0 = _cpu_seconds(mon.popen.pid)
         time.sleep(0.5)
         busy = (_cpu_seconds(mon.popen.pid) - c0) / 0.5

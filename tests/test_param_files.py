@@ -13,8 +13,8 @@ from typing import Any
 
 import pytest
 import yaml
+from support import requires_ros
 
-from conftest import requires_ros
 from tribo_common import nodes
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'

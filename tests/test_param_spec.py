@@ -14,8 +14,8 @@ from typing import Any
 
 import pytest
 import yaml
+from support import requires_ros
 
-from conftest import requires_ros
 from tribo_bringup.paramdocs import NODE_PARAMS, render
 from tribo_common import nodes
 from tribo_common.paramspec import ParamSpec, SpecError

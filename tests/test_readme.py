@@ -7,8 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
-
-from conftest import ROOT
+from support import ROOT
 
 
 def _python_blocks(text: str) -> list[str]:

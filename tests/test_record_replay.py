@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from replay_harness import replay, start_recorder, start_replay
+from support import Proc, bag_so_far, requires_ros, tribo_cmd, wait_for
 
-from conftest import Proc, bag_so_far, requires_ros, tribo_cmd, wait_for
 from tribo_bringup import bagio
 
 pytestmark = [requires_ros, pytest.mark.ros]

@@ -8,8 +8,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
-from conftest import ROOT, requires_ros, tribo_cmd
+from support import ROOT, requires_ros, tribo_cmd
 
 pytestmark = [requires_ros, pytest.mark.ros]
 

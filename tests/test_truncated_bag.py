@@ -9,8 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
-from conftest import ROOT, make_rig_bag, tribo_cmd
+from support import ROOT, make_rig_bag, tribo_cmd
 
 
 @pytest.fixture(scope='module')
