@@ -18,9 +18,8 @@ One job per module:
   (:func:`initial_estimate`, :func:`initial_k`, :func:`fit_block`).
 - :mod:`.evaluate`: one block's checks, stick detection, fit and quality flags
   (:func:`evaluate_block`, :func:`is_saturated`, :data:`MIN_BREAKAWAYS`).
-- :mod:`.streaming`: blocks from an aligned stream (:class:`BlockEstimator`,
-  :func:`estimate_blocks`) and the live pipeline (:class:`StreamingPipeline`,
-  :class:`MomentChunk`).
+- :mod:`.streaming`: blocks from an aligned stream (:class:`BlockEstimator`) and the
+  live pipeline (:class:`StreamingPipeline`, :class:`MomentChunk`).
 
 Every value is in SI units: moments N m, speeds rad/s, accelerations rad/s^2,
 time s, coefficients dimensionless, k in s/rad.
@@ -51,7 +50,7 @@ from .results import (
     PendingBlock,
     with_flags,
 )
-from .streaming import BlockEstimator, MomentChunk, StreamingPipeline, estimate_blocks
+from .streaming import BlockEstimator, MomentChunk, StreamingPipeline
 
 __all__ = [
     'CSV_COLUMNS',
@@ -72,7 +71,6 @@ __all__ = [
     'PendingBlock',
     'StreamingPipeline',
     'block_row',
-    'estimate_blocks',
     'evaluate_block',
     'fit_block',
     'initial_estimate',

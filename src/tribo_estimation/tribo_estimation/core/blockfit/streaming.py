@@ -2,16 +2,15 @@
 
 :class:`BlockEstimator` cuts the aligned stream into fixed blocks of
 ``block_length`` seconds (paper section 2.5, Fig. 4/5) and runs the streaming
-friction observer (Equ. 1 solved for M) on the way; :func:`estimate_blocks` is
-its offline loop; :class:`StreamingPipeline` adds the channel aligner for live
-input (the estimator node's core, no rclpy). The fit of a block is
+friction observer (Equ. 1 solved for M) on the way (its offline loop over the
+checked input is :func:`tribo_estimation.fit_blocks`); :class:`StreamingPipeline`
+adds the channel aligner for live input (the estimator node's core, no rclpy). The fit of a block is
 :func:`.evaluate.evaluate_block`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -178,19 +177,6 @@ class BlockEstimator:
     def finish(self) -> list[BlockDetail]:
         """Evaluate the partial last block (offline use)."""
         return [self.evaluate(b) for b in self.flush()]
-
-
-def estimate_blocks(
-    rig: RigParams,
-    friction: FrictionLaw,
-    cfg: BlockConfig,
-    events: Iterable[AlignEvent],
-) -> Iterator[BlockDetail]:
-    """Stream :class:`BlockDetail` for a sequence of aligner events."""
-    est = BlockEstimator(rig, friction, cfg)
-    for ev in events:
-        yield from est.feed(ev)
-    yield from est.finish()
 
 
 @dataclass(frozen=True)
