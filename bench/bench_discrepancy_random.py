@@ -105,12 +105,18 @@ def analyse(scenario_dir: Path) -> Outcome:
     The command (in this process, as ``tribo discrepancy DIR/record.csv --rig
     DIR/rig.yaml --out DIR/discrepancy --no-plots``) reads the record and the user's
     config and runs the workflow; its progress goes to ``DIR/discrepancy.log``.
-    Translation of today's ``discrepancy.json``: ``named`` = ``added``; no sets;
-    ``undecidable`` = ``not_identifiable`` (improved but the record cannot separate
-    it) and, when nothing is named or blocked, the best candidate of the last round
-    (lowest held-out cost) if its ``identifiable`` verdict is no (e.g. "too small
-    against the noise for this record to decide"); ``unexplained`` = any
-    ``unexplained`` item or an ``inconsistent`` candidate.
+    ``discrepancy.json`` is translated in either of its layouts:
+
+    - the decision pipeline's (a ``verdict``): ``named`` = ``added``; a set =
+      ``cannot_tell_apart`` when that is the verdict; ``undecidable`` = the
+      ``partial`` families (or the verdict) when the verdict is ``unexplained`` or
+      ``instrument``; ``unexplained`` = such a verdict or any ``unexplained`` item;
+    - the forward selection's: ``named`` = ``added``; no sets; ``undecidable`` =
+      ``not_identifiable`` (improved but the record cannot separate it) and, when
+      nothing is named or blocked, the best candidate of the last round (lowest
+      held-out cost) if its ``identifiable`` verdict is no (e.g. "too small against
+      the noise for this record to decide"); ``unexplained`` = any ``unexplained``
+      item or an ``inconsistent`` candidate.
 
     Parameters
     ----------
@@ -139,20 +145,33 @@ def analyse(scenario_dir: Path) -> Outcome:
         last = lines[-1] if lines else f'exit code {code}'
         return Outcome((), (), (), False, math.nan, math.nan, {}, seconds, last, cpu)
     doc = json.loads((out / 'discrepancy.json').read_text())
-    named = tuple(str(a['effect']) for a in doc['added'])
-    undecidable = [str(n) for n in doc.get('not_identifiable', [])]
-    if not named and not undecidable and doc['rounds']:
-        best = min(doc['rounds'][-1], key=lambda c: float(c['cv_cost']))
-        verdict = doc.get('identifiable', {}).get(best['effect'], {})
-        if verdict and not verdict.get('ok', True):
-            undecidable.append(str(best['effect']))
+    added = doc['added']
+    named = tuple(str(a['effect']) for a in added)
+    params = {str(k): float(v) for a in added for k, v in a['params'].items()}
     floor = float(doc['noise_floor'])
-    params = {str(k): float(v) for a in doc['added'] for k, v in a['params'].items()}
+    sets: tuple[tuple[str, ...], ...] = ()
+    if 'verdict' in doc:  # the decision pipeline
+        verdict = str(doc['verdict'])
+        if verdict == 'cannot_tell_apart':
+            sets = (tuple(str(e['family']) for e in doc['cannot_tell_apart']),)
+        open_ = verdict in ('unexplained', 'instrument')
+        partial = tuple(str(e['family']) for e in doc.get('partial', []))
+        undecidable = (partial or (verdict,)) if open_ else ()
+        unexplained = open_ or bool(doc['unexplained'])
+    else:  # the forward selection
+        blocked = [str(n) for n in doc.get('not_identifiable', [])]
+        if not named and not blocked and doc['rounds']:
+            best = min(doc['rounds'][-1], key=lambda c: float(c['cv_cost']))
+            verdict_of = doc.get('identifiable', {}).get(best['effect'], {})
+            if verdict_of and not verdict_of.get('ok', True):
+                blocked.append(str(best['effect']))
+        undecidable = tuple(blocked)
+        unexplained = bool(doc['unexplained']) or bool(doc.get('inconsistent'))
     return Outcome(
         named=named,
-        sets=(),
-        undecidable=tuple(undecidable),
-        unexplained=bool(doc['unexplained']) or bool(doc.get('inconsistent')),
+        sets=sets,
+        undecidable=undecidable,
+        unexplained=unexplained,
         baseline_ratio=float(doc['baseline']['rms']) / floor,
         final_ratio=float(doc['final']['rms']) / floor,
         params=params,
@@ -277,7 +296,11 @@ def run_scenario(seed: int, duration: float | None, keep: str | None) -> Row:
         d = Path(tempfile.mkdtemp(prefix=f'tribo_random_{seed}_'))
     try:
         sc.write_dir(d)
-        o = analyse(d)
+        try:
+            o = analyse(d)
+        except Exception as exc:  # a failure of the bench's translation, not of the command
+            o = Outcome((), (), (), False, math.nan, math.nan, {}, math.nan,
+                        f'bench: {type(exc).__name__}: {exc}')  # fmt: skip
     finally:
         if not keep:
             shutil.rmtree(d, ignore_errors=True)
