@@ -167,3 +167,21 @@ def test_busy_model_monitor_ends_cleanly_on_sigint(
     rc = _sigint_twice(mon)
     assert rc == 0, mon.output()
     _assert_clean(mon.output())
+
+
+def test_tribo_run_refuses_a_bad_parameter_file_value_in_one_line(tmp_path: Path) -> None:
+    """A value of the wrong type in a parameter file stops the graph runner with one line
+    naming the node and the parameter (exit 2), not a traceback."""
+    from support import tribo_cmd
+
+    params = tmp_path / 'bad.yaml'
+    params.write_text('/**/friction_estimator:\n  ros__parameters:\n    block_length: fast\n')
+    r = subprocess.run(
+        tribo_cmd('run', '--nodes', 'friction_estimator', '--params', str(params),
+                  '--duration', '1'),
+        capture_output=True, text=True, timeout=120, env={**os.environ, 'TRIBO_ROOT': str(ROOT)},
+    )  # fmt: skip
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if 'error' in ln.lower()]
+    assert 'Traceback' not in r.stderr and len(lines) == 1, r.stderr
+    assert 'friction_estimator' in lines[0] and "'block_length'" in lines[0], r.stderr

@@ -93,5 +93,9 @@ def test_every_recording_benchmark_has_its_section() -> None:
     )
     assert len(recording) >= 8, recording
     for name in recording:
-        assert page.count(vd.begin_marker(name)) == 1, name
-        assert page.count(vd.end_marker(name)) == 1, name
+        how = (
+            f'docs/validation.md needs one section for {name}: a heading, what it shows, and '
+            f'the markers {vd.begin_marker(name)} ... {vd.end_marker(name)}'
+        )
+        assert page.count(vd.begin_marker(name)) == 1, how
+        assert page.count(vd.end_marker(name)) == 1, how

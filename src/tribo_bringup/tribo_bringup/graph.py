@@ -96,17 +96,25 @@ class Graph:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
     def add(self, name: str, overrides: Mapping[str, object] | None = None) -> Node:
-        """Create node ``name`` (a row of :data:`tribo_common.nodes.NODES`) with its overrides."""
+        """Create node ``name`` (a row of :data:`tribo_common.nodes.NODES`) with its overrides.
+
+        A parameter the node refuses raises :class:`ConfigError` naming the node.
+        """
         from rclpy.parameter import Parameter
+
+        from tribo_common.params import ParameterError
 
         if name not in BY_NAME:
             raise ConfigError(f'unknown node {name!r}; known: {", ".join(BY_NAME)}')
         cls = BY_NAME[name].node_class()
         values = {**self.overrides.get(name, {}), **(overrides or {})}
-        node: Node = cls(
-            parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
-            namespace=normalize_namespace(self.namespace) or '/',
-        )
+        try:
+            node: Node = cls(
+                parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+                namespace=normalize_namespace(self.namespace) or '/',
+            )
+        except ParameterError as exc:  # a bad value in a parameter file or a RIG.yaml
+            raise ConfigError(f'{name}: {exc}') from exc
         self._instances.append(node)
         return node
 
