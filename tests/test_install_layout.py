@@ -101,8 +101,11 @@ def test_messages_built() -> None:
 
 #: Modules of tribo_common that import no rclpy: the cores and the packages' setup.py may
 #: use them (one parameter spec, one YAML loader, one topic table, one node table,
-#: ROS_HOME); the rest of tribo_common is rclpy.
-RCLPY_FREE_COMMON = ('paramspec', 'yamlio', 'topics', 'nodes', 'rosenv')
+#: ROS_HOME, the bag reader and its errors); the rest of tribo_common is rclpy.
+RCLPY_FREE_COMMON = (
+    'paramspec', 'yamlio', 'topics', 'nodes', 'rosenv', 'bag_types', 'bag_read', 'bag_salvage',
+    'errors',
+)  # fmt: skip
 
 
 def _imports(py: Path) -> list[str]:
