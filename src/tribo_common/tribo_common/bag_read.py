@@ -18,7 +18,7 @@ from typing import Any, Literal
 from rosbags.rosbag2 import Reader
 from rosbags.typesys.store import Typestore
 
-from tribo_common import topics as topic_table
+import tribo_common.topics as topic_table
 from tribo_common.bag_salvage import _CorruptError, _iter_raw_mcap, _iter_raw_sqlite, _sqlite_files
 from tribo_common.bag_types import RIG_TOPICS, typestore
 from tribo_common.errors import BagError, BagTruncatedError

@@ -22,7 +22,7 @@ from rosbags.interfaces import (
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from tribo_common import topics as topic_table
+import tribo_common.topics as topic_table
 from tribo_common.errors import BagError
 
 #: Message types of this project, by rosbags name.
