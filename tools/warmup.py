@@ -33,7 +33,7 @@ def main() -> int:
     t0 = time.monotonic()
     from tribo_estimation.core.align import AlignedChunk
     from tribo_estimation.core.blockfit import BlockConfig, BlockEstimator
-    from tribo_estimation.core.discrepancy import SelectionSettings, run_discrepancy
+    from tribo_estimation.core.discrepancy import Policy, find_missing_physics
     from tribo_estimation.core.discrepancy.fitting import Record
     from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
     from tribo_estimation.core.simulate import NoiseSpec, simulate
@@ -53,11 +53,13 @@ def main() -> int:
     record = Record(
         res.time[sel], res.torsion_moment[sel], res.angular_acceleration[sel], res.speed[sel]
     )
-    run_discrepancy(
-        record,
+    find_missing_physics(
+        [record],
         rig,
-        drive,
-        settings=SelectionSettings(max_effects=1, candidates=('viscous_friction',)),
+        [drive],
+        policy=Policy(
+            families=('viscous_friction',), max_effects=1, replicas=2, confirm_replicas=0
+        ),
     )
     # paths the short record may not reach: sliding nodes, the speed-sensor lag
     import numpy as np

@@ -251,34 +251,38 @@ def find_missing_physics(
     records: RigRecord | PathLike | Sequence[RigRecord | PathLike],
     rig: RigConfig | PathLike,
     *,
-    candidates: Sequence[str] | None = None,
-    max_effects: int = 3,
-    min_gain: float | None = None,
+    families: Sequence[str] | None = None,
+    max_effects: int = 2,
+    alpha: float = 0.01,
     torsion_lag: bool = True,
     shared_friction: bool = False,
     progress: Progress | None = None,
 ) -> MissingPhysics:
     """Find the physics the rig model misses (docs/physics.md section 8; ``tribo discrepancy``).
 
-    The paper's model (Equ. 1-8) is fitted, the candidate effects are tried one
-    by one (cross validation and BIC) and the clearly better ones added; several
-    records are fitted jointly (effect parameters shared).
+    The paper's model (Equ. 1-8) is fitted with the record's instrument chain and
+    drive profile; when it does not explain the record down to what noise leaves
+    (its null law, measured on this record by a parametric bootstrap), every form
+    of every candidate family is fitted; a family is named only when it alone
+    explains the record, several that do are reported as a set the record cannot
+    tell apart, with the experiment that would. Several records are fitted jointly
+    (the effect shared).
 
     Parameters
     ----------
     records : RigRecord, str, PathLike or a sequence of them
         One record, or several fitted jointly; paths are read with :func:`read_record`.
     rig : RigConfig, str or PathLike
-        The rig (mu0/mu_inf are fitted; its effects are not used).
-    candidates : sequence of str or None
-        Candidate effects to try (None: the whole library).
+        The rig (mu0, mu_inf, k are fitted; its effects are not used).
+    families : sequence of str or None
+        Effect families to screen (None: the whole library).
     max_effects : int
         Most effects to add.
-    min_gain : float or None
-        Relative held-out improvement needed to add an effect [-] (None: the
-        selection's default).
+    alpha : float
+        False-alarm rate of every adequacy decision [-] (a bound on the rate of
+        naming an effect in a record with nothing missing).
     torsion_lag : bool
-        Model the torsion amplifier's lag in the instrument model.
+        Identify and compensate the torsion amplifier's (or accelerometer's) lag.
     shared_friction : bool
         Several records: one friction law for all (runs of one contact).
     progress : callable or None
@@ -287,60 +291,41 @@ def find_missing_physics(
     Returns
     -------
     MissingPhysics
-        The effects found, their values and the residual before and after.
+        The verdict, the named effects or the set, and per record what remains.
 
     Raises
     ------
     UnknownCandidateError
-        A candidate name not in the library (names the known ones).
+        A family name not in the library (names the known ones).
     InvalidDataError
         Bad input (as :func:`read_record`).
     """
-    from tribo_estimation.core.discrepancy import (
-        SelectionSettings,
-        run_discrepancy,
-        run_joint_discrepancy,
+    from dataclasses import replace
+
+    from tribo_estimation.core.discrepancy import candidates as cand_lib
+    from tribo_estimation.core.discrepancy.pipeline import Policy
+    from tribo_estimation.core.discrepancy.pipeline import (
+        find_missing_physics as run_pipeline,
     )
-    from tribo_estimation.core.discrepancy import (
-        candidates as cand_lib,
-    )
-    from tribo_estimation.errors import UnknownCandidateError
-    from tribo_estimation.results import MissingPhysics
 
     cfg = _rig(rig)
     items = [records] if isinstance(records, RigRecord | str | os.PathLike) else list(records)
     recs = [r if isinstance(r, RigRecord) else read_record(r, cfg) for r in items]
-    names = tuple(candidates) if candidates else None
+    names = tuple(families) if families else None
     for n in names or ():
-        if n not in cand_lib.names():
-            raise UnknownCandidateError(
-                f'unknown effect {n!r} (known: {", ".join(cand_lib.names())})'
-            )
-    base = SelectionSettings()
-    settings = SelectionSettings(
-        min_gain=base.min_gain if min_gain is None else min_gain,
-        candidates=names,
-        torsion_lag=torsion_lag,
-        max_effects=max_effects,
+        cand_lib.forms(n)  # raises UnknownCandidateError naming the known families
+    policy = Policy(alpha=alpha, families=names, max_effects=max_effects, torsion_lag=torsion_lag)
+    result = run_pipeline(
+        recs,
+        cfg.rig,
+        [cfg.drive] * len(recs),
+        k=cfg.friction.k,
+        policy=policy,
+        progress=progress,
+        shared_friction=shared_friction,
     )
-    if len(recs) == 1:
-        result: object = run_discrepancy(
-            recs[0], cfg.rig, cfg.drive, k=cfg.friction.k, settings=settings, progress=progress
-        )
-    else:
-        result = run_joint_discrepancy(
-            recs,
-            cfg.rig,
-            [cfg.drive] * len(recs),
-            k=cfg.friction.k,
-            settings=settings,
-            progress=progress,
-            shared_friction=shared_friction,
-        )
-    return MissingPhysics(
-        result,  # type: ignore[arg-type]
-        tuple(r.findings for r in recs),
-        tuple(r.source for r in recs),
+    return replace(
+        result, inputs=tuple(r.findings for r in recs), sources=tuple(r.source for r in recs)
     )
 
 

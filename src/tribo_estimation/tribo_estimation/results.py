@@ -31,8 +31,7 @@ if TYPE_CHECKING:
     from tribo_estimation.core.blockfit import BlockConfig, BlockResult
     from tribo_estimation.core.blockfit.figdata import FigureData
     from tribo_estimation.core.decay import DecayResult
-    from tribo_estimation.core.discrepancy import DiscrepancyResult, JointResult
-    from tribo_estimation.core.record import InputFindings, RigRecord
+    from tribo_estimation.core.record import RigRecord
 
 PathLike = str | os.PathLike[str]
 #: A plain value of a result row.
@@ -298,193 +297,21 @@ class BlockFit:
 
 
 # ----------------------------------------------------------------------------- discrepancy
-@dataclass(frozen=True, eq=False)
-class MissingPhysics:
-    """What the missing-physics workflow found (docs/physics.md section 8).
+# The missing-physics pipeline's result lives in its own module; this module re-exports it
+# on first use (PEP 562), so importing the results does not import the pipeline.
+if TYPE_CHECKING:
+    from tribo_estimation.core.discrepancy.pipeline.result import (
+        MissingPhysics as MissingPhysics,
+    )
 
-    A thin wrapper: ``result`` is the workflow's own result
-    (:class:`~tribo_estimation.core.discrepancy.DiscrepancyResult` for one record,
-    :class:`~tribo_estimation.core.discrepancy.JointResult` for several fitted
-    jointly).
 
-    Attributes
-    ----------
-    result : DiscrepancyResult or JointResult
-        The workflow's result.
-    inputs : tuple of InputFindings
-        What the input checks found in each record.
-    sources : tuple of str
-        Where each record came from.
-    """
+def __getattr__(name: str) -> object:
+    """Return :class:`MissingPhysics` on first use (the pipeline imported then)."""
+    if name == 'MissingPhysics':
+        from tribo_estimation.core.discrepancy.pipeline.result import MissingPhysics
 
-    result: DiscrepancyResult | JointResult
-    inputs: tuple[InputFindings, ...] = ()
-    sources: tuple[str, ...] = ()
-
-    FILES = ('discrepancy.json',)
-
-    @property
-    def joint(self) -> bool:
-        """Whether several records were fitted jointly."""
-        from tribo_estimation.core.discrepancy import JointResult
-
-        return isinstance(self.result, JointResult)
-
-    @property
-    def added(self) -> tuple[str, ...]:
-        """Names of the effects added (in order; the joint fit names at most one)."""
-        from tribo_estimation.core.discrepancy import JointResult
-
-        r = self.result
-        if isinstance(r, JointResult):
-            return (r.named,) if r.named else ()
-        return tuple(a.effect for a in r.added)
-
-    def as_dict(self) -> dict[str, object]:
-        """Return the content of ``discrepancy.json``.
-
-        Returns
-        -------
-        dict
-            The workflow's report (:func:`~tribo_estimation.core.discrepancy.report.to_dict`,
-            or the joint layout) plus ``input``: the repairs of the input checks.
-        """
-        from tribo_estimation.core.discrepancy import JointResult
-        from tribo_estimation.core.discrepancy.report import to_dict
-
-        r = self.result
-        data: dict[str, object] = (
-            dict(r.as_dict()) if isinstance(r, JointResult) else dict(to_dict(r))
-        )
-        if len(self.inputs) == 1:
-            data['input'] = self.inputs[0].summary()
-        return data
-
-    def rows(self) -> list[dict[str, Cell]]:
-        """Return one row per added effect and parameter.
-
-        Returns
-        -------
-        list of dict
-            ``effect``, ``param``, ``value`` [its unit], ``unit``, and for one record
-            the torque residual rms before and after [N m].
-        """
-        from tribo_estimation.core.discrepancy import JointResult
-
-        r = self.result
-        rows: list[dict[str, Cell]] = []
-        if isinstance(r, JointResult):
-            for name, value in r.params.items():
-                rows.append(
-                    {
-                        'effect': r.named,
-                        'param': name,
-                        'value': float(value),
-                        'unit': r.units.get(name, ''),
-                    }
-                )
-            return rows
-        for a in r.added:
-            for name, value in a.params.items():
-                rows.append(
-                    {
-                        'effect': a.effect,
-                        'param': name,
-                        'value': float(value),
-                        'unit': a.units.get(name, ''),
-                        'rms_before': float(a.rms_before),
-                        'rms_after': float(a.rms_after),
-                    }
-                )
-        return rows
-
-    def to_frame(self) -> pd.DataFrame:
-        """Return :meth:`rows` as a pandas DataFrame.
-
-        Returns
-        -------
-        pandas.DataFrame
-            One row per added effect and parameter.
-        """
-        return frame(self.rows(), ('effect', 'param', 'value', 'unit'))
-
-    def write(self, directory: PathLike) -> list[Path]:
-        """Write ``discrepancy.json`` (as ``tribo discrepancy`` does) into ``directory``.
-
-        Parameters
-        ----------
-        directory : str or PathLike
-            Output directory (created if needed).
-
-        Returns
-        -------
-        list of Path
-            The files written.
-        """
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        return [write_json(d / 'discrepancy.json', self.as_dict())]
-
-    def plot(self, directory: PathLike) -> list[Path]:
-        """Draw the workflow's figures (one record; a joint fit has none).
-
-        Parameters
-        ----------
-        directory : str or PathLike
-            Output directory (created if needed).
-
-        Returns
-        -------
-        list of Path
-            The figures written.
-        """
-        from tribo_estimation.core.discrepancy import JointResult
-
-        if isinstance(self.result, JointResult):
-            return []
-        from tribo_estimation.core.discrepancy.plots import write_plots
-
-        Path(directory).mkdir(parents=True, exist_ok=True)
-        return list(write_plots(self.result, Path(directory)))
-
-    def summary(self) -> dict[str, Cell]:
-        """Return the headline numbers.
-
-        Returns
-        -------
-        dict
-            ``added`` (comma-joined effect names), ``records``, and for one record
-            the torque residual rms of the baseline and the final model [N m] and
-            the number of unexplained findings.
-        """
-        from tribo_estimation.core.discrepancy import JointResult
-
-        r = self.result
-        out: dict[str, Cell] = {'added': ','.join(self.added), 'records': max(1, len(self.inputs))}
-        if not isinstance(r, JointResult):
-            out['rms_baseline'] = _finite_or_none(r.baseline.rms)
-            out['rms_final'] = _finite_or_none(r.final.rms)
-            out['unexplained'] = len(r.unexplained)
-        return out
-
-    def finding(self) -> str:
-        """Return the finding in one line (effects with their values, the residual rms).
-
-        Returns
-        -------
-        str
-            E.g. ``found viscous_friction (viscous = 0.01 N m s/rad); torque residual
-            RMS 0.2 -> 0.05 N m`` (:func:`discrepancy_finding`).
-        """
-        from tribo_estimation.core.discrepancy import JointResult
-
-        r = self.result
-        if isinstance(r, JointResult):
-            blocked = ', '.join(r.not_identifiable)
-            return f'added: {r.named or "nothing"} (joint fit of {len(r.per_record)} records)' + (
-                f'; not identifiable: {blocked}' if blocked else ''
-            )
-        return discrepancy_finding(self.as_dict())
+        return MissingPhysics
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 def _fmt3(x: object) -> str:

@@ -74,16 +74,20 @@ def sensor_offset(x: FloatArray, time: FloatArray, ext: Extensions) -> FloatArra
     time : FloatArray
         Test time of each sample [s].
     ext : Extensions
-        Its ``torque_offset`` [N m] and ``torque_offset_drift`` [N m/s] are added.
+        Its ``torque_offset`` [N m] and ``torque_offset_drift`` [N m/s] are added, and
+        the thermal drift ``torque_thermal*(1 - exp(-t/torque_thermal_tau))`` [N m].
 
     Returns
     -------
     FloatArray
-        ``x + offset + drift*time`` [N m] (``x`` itself when both are zero).
+        ``x`` plus the offsets [N m] (``x`` itself when they are all zero).
     """
-    if ext.torque_offset == 0.0 and ext.torque_offset_drift == 0.0:
-        return x
-    return x + ext.torque_offset + ext.torque_offset_drift * time
+    out = x
+    if ext.torque_offset != 0.0 or ext.torque_offset_drift != 0.0:
+        out = out + ext.torque_offset + ext.torque_offset_drift * time
+    if ext.torque_thermal != 0.0 and ext.torque_thermal_tau > 0.0:
+        out = out + ext.torque_thermal * -np.expm1(-np.maximum(time, 0.0) / ext.torque_thermal_tau)
+    return out
 
 
 @dataclass(frozen=True)

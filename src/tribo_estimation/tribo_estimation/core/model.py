@@ -194,6 +194,10 @@ class Extensions:
     - ``stribeck_shape`` [-]: generic friction-law shape hook, the offset of the
       Stribeck shape exponent from 1: ``mu = (mu0 - mu_inf)*exp(-(k|v|)**delta) + mu_inf``
       with ``delta = 1 + stribeck_shape`` (0: Equ. 8). Must be > -1.
+    - ``ripple2_amp`` [rad/s], ``ripple2_phase`` [rad]: the ripple's second harmonic,
+      ``w0 += A_2*sin(4 pi f t + p_2)``.
+    - ``stiction_log`` [-]: logarithmic dwell-time stiction,
+      ``mu_s += b*ln(1 + t_stick/stiction_tau)``.
     - ``bearing_moment`` [N m]: Coulomb moment of the chamber support, regularised as
       ``M_b*w1/sqrt(w1^2 + w_reg^2)`` with ``w_reg`` = ``bearing_reg_speed`` [rad/s].
 
@@ -201,6 +205,8 @@ class Extensions:
 
     - ``torque_offset`` [N m], ``torque_offset_drift`` [N m/s]: sensor offset and its drift.
     - ``torque_lag_tau`` [s]: first-order lag of the torque sensor.
+    - ``torque_thermal`` [N m], ``torque_thermal_tau`` [s]: a saturating (thermal) zero
+      drift ``D*(1 - exp(-t/tau))``.
     """
 
     stiction_gain: float = 0.0
@@ -218,6 +224,11 @@ class Extensions:
     torque_offset_drift: float = 0.0
     torque_lag_tau: float = 0.0
     stribeck_shape: float = 0.0
+    ripple2_amp: float = 0.0
+    ripple2_phase: float = 0.0
+    stiction_log: float = 0.0
+    torque_thermal: float = 0.0
+    torque_thermal_tau: float = 0.0
 
     def __post_init__(self) -> None:
         """Check that every value is finite and the time constants >= 0."""
@@ -229,6 +240,7 @@ class Extensions:
             'ripple_freq',
             'bearing_moment',
             'torque_lag_tau',
+            'torque_thermal_tau',
         ):
             _require(getattr(self, name) >= 0.0, self, name, '>= 0')
         _require(self.bearing_reg_speed > 0.0, self, 'bearing_reg_speed', '> 0 rad/s')
@@ -338,6 +350,9 @@ def pack_params(
     p[kn.P_BEARING] = ext.bearing_moment
     p[kn.P_BEARING_REG] = ext.bearing_reg_speed
     p[kn.P_SHAPE] = ext.stribeck_shape
+    p[kn.P_RIP2_AMP] = ext.ripple2_amp
+    p[kn.P_RIP2_PHASE] = ext.ripple2_phase
+    p[kn.P_ST_LOG] = ext.stiction_log
     return p
 
 

@@ -75,12 +75,9 @@ class ModelMonitorNode(Node):
                 window=v.number('window'),
                 hop=v.number('hop'),
                 candidates=tuple(str(c) for c in v.strings('candidates') if str(c)),
-                max_candidates=v.integer('max_candidates'),
                 time_budget=v.number('time_budget'),
-                ratio_threshold=v.number('ratio_threshold'),
-                min_gain=v.number('min_gain'),
-                max_rel_se=v.number('max_rel_se'),
-                max_correlation=v.number('max_correlation'),
+                alpha=v.number('alpha'),
+                replicas=v.integer('replicas'),
             )
         except EstimationError as exc:
             raise ParameterError(str(exc)) from exc
@@ -103,8 +100,8 @@ class ModelMonitorNode(Node):
         self._worker.start()
         self.get_logger().info(
             f'model monitor: {cfg.window:g} s window every {cfg.hop:g} s, '
-            f'up to {cfg.max_candidates} of {len(cfg.candidates)} candidates, '
-            f'budget {cfg.time_budget:g} s'
+            f'{len(cfg.candidates) or "all"} effect families, alpha {cfg.alpha:g}, '
+            f'{cfg.replicas} replicas, budget {cfg.time_budget:g} s'
         )
 
     # ------------------------------------------------------------------ input

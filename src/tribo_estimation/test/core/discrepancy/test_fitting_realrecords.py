@@ -39,7 +39,7 @@ from tribo_estimation.core.reference_records import (
 )
 from tribo_estimation.core.signal import noise_level, runs
 
-RIG_YAML = Path(__file__).resolve().parents[3] / 'config' / 'rig.yaml'
+RIG_YAML = Path(__file__).resolve().parents[5] / 'config' / 'rig.yaml'
 CFG = load_rig_config(RIG_YAML)
 W30 = rpm(30)
 FLOOR = 0.05  # torsion-moment noise of config/rig.yaml [N m]

@@ -1,17 +1,18 @@
 """The library of candidate effects (pluggable).
 
-Each candidate is a named, parameterised, *nested* extension of the paper's rig
-model (Equ. 1-8): its parameters map one-to-one onto fields of
-:class:`tribo_estimation.core.model.Extensions`, and all parameters zero give
-back the baseline. A candidate carries bounds, a typical scale (for the
-optimiser), start values (possibly computed from the data: e.g. the ripple
-frequency from a spectral line) and the localising variable whose residual
-pattern it is expected to explain.
+Each candidate is one *form* of an effect family: a named, parameterised, *nested*
+extension of the paper's rig model (Equ. 1-8) whose parameters map onto fields of
+:class:`tribo_estimation.core.model.Extensions`; all parameters zero give back the
+baseline. A candidate carries bounds, a typical scale (for the optimiser), start
+values (possibly computed from the data: e.g. the ripple frequency from a
+spectral line), the localising variable whose residual pattern it is expected to
+explain and its family (the forms of one family answer to one name: a friction
+drift linear or saturating is a friction drift).
 
-Register a new candidate with :func:`register`; the selection
-(:mod:`.select`) tries every registered candidate that the model's
-``Extensions`` supports. New candidates go in one module each under
-:mod:`.effects` (auto-discovered: importing this module imports that package).
+Register a new candidate with :func:`register`; the pipeline
+(:mod:`.pipeline`) screens every form of every family. New candidates go in one
+module each under :mod:`.effects` (auto-discovered: importing this module imports
+that package).
 """
 
 from __future__ import annotations
@@ -98,6 +99,13 @@ class StartContext:
 
 StartFn = Callable[[StartContext], list[dict[str, float]]]
 
+#: A form's change of the friction levels with test time: ``(values, t)`` -> the changes
+#: of mu0 and mu_inf [-] and their rates [1/s] at the times ``t`` [s]
+#: (:attr:`Candidate.levels`).
+LevelsFn = Callable[
+    [Mapping[str, float], FloatArray], tuple[FloatArray, FloatArray, FloatArray, FloatArray]
+]
+
 
 def _no_starts(_ctx: StartContext) -> list[dict[str, float]]:
     return []
@@ -119,7 +127,7 @@ class Candidate:
     ``equation`` the effect's term in the equations (Markdown text for the table of
     ``docs/physics.md`` section 8, :func:`candidate_table`); ``suggest`` the
     experiment that decides the effect when a record cannot
-    (:func:`~tribo_estimation.core.discrepancy.identify.suggestion`); ``profile`` a
+    (:func:`.pipeline.decide.experiment`); ``profile`` a
     log-scaled shape parameter (a time constant) that the selection's start screening
     holds fixed at each start value (a profile of the cost over it, refined by a
     parabola in log): free, it forms a curved valley with the levels along which the
@@ -138,6 +146,7 @@ class Candidate:
     suggest: str = SUGGEST_MORE
     profile: str = ''
     family: str = ''
+    levels: LevelsFn | None = None
 
     def __post_init__(self) -> None:
         """Check the localiser, the profiled parameter and that parameter names are unique."""
@@ -270,6 +279,11 @@ def forms(family: str) -> tuple[Candidate, ...]:
             f'unknown effect family {family!r}; known: {sorted(families())}'
         )
     return out
+
+
+def level_forms() -> tuple[Candidate, ...]:
+    """Return the registered forms that change the friction levels with test time."""
+    return tuple(c for c in _REGISTRY.values() if c.levels is not None)
 
 
 def all_candidates() -> tuple[Candidate, ...]:

@@ -1,26 +1,15 @@
-"""Live model monitor: the discrepancy workflow on a rolling window of the rig stream.
+"""Live model monitor: the missing-physics pipeline on a rolling window of the rig stream.
 
 :class:`WindowMonitor` keeps the last ``window`` seconds of the rig channels
 (torsion moment C1*phi1 [N m], angular acceleration w1' [rad/s^2], shaft
-speed w2 [rad/s]) and every ``hop`` seconds evaluates the latest window with
-the pieces of the offline workflow (:mod:`.select`):
-
-1. **Baseline**: the paper's model (Equ. 1-8, ``mu0``/``mu_inf`` free) fitted
-   by output error over the window's stick-started segments
-   (:class:`~.fitting.Problem`, :func:`~.fitting.make_segments`), warm-started
-   from the previous window; channel weights from the baseline's residuals as
-   in :func:`~.select.run_discrepancy`.
-2. **Where**: the torsion residual's energy by motion region (stick, slip
-   accelerating, slip decelerating = ``slip_end``, +-3 ms around a breakaway;
-   phases of Equ. 3-8 from the baseline simulation) and, for the ranking of
-   the candidates, the share of the residual variance that its mean in bins
-   of each candidate's localising variable explains (:mod:`.localise`).
-3. **Best candidate**: while the window's time budget lasts, a quick
-   one-effect refit (``mu0``, ``mu_inf`` and the candidate's parameters) of
-   the ``max_candidates`` candidates whose localiser explains most; the one
-   with the lowest torsion residual is reported, with its identifiability
-   (:func:`identifiability`: Gauss-Newton standard error and correlation with
-   mu0/mu_inf, for dwell-time stiction the spread of the stick durations).
+speed w2 [rad/s]) and every ``hop`` seconds evaluates the latest window with the
+pipeline of the offline workflow (:func:`.pipeline.find_missing_physics`): the
+same steps and decision rules, the live budget (:meth:`.pipeline.Policy.live`:
+fewer bootstrap replicas and simulations, a wall-time budget within the hop).
+Each window reports the baseline (the paper's model, Equ. 1-8), its residual
+against the noise floor, where the residual concentrates (stick, slip,
+breakaway, slip end), and the verdict: the named family, the set the window cannot
+tell apart, or the best partial explanation.
 
 No rclpy here: the ``model_monitor`` node is a thin shell around this class.
 """
@@ -29,8 +18,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -40,11 +28,9 @@ from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import EstimationError, InvalidDataError, InvalidParameterError
 
 from . import candidates as cand_lib
-from .candidates import Candidate, ParamSpec
-from .fitting import CHANNELS, MU0, MU_INF, Problem, Record
-from .identify import GaussNewton, Identifiability, gauss_newton, identifiability
 from .localise import torque_residual
-from .select import baseline_starts
+from .pipeline import Policy, find_missing_physics
+from .pipeline.decide import NAMED
 from .stats import (
     SLIP_ACCEL,
     SLIP_DECEL,
@@ -53,7 +39,6 @@ from .stats import (
     noise_floor,
     phase_labels,
     rms,
-    stick_durations,
     time_since_breakaway,
 )
 
@@ -69,44 +54,19 @@ class MonitorConfig:
     """Settings of the live model monitor.
 
     ``window`` evaluated stretch [s]; ``hop`` time between evaluations [s];
-    ``candidates`` candidate effects that may be tried (names of
-    :mod:`.candidates`; empty = baseline only); ``max_candidates`` at most this
-    many are refitted per window (the best ranked first; no further one once
-    a candidate leaves only ``partial_ratio`` noise floors);
-    ``time_budget`` wall time per window after which no further candidate is
-    started [s] (keep it below ``hop``); ``baseline_nfev`` / ``candidate_nfev``
-    simulations per fit; ``ratio_threshold`` candidates are only tried when the
-    residual rms exceeds this many noise floors [-]; ``min_gain`` a candidate
-    is named only if it lowers the torsion residual rms by this fraction [-];
-    ``max_rel_se``, ``max_correlation`` identifiability limits of
-    :func:`identifiability` (relative standard error, correlation with
-    mu0/mu_inf) [-]; ``thin`` the fits (baseline, ranking, refits,
-    covariance) use every ``thin``-th segment of the window (the reported
-    residuals all of them); ``partial_ratio`` a named candidate that leaves
-    more than this many noise floors is flagged ``partial`` [-].
+    ``candidates`` effect families screened (names of :mod:`.candidates`; empty =
+    the whole library); ``time_budget`` wall time per window after which no further
+    form is screened or refined [s] (keep it below ``hop``); ``alpha`` the
+    adequacy decisions' false-alarm rate [-]; ``replicas`` bootstrap replicas of
+    the window's null law.
     """
 
     window: float = 6.0
     hop: float = 2.0
-    candidates: tuple[str, ...] = (
-        'viscous_friction',
-        'frictional_lag',
-        'dwell_time_stiction',
-        'friction_drift',
-        'torque_offset',
-        'torque_sensor_lag',
-        'bearing_friction',
-    )
-    max_candidates: int = 2
-    time_budget: float = 1.0
-    baseline_nfev: int = 15
-    candidate_nfev: int = 30
-    ratio_threshold: float = 1.3
-    min_gain: float = 0.1
-    max_rel_se: float = 0.2
-    max_correlation: float = 0.999
-    thin: int = 2
-    partial_ratio: float = 1.5
+    candidates: tuple[str, ...] = ()
+    time_budget: float = 1.5
+    alpha: float = 0.01
+    replicas: int = 3
 
     def __post_init__(self) -> None:
         """Refuse non-positive or non-finite times and a hop longer than the window."""
@@ -118,31 +78,28 @@ class MonitorConfig:
             raise InvalidParameterError(
                 f'monitor hop ({self.hop} s) must not exceed the window ({self.window} s)'
             )
-        if self.thin < 1:
-            raise InvalidParameterError(f'monitor thin must be >= 1, got {self.thin}')
-        if self.max_candidates < 0:
-            raise InvalidParameterError(
-                f'monitor max_candidates must be >= 0, got {self.max_candidates}'
-            )
-        for name in ('baseline_nfev', 'candidate_nfev'):
-            if getattr(self, name) < 3:
-                raise InvalidParameterError(
-                    f'monitor {name} must be >= 3, got {getattr(self, name)}'
-                )
-        if not 0.0 <= self.min_gain < 1.0:
-            raise InvalidParameterError(f'monitor min_gain must be in [0, 1), got {self.min_gain}')
-        if not self.max_rel_se > 0.0:
-            raise InvalidParameterError(f'monitor max_rel_se must be > 0, got {self.max_rel_se}')
-        if not 0.0 < self.max_correlation <= 1.0:
-            raise InvalidParameterError(
-                f'monitor max_correlation must be in (0, 1], got {self.max_correlation}'
-            )
-        known = set(cand_lib.names())
+        if self.replicas < 2:
+            raise InvalidParameterError(f'monitor replicas must be >= 2, got {self.replicas}')
+        if not 0.0 < self.alpha < 0.5:
+            raise InvalidParameterError(f'monitor alpha must be in (0, 0.5), got {self.alpha}')
+        known = set(cand_lib.families())
         unknown = [c for c in self.candidates if c not in known]
         if unknown:
             raise InvalidParameterError(
-                f'monitor candidates {unknown} are not in the library; known: {sorted(known)}'
+                f'monitor candidates {unknown} are not effect families of the library; '
+                f'known: {sorted(known)}'
             )
+
+    def policy(self) -> Policy:
+        """Return the pipeline's live policy with this monitor's settings."""
+        base = Policy.live(self.time_budget)
+        return replace(
+            base,
+            alpha=self.alpha,
+            replicas=self.replicas,
+            families=self.candidates or None,
+            max_effects=1,
+        )
 
 
 @dataclass(frozen=True)
@@ -150,14 +107,14 @@ class WindowResult:
     """One evaluated window (see :class:`WindowMonitor`).
 
     Times in s (the time base of the pushed samples), moments in N m,
-    acceleration in rad/s^2, speeds in rad/s; ``params``/``units`` of the
-    candidate as in :mod:`.candidates`; ``candidate`` is '' when no candidate
-    was tried or none lowered the rms by ``min_gain`` (then ``candidate_rms``
-    is NaN); ``quality`` 'ok' or ';'-separated flags (``no_sticks``: no stick
-    phase in the window: fitted from sliding states, ``mu0`` NaN; also when the
-    window cannot be cut into segments at all, ``over_budget``: the window took longer than the
-    hop, ``fit_failed``, ``partial``: the named candidate leaves more than
-    ``partial_ratio`` noise floors).
+    acceleration in rad/s^2, speeds in rad/s; ``candidate`` the named family, or
+    the best partial explanation ('' if none; then ``candidate_rms`` is NaN), with
+    ``params``/``units`` as in :mod:`.candidates`; ``identifiable`` True when the
+    window names it, ``identifiable_reason`` the verdict in one line; ``verdict``
+    one of :data:`.pipeline.KINDS`; ``quality`` 'ok' or ';'-separated flags
+    (``no_sticks``: no stick phase in the window: fitted from sliding states, ``mu0``
+    NaN, ``over_budget``: the window took longer than the hop, ``fit_failed``,
+    ``partial``: the candidate explains part of the mismatch, not all).
     """
 
     t_start: float
@@ -181,7 +138,7 @@ class WindowResult:
     tried: tuple[str, ...]
     processing_time: float
     quality: str = 'ok'
-    ranking: tuple[tuple[str, float], ...] = field(default=())
+    verdict: str = field(default='')
 
 
 #: The samples of one window, ready to evaluate (a copy; see :meth:`WindowMonitor.add`).
@@ -230,70 +187,6 @@ def concentration(
     if best_ratio >= 1.5 and best_share >= 0.3:
         return best, best_share
     return 'uniform', 1.0
-
-
-#: Size of the ranking's probe step, as a fraction of a parameter's typical scale (-).
-PROBE_FRACTION = 0.1
-
-
-def _probe(c: Candidate) -> dict[str, float]:
-    """Return a model point of candidate ``c`` a small step from the nested model.
-
-    The point is its default start, with parameters that default to 0 set to ``PROBE_FRACTION``
-    of their scale (small, so that the step stays in the linear range).
-    """
-    out = c.default_start()
-    for p in c.params:
-        if not p.log and out[p.name] == 0.0:
-            out[p.name] = min(PROBE_FRACTION * p.scale, p.upper)
-    return out
-
-
-def linearised_gains(
-    problem: Problem,
-    base: Mapping[str, float],
-    pool: Sequence[Candidate],
-    seg_mask: npt.NDArray[np.bool_] | None = None,
-) -> dict[str, float]:
-    """Predicted relative cost decrease of adding each candidate (-), from one simulation each.
-
-    The weighted residual r of the baseline ``base`` (mu0, mu_inf) is
-    projected onto the baseline's two Jacobian columns plus the candidate's
-    secant direction (the residual change towards :func:`_probe`); the gain
-    is the extra share of ``|r|^2`` that direction explains (a score test on
-    the linearised model: cheap, used only to rank which candidates get a
-    real refit). ``seg_mask`` selects segments.
-    """
-    r0 = problem.residual_vector(problem.simulate(base, seg_mask))
-    total = float(r0 @ r0)
-    cols = []
-    for p in (MU0, MU_INF):
-        vals = dict(base)
-        h = 1e-3 * max(abs(float(base[p.name])), 1e-3)
-        vals[p.name] = float(base[p.name]) + h
-        cols.append((problem.residual_vector(problem.simulate(vals, seg_mask)) - r0) / h)
-    Jb = np.column_stack(cols)
-    # r0 = measured - simulated; the model moves the simulation, so fit -dr
-    coef, *_ = np.linalg.lstsq(Jb, r0, rcond=None)
-    e_base = r0 - Jb @ coef
-    base_sq = float(e_base @ e_base)
-    out: dict[str, float] = {}
-    for c in pool:
-        vals = dict(base)
-        vals.update(_probe(c))
-        d = problem.residual_vector(problem.simulate(vals, seg_mask)) - r0
-        J = np.column_stack([Jb, d])
-        coef, *_ = np.linalg.lstsq(J, r0, rcond=None)
-        e = r0 - J @ coef
-        out[c.name] = max(base_sq - float(e @ e), 0.0) / total if total > 0 else 0.0
-    return out
-
-
-# --------------------------------------------------------------------------- monitor
-
-
-def _specs(c: Candidate | None) -> list[ParamSpec]:
-    return [MU0, MU_INF, *(c.params if c is not None else ())]
 
 
 class WindowMonitor:
@@ -448,7 +341,7 @@ class WindowMonitor:
         )
 
     def evaluate(self, w: WindowData) -> WindowResult:
-        """Baseline fit, localisation and the best single candidate of one window."""
+        """Run the pipeline on one window (live budget) and summarise its verdict."""
         cfg = self.config
         t0 = _time.perf_counter()
         w0 = self.drive.nominal_speed
@@ -456,135 +349,62 @@ class WindowMonitor:
             w0 = float(np.mean(w.speed))
         drive = DriveProfile(w0, self.drive.ramp_time)
         try:
-            rec = Record(w.time, w.torsion_moment, w.angular_acceleration, w.speed)
-            # the Problem cuts the window into stick-started segments (make_segments)
-            pb = Problem(rec, self.rig, drive, k=self.k)
-        except EstimationError:
-            return self._empty(w, t0, 'no_sticks', w0)
-        segs = pb.segments
-        # the fits use every `thin`-th segment; the reported residuals all of them
-        cmask = (np.arange(segs.n) % cfg.thin == 0) if cfg.thin > 1 and segs.n >= 6 else None
-        try:
-            start = self._last_values or baseline_starts(pb)[1]
-            base = pb.fit([MU0, MU_INF], start, seg_mask=cmask, max_nfev=cfg.baseline_nfev).values
-            sim = pb.simulate(base)
-            floors = {}
-            for ch in CHANNELS:
-                m = pb.measured(ch)[sim.covered]
-                floors[ch] = max(noise_floor(m), 1e-3 * float(np.std(m)), 1e-12)
-            pb.set_residual_weights(sim, floors)
+            res = find_missing_physics([w], self.rig, [drive], k=self.k, policy=cfg.policy())
         except EstimationError:
             return self._empty(w, t0, 'fit_failed', w0)
-        self._last_values = {'mu0': base['mu0'], 'mu_inf': base['mu_inf']}
+        rep = res.records[0]
+        tr = res.traces[0]
+        pb = tr.problem
+        sim = tr.baseline
         cov = sim.covered
         r = torque_residual(pb, sim)
-        base_rms = rms(r[cov])
-        sigma = noise_floor(r[cov])
-        ratio = base_rms / sigma if sigma > 0 else math.inf
-        accel_rms = rms((rec.angular_acceleration - sim.angular_acceleration)[cov])
         stick = np.nan_to_num(sim.stick, nan=1.0) > 0.5
-        where, share = concentration(r, stick, np.asarray(sim.slip_speed), rec.fs)
-        best: tuple[Candidate, dict[str, float], float] | None = None
-        tried: list[str] = []
-        ranking: tuple[tuple[str, float], ...] = ()
-        if ratio >= cfg.ratio_threshold and cfg.candidates and cfg.max_candidates > 0:
-            # rank by the linearised gain (one simulation each), refit the best few
-            pool = [cand_lib.get(n) for n in cfg.candidates]
-            gains = linearised_gains(pb, base, pool, cmask)
-            ranked = sorted(pool, key=lambda c: -gains[c.name])
-            ranking = tuple((c.name, gains[c.name]) for c in ranked)
-            for c in ranked[: cfg.max_candidates]:
-                if tried and _time.perf_counter() - t0 > cfg.time_budget:
-                    break
-                if best is not None and best[2] <= cfg.partial_ratio * sigma:
-                    break  # the best so far leaves only noise: nothing more to explain
-                st = dict(base)
-                st.update(c.default_start())
-                try:
-                    vals = pb.fit(_specs(c), st, seg_mask=cmask, max_nfev=cfg.candidate_nfev).values
-                except EstimationError:
-                    continue
-                tried.append(c.name)
-                c_rms = pb.torque_rms(pb.simulate(vals))
-                if best is None or c_rms < best[2]:
-                    best = (c, vals, c_rms)
-        name, params, units, c_rms = '', {}, {}, math.nan
-        ident = Identifiability(False, 'no candidate tried')
-        if best is not None:
-            c, vals, b_rms = best
-            gn = gauss_newton(pb, _specs(c), vals, cmask)
-            ident = identifiability(
-                c.name,
-                c.param_names,
-                gn,
-                stick_durations(stick[cov], rec.fs),
-                max_rel_se=cfg.max_rel_se,
-                max_correlation=cfg.max_correlation,
-            )
-            if b_rms <= (1.0 - cfg.min_gain) * base_rms:
-                name, c_rms = c.name, b_rms
-                params = {n: float(vals[n]) for n in c.param_names}
-                units = c.units()
-            else:
-                # nothing named; say why the best one could not help if the record says so
-                ident = Identifiability(
-                    False,
-                    f'no tried candidate ({", ".join(tried)}) lowers the residual by '
-                    f'{100 * cfg.min_gain:g} %'
-                    + ('' if ident.ok else f'; {c.name}: {ident.reason}'),
-                )
-        elif ratio < cfg.ratio_threshold:
-            ident = Identifiability(
-                False, f'residual within {cfg.ratio_threshold:g} x the noise floor: nothing to add'
-            )
+        where, share = concentration(r, stick, np.asarray(sim.slip_speed), pb.record.fs)
+        sigma = rep.noise_floor
+        best = res.named[-1] if res.named else (res.partial[0] if res.partial else None)
+        tried = tuple(dict.fromkeys(e.family for rnd in res.rounds for e in rnd))
         elapsed = _time.perf_counter() - t0
         flags = []
-        if segs.sliding:
-            # no stick phase in the window: analysed from measured sliding states
-            # (slip-slip, steady sliding); mu0 acts only at breakaways and is not
-            # determined
+        if pb.segments.sliding:
             flags.append('no_sticks')
-            base = {**base, 'mu0': math.nan}
-        if name and c_rms > cfg.partial_ratio * sigma:
+        if best is not None and res.verdict != NAMED:
             flags.append('partial')
         if elapsed > cfg.hop:
             flags.append('over_budget')
+        mu0 = float(rep.baseline.get('mu0', math.nan))
         return WindowResult(
             t_start=float(w.time[0]),
             t_end=float(w.time[-1]),
             n_samples=int(w.time.size),
-            mu0=float(base['mu0']),
-            mu_inf=float(base['mu_inf']),
-            drive_speed=w0,
-            residual_rms=base_rms,
-            residual_rms_accel=accel_rms,
+            mu0=math.nan if pb.segments.sliding else mu0,
+            mu_inf=float(rep.baseline.get('mu_inf', math.nan)),
+            drive_speed=float(pb.drive_estimate.level),
+            residual_rms=rep.rms_baseline,
+            residual_rms_accel=rms(
+                (pb.record.angular_acceleration - sim.angular_acceleration)[cov]
+            ),
             noise_floor=sigma,
-            ratio=ratio,
+            ratio=rep.rms_baseline / sigma if sigma > 0 else math.inf,
             concentration=where,
             concentration_share=share,
-            candidate=name,
-            params=params,
-            units=units,
-            candidate_rms=c_rms,
-            identifiable=ident.ok,
-            identifiable_reason=ident.reason,
-            tried=tuple(tried),
+            candidate=best.family if best is not None else '',
+            params=dict(best.params) if best is not None else {},
+            units=dict(best.units) if best is not None else {},
+            candidate_rms=best.rms[0] if best is not None else math.nan,
+            identifiable=res.verdict == NAMED,
+            identifiable_reason=res.finding(),
+            tried=tried,
             processing_time=elapsed,
             quality=';'.join(flags) or 'ok',
-            ranking=ranking,
+            verdict=res.verdict,
         )
 
 
 __all__ = [
     'REGIONS',
-    'GaussNewton',
-    'Identifiability',
     'MonitorConfig',
     'WindowData',
     'WindowMonitor',
     'WindowResult',
     'concentration',
-    'gauss_newton',
-    'identifiability',
-    'linearised_gains',
 ]

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -20,8 +21,10 @@ import numpy as np
 from scipy import signal
 
 from .localise import binned_for, torque_residual
-from .select import DiscrepancyResult
 from .stats import BinnedResidual, FloatArray
+
+if TYPE_CHECKING:
+    from .pipeline.result import MissingPhysics
 
 
 def plot_binned(
@@ -106,22 +109,26 @@ def plot_spectrum(before: FloatArray, after: FloatArray, fs: float, path: str | 
     return p
 
 
-def write_plots(result: DiscrepancyResult, out_dir: str | Path) -> list[Path]:
-    """All PNG plots of a :class:`~.select.DiscrepancyResult` into ``out_dir``.
+def write_plots(result: MissingPhysics, out_dir: str | Path) -> list[Path]:
+    """All PNG plots of the first record of a pipeline result into ``out_dir``.
 
-    One ``residual_<localiser>.png`` per added effect (against the variable
+    One ``residual_<localiser>.png`` per named effect (against the variable
     that effect explains), or ``residual_test_time.png`` and
-    ``residual_phase.png`` when nothing was added; ``traces.png`` (a 0.25 s
+    ``residual_phase.png`` when nothing was named; ``traces.png`` (a 0.25 s
     window in the middle of the record) and ``spectrum.png``.
     """
+    from . import candidates as cand_lib
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    tr = result.traces
+    if not result.traces:
+        return []
+    tr = result.traces[0]
     pb = tr.problem
     r0 = torque_residual(pb, tr.baseline)
     r1 = torque_residual(pb, tr.final)
     paths: list[Path] = []
-    names = [a.localiser for a in result.added] or ['test_time', 'phase']
+    names = [cand_lib.get(e.form).localiser for e in result.named] or ['test_time', 'phase']
     done: set[str] = set()
     for name in names:
         var = 'test_time' if name == 'spectrum' else name
@@ -130,7 +137,7 @@ def write_plots(result: DiscrepancyResult, out_dir: str | Path) -> list[Path]:
         done.add(var)
         b0 = binned_for(var, pb, tr.baseline, r0)
         b1 = binned_for(var, pb, tr.final, r1)
-        effects = ', '.join(a.effect for a in result.added) or 'none added'
+        effects = ', '.join(result.added) or 'none named'
         paths.append(
             plot_binned(b0, b1, out / f'residual_{var}.png', title=f'residual vs {var} ({effects})')
         )

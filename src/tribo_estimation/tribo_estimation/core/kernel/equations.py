@@ -38,11 +38,14 @@ from .layout import (
     P_MUINF,
     P_R,
     P_RAMP,
+    P_RIP2_AMP,
+    P_RIP2_PHASE,
     P_RIP_AMP,
     P_RIP_FREQ,
     P_RIP_PHASE,
     P_SHAPE,
     P_ST_GAIN,
+    P_ST_LOG,
     P_ST_TAU,
     P_T_DRIVE,
     P_VISC,
@@ -95,6 +98,9 @@ def drive_speed(p: FloatArray, t: float) -> float:
     amp = p[P_RIP_AMP]
     if amp != 0.0:
         w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
+    amp2 = p[P_RIP2_AMP]
+    if amp2 != 0.0:
+        w += amp2 * math.sin(4.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP2_PHASE])
     return float(w)
 
 
@@ -140,6 +146,11 @@ def drive_angle(p: FloatArray, t: float) -> float:
         om = 2.0 * math.pi * f
         ph = p[P_RIP_PHASE]
         a += amp / om * (math.cos(ph) - math.cos(om * t + ph))
+    amp2 = p[P_RIP2_AMP]
+    if amp2 != 0.0 and f > 0.0:
+        om2 = 4.0 * math.pi * f
+        ph2 = p[P_RIP2_PHASE]
+        a += amp2 / om2 * (math.cos(ph2) - math.cos(om2 * t + ph2))
     return a
 
 
@@ -211,9 +222,11 @@ def friction_coefficient(p: FloatArray, t: float, v_abs: float, peak_passed: boo
     inline='always',
 )
 def static_coefficient(p: FloatArray, t: float, t_stick: float) -> float:
-    """Return the static friction coefficient mu_s = mu0(t) + gain*(1 - exp(-t_stick/tau)).
+    """Return the static friction coefficient mu_s(t, t_stick).
 
-    The dwell-time stiction term is zero for the paper's model (gain = 0).
+    ``mu_s = mu0(t) + gain*(1 - exp(-t_stick/tau)) + b*ln(1 + t_stick/tau)``: the
+    dwell-time stiction terms (saturating and logarithmic forms) are zero for the
+    paper's model (gain = b = 0).
 
     Parameters
     ----------
@@ -237,6 +250,9 @@ def static_coefficient(p: FloatArray, t: float, t_stick: float) -> float:
             mu0 += g * (1.0 - math.exp(-t_stick / tau))
         else:
             mu0 += g
+    b = p[P_ST_LOG]
+    if b != 0.0 and p[P_ST_TAU] > 0.0:
+        mu0 += b * math.log1p(max(t_stick, 0.0) / p[P_ST_TAU])
     return mu0
 
 

@@ -82,7 +82,12 @@ P_T_DRIVE = 25  # reference time of the linear drive piece [s]: w0(t) = w0 + rat
 #: Generic friction-law shape hook: offset of the Stribeck shape exponent from 1 [-],
 #: ``mu = (mu0 - mu_inf)*exp(-(k*|v|)**(1 + shape)) + mu_inf``; 0 gives Equ. 8 exactly.
 P_SHAPE = 26
-NP = 27
+P_RIP2_AMP = 27  # amplitude of the drive ripple's second harmonic (2 f) [rad/s]
+P_RIP2_PHASE = 28  # phase of the second harmonic [rad]
+#: Logarithmic dwell-time stiction: ``mu_s += b*ln(1 + t_stick/t0)`` with ``t0`` =
+#: ``P_ST_TAU`` [s] and ``b`` this slot [-] (the Dieterich form).
+P_ST_LOG = 29
+NP = 30
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``

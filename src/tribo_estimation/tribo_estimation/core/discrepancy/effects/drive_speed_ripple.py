@@ -10,7 +10,7 @@ from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, StartContext, regis
 from ..stats import fit_sinusoid, spectral_lines
 
 
-def _starts(ctx: StartContext) -> list[dict[str, float]]:
+def ripple_starts(ctx: StartContext) -> list[dict[str, float]]:
     """Ripple frequency/amplitude/phase from the strongest lines of the speed residual.
 
     A drive speed ripple ``w0 = nominal + a*sin(2*pi*f*t + p)`` shows first in
@@ -38,7 +38,7 @@ CANDIDATE = register(
             ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),
         'spectrum',
-        _starts,
+        ripple_starts,
         equation=(
             '`w0 += A_r*sin(2 pi f_r t + p)`, '
             '`phi0 += A_r/(2 pi f_r)*(cos p - cos(2 pi f_r t + p))` (A_r, f_r, p = `ripple_amp`, '

@@ -20,10 +20,10 @@ from ..candidates import SUGGEST_LONGER, Candidate, ParamSpec, register
 
 
 class SensorOffset(MeasurementTransform):
-    """Zero offset and drift of the torsion-moment channel (after the sensor lag)."""
+    """Zero offset and drift (linear or thermal) of the torsion-moment channel (after the lag)."""
 
     order = 10
-    fields = ('torque_offset', 'torque_offset_drift')
+    fields = ('torque_offset', 'torque_offset_drift', 'torque_thermal', 'torque_thermal_tau')
 
     def forward(
         self,
@@ -84,10 +84,13 @@ class SensorOffset(MeasurementTransform):
         tuple of FloatArray
             Value [N m] and slope [N m/s] without the offset.
         """
-        return (
-            np.asarray(value - ext.torque_offset - ext.torque_offset_drift * t0),
-            np.asarray(slope - ext.torque_offset_drift),
-        )
+        v = value - ext.torque_offset - ext.torque_offset_drift * t0
+        s = slope - ext.torque_offset_drift
+        if ext.torque_thermal != 0.0 and ext.torque_thermal_tau > 0.0:
+            e = np.exp(-np.maximum(t0, 0.0) / ext.torque_thermal_tau)
+            v = v - ext.torque_thermal * (1.0 - e)
+            s = s - ext.torque_thermal / ext.torque_thermal_tau * e
+        return np.asarray(v), np.asarray(s)
 
 
 CANDIDATE = register(

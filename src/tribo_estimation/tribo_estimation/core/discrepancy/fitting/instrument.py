@@ -360,6 +360,36 @@ def _mismatch_drift(
     return float(coef[k]) / abs(w_mean), float(se[k]) / abs(w_mean)
 
 
+#: A phase whose median speed disagreement lies this many robust standard deviations
+#: (over the phases) from the phases' median is no stick (the chamber rests while the
+#: shaft slides: steady sliding also gives a flat stick residual) [-].
+OUTLIER_PHASE_SIGMA = 5.0
+
+
+def _agreeing_phases(
+    d: FloatArray, idx_l: list[IntArray], cl_l: list[IntArray]
+) -> tuple[list[IntArray], list[IntArray]]:
+    """Drop the phases whose speed disagreement ``d = y - w`` is an outlier.
+
+    In a stick the speed channel and the chamber speed agree up to the sensor's
+    offset and lag, the same in every phase; a phase whose median ``d`` lies more
+    than :data:`OUTLIER_PHASE_SIGMA` robust standard deviations from the median over
+    the phases is not a stick. Kept when fewer than 3 phases or all would go.
+    """
+    if len(idx_l) < 3:
+        return idx_l, cl_l
+    med = np.asarray([float(np.median(d[ii])) for ii in idx_l])
+    centre = float(np.median(med))
+    spread = 1.4826 * float(np.median(np.abs(med - centre)))
+    keep = np.abs(med - centre) <= OUTLIER_PHASE_SIGMA * spread
+    if spread <= 0.0 or not np.any(keep):
+        return idx_l, cl_l
+    return (
+        [ii for ii, k in zip(idx_l, keep, strict=True) if k],
+        [cc for cc, k in zip(cl_l, keep, strict=True) if k],
+    )
+
+
 def identify_speed_sensor(
     record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
 ) -> SpeedSensor:
@@ -408,6 +438,7 @@ def identify_speed_sensor(
             cl_l.append(np.full(ii.size, k, dtype=np.int64))
     if not idx_l:
         return SpeedSensor(0.0, math.nan, 0.0, math.nan, 0)
+    idx_l, cl_l = _agreeing_phases(record.speed - w, idx_l, cl_l)
     idx = np.concatenate(idx_l)
     cl = np.concatenate(cl_l)
     d = record.speed[idx] - w[idx]
@@ -449,7 +480,7 @@ class AccelSensor:
     gain_se : float
         Its standard error [-].
     offset : float
-        Zero offset [rad/s^2] (0: not significant).
+        Zero offset [rad/s^2] (reported; the fits do not correct it).
     offset_se : float
         Its standard error [rad/s^2].
     """
@@ -460,8 +491,8 @@ class AccelSensor:
     offset_se: float = math.nan
 
     def correct(self, accel: FloatArray) -> FloatArray:
-        """Return the acceleration with the sensor's gain and offset taken out [rad/s^2]."""
-        return (accel - self.offset) / self.gain
+        """Return the acceleration with the sensor's gain taken out [rad/s^2]."""
+        return accel / self.gain
 
     def report(self) -> dict[str, object]:
         """Return the ``accel_sensor`` entry of ``discrepancy.json``."""
@@ -474,17 +505,24 @@ class AccelSensor:
         }
 
 
-def identify_accel_sensor(
-    record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None
-) -> AccelSensor:
-    """Identify the accelerometer's gain and offset from the stick phases, friction-free.
+#: Length of the windows of the accelerometer's regression [s] (several stick-slip
+#: cycles, so the chamber speed varies; short enough that the integrated noise stays
+#: below the signal).
+ACCEL_WINDOW = 0.2
 
-    While the discs stick the chamber speed is ``w = (dM_t/dt)/C1`` (Equ. 4) and the
-    accelerometer shows ``a = g*w' + b``; integrated over a stick phase,
-    ``A(t) = g*w(t) + b*t + c`` with one constant per phase: a linear regression over
-    the phases' interiors (each demeaned; standard errors cluster-robust over the
-    phases). Each term is used where beyond 3 standard
-    errors.
+
+def identify_accel_sensor(record: Record, rig: RigParams) -> AccelSensor:
+    """Identify the accelerometer's gain and offset from the chamber kinematics.
+
+    Stick or slip, the chamber speed is ``w = (dM_t/dt)/C1`` (Equ. 1: ``M_t = C1*phi1``)
+    and the accelerometer shows ``a = g*w' + b``; integrated,
+    ``A(t) = g*w(t) + b*t + c``, with one constant per window of
+    :data:`ACCEL_WINDOW` (the integral's noise is a random walk): a linear regression
+    over the windows (each demeaned; standard errors cluster-robust over them). The
+    speed changes of stick-slip tell the gain, the time within a window the offset.
+    The gain is used where beyond 3 standard errors; the offset is reported, not used
+    (the kinks of M_t at the switching events bias it by a few tenths of a rad/s^2,
+    more than a real offset moves the chamber speed over one shooting segment).
 
     Parameters
     ----------
@@ -492,38 +530,32 @@ def identify_accel_sensor(
         The measured record (torsion lag compensated).
     rig : RigParams
         Rig parameters (C1).
-    runs : tuple of (IntArray, IntArray) or None
-        First and stop sample of each stick phase (None: no stick phases).
 
     Returns
     -------
     AccelSensor
         The gain and offset.
     """
-    if runs is None:
-        return AccelSensor()
     w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
     acc = record.angular_acceleration
     dt = record.dt
-    guard = CHAMBER_HALF + 3
+    n = acc.size
+    m = max(16, round(ACCEL_WINDOW / dt))
+    guard = CHAMBER_HALF + 1
     rows_a: list[FloatArray] = []
     rows_w: list[FloatArray] = []
     rows_t: list[FloatArray] = []
     cl_l: list[IntArray] = []
-    for k, (a, b) in enumerate(zip(*runs, strict=True)):
-        lo, hi = int(a) + guard, int(b) - guard
-        if hi - lo < 10:
-            continue
+    for k, lo in enumerate(range(guard, n - guard - m // 2, m)):
+        hi = min(lo + m, n - guard)
         x = acc[lo:hi]
         big = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)))
         tt = np.arange(hi - lo) * dt
         for arr, dest in ((big, rows_a), (w[lo:hi], rows_w), (tt, rows_t)):
-            dest.append(arr - float(np.mean(arr)))
+            dest.append(np.asarray(arr - float(np.mean(arr)), dtype=np.float64))
         cl_l.append(np.full(hi - lo, k, dtype=np.int64))
     if len(cl_l) < 3:
         return AccelSensor()
-    # A = g*w + b*t + c (w from the torsion moment's slope: its noise is far below the
-    # integrated acceleration's, which lies in the dependent variable)
     X = np.column_stack((np.concatenate(rows_w), np.concatenate(rows_t)))
     fit = _cluster_lstsq(X, np.concatenate(rows_a), np.concatenate(cl_l))
     if fit is None:
@@ -531,10 +563,7 @@ def identify_accel_sensor(
     (g_v, b_v), (g_sev, b_sev) = fit
     g, g_se, b, b_se = float(g_v), float(g_sev), float(b_v), float(b_sev)
     use_g = math.isfinite(g_se) and abs(g - 1.0) > 3.0 * g_se and g > 0.5
-    use_b = math.isfinite(b_se) and abs(b) > 3.0 * b_se
-    return AccelSensor(
-        float(g) if use_g else 1.0, float(g_se), float(b) if use_b else 0.0, float(b_se)
-    )
+    return AccelSensor(float(g) if use_g else 1.0, float(g_se), b, float(b_se))
 
 
 def stuck_speed_through_lag(

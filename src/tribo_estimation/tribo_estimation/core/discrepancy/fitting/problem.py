@@ -47,6 +47,7 @@ from tribo_estimation.core.shooting import (
 from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
 from tribo_estimation.errors import InvalidParameterError
 
+from .. import candidates as cand_lib
 from ..candidates import ParamSpec
 from ..stats import FloatArray
 from .instrument import speed_sensor_output, speed_slope, stuck_speed_through_lag
@@ -195,7 +196,7 @@ class Problem:
             'speed': record.speed,
         }
         self._w_start = self._speed_stuck.copy()
-        self._instrument: tuple[float, ...] = (math.nan,) * 7
+        self._instrument: tuple[float, ...] = (math.nan,) * 9
         #: the drive profile's corners have been placed once, for this sensor model
         self._placed = False
         self._placed_sensor = (0.0, 0.0)
@@ -281,10 +282,13 @@ class Problem:
             A name that is neither a friction level, an instrument term nor an
             Extensions field.
         """
+        level_names = {n for c in cand_lib.level_forms() for n in c.param_names}
         ext_vals = {
             k: float(v)
             for k, v in values.items()
-            if k not in ('mu0', 'mu_inf', 'k') and k not in INSTRUMENT_FIELDS
+            if k not in ('mu0', 'mu_inf', 'k')
+            and k not in INSTRUMENT_FIELDS
+            and k not in level_names
         }
         unknown = set(ext_vals) - EXT_FIELDS
         if unknown:
@@ -337,7 +341,7 @@ class Problem:
         self._set_instrument(
             float(values.get('speed_lag_tau', 0.0)),
             float(values.get('speed_offset', 0.0)),
-            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase),
+            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase, ext.ripple2_amp, ext.ripple2_phase),
             (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
@@ -356,7 +360,29 @@ class Problem:
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
         stops = np.full(1, n, dtype=np.int64) if continuous else seg.stop[sel]
-        shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, rec.dt, n_sub, out)
+        hooks = [
+            c for c in cand_lib.level_forms() if any(values.get(x, 0.0) for x in c.param_names)
+        ]
+        if hooks:
+            # friction levels that change with test time: per segment, their tangent at
+            # its start (the kernel's linear drift of mu0 and mu_inf)
+            starts = seg.start[sel]
+            t_k = rec.time[starts]
+            for j, b in enumerate(stops):
+                p_k = p.copy()
+                for c in hooks:
+                    assert c.levels is not None
+                    d0, r0, di, ri = c.levels(values, t_k[j : j + 1])
+                    p_k[kn.P_MU0] += float(d0[0]) - float(r0[0]) * float(t_k[j])
+                    p_k[kn.P_DRIFT_MU0] += float(r0[0])
+                    p_k[kn.P_MUINF] += float(di[0]) - float(ri[0]) * float(t_k[j])
+                    p_k[kn.P_DRIFT_MUINF] += float(ri[0])
+                shoot(
+                    p_k, states[j : j + 1], starts[j : j + 1], np.full(1, b, np.int64),
+                    dk.time, dk.speed, rec.dt, n_sub, out,
+                )  # fmt: skip
+        else:
+            shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1
         used = (
             replace(seg, start=seg.start[:1], stop=stops, stick_time=seg.stick_time[:1],
@@ -387,7 +413,7 @@ class Problem:
         self,
         tau: float,
         offset: float,
-        ripple: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        ripple: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0),
         torque: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment starts.
@@ -405,7 +431,8 @@ class Problem:
         offset : float
             Speed-sensor offset [rad/s].
         ripple : tuple of float
-            The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad]).
+            The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad],
+            second harmonic's amplitude [rad/s] and phase [rad]).
         torque : tuple of float
             The model's torque offset [N m] and drift [N m/s].
         """
@@ -451,7 +478,7 @@ class Problem:
         self,
         tau: float,
         offset: float,
-        ripple: tuple[float, float, float],
+        ripple: tuple[float, ...],
         torque: tuple[float, float],
         *,
         place: bool = True,
@@ -469,7 +496,8 @@ class Problem:
         offset : float
             Speed-sensor offset [rad/s].
         ripple : tuple of float
-            Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad]).
+            Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad], second
+            harmonic's amplitude [rad/s] and phase [rad]).
         torque : tuple of float
             Torque offset [N m] and drift [N m/s].
         place : bool
@@ -495,11 +523,14 @@ class Problem:
             - offset * (t - rec.time[0])
             + tau * (y - float(self._smooth_speed[0]))
         )
-        amp, freq, phase = ripple
+        amp, freq, phase, amp2, phase2 = ripple
         ripple_angle = np.zeros_like(t)
+        if amp2 != 0.0 and freq > 0.0:  # the second harmonic's angle (kernel.drive_angle)
+            om2 = 4.0 * math.pi * freq
+            ripple_angle = amp2 / om2 * (math.cos(phase2) - np.cos(om2 * t + phase2))
         if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
             om = 2.0 * math.pi * freq
-            ripple_angle = amp / om * (math.cos(phase) - np.cos(om * t + phase))
+            ripple_angle = ripple_angle + amp / om * (math.cos(phase) - np.cos(om * t + phase))
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
         # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
         # more with the profile from the angles; the smoothed speed blurs a speed
@@ -557,7 +588,13 @@ class Problem:
         _, ext = self.model_objects(values)
         tau = float(values.get('speed_lag_tau', 0.0))
         offset = float(values.get('speed_offset', 0.0))
-        ripple = (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase)
+        ripple = (
+            ext.ripple_amp,
+            ext.ripple_freq,
+            ext.ripple_phase,
+            ext.ripple2_amp,
+            ext.ripple2_phase,
+        )
         torque = (ext.torque_offset, ext.torque_offset_drift)
         self._set_instrument(tau, offset, ripple, torque)
         self._fit_drive(tau, offset, ripple, torque, place=True)

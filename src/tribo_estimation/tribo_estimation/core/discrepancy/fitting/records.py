@@ -32,7 +32,13 @@ CHANNEL_UNITS: dict[str, str] = {
 
 #: Extensions fields that act on the measurement, not on the dynamics.
 MEASUREMENT_FIELDS: frozenset[str] = frozenset(
-    {'torque_offset', 'torque_offset_drift', 'torque_lag_tau'}
+    {
+        'torque_offset',
+        'torque_offset_drift',
+        'torque_lag_tau',
+        'torque_thermal',
+        'torque_thermal_tau',
+    }
 )
 #: Every field name of :class:`~tribo_estimation.core.model.Extensions`.
 EXT_FIELDS: frozenset[str] = frozenset(f.name for f in fields(Extensions))

@@ -44,7 +44,7 @@ class Policy:
     fit_nfev : int
         Simulations of a refinement on the whole record.
     refine : int
-        Forms refined on the whole record, the best screened first.
+        Forms of each family refined on the whole record, the best screened first.
     families : tuple of str or None
         Families screened (None: the whole library).
     max_effects : int
@@ -68,7 +68,7 @@ class Policy:
     replica_nfev: int = 10
     screen_nfev: int = 15
     fit_nfev: int = 40
-    refine: int = 6
+    refine: int = 1
     families: tuple[str, ...] | None = None
     max_effects: int = 2
     bound_margin: float = 0.01
@@ -81,9 +81,11 @@ class Policy:
         """Refuse settings out of range."""
         if not 0.0 < self.alpha < 0.5:
             raise InvalidParameterError(f'alpha must be in (0, 0.5), got {self.alpha}')
-        for name in ('replicas', 'replica_nfev', 'screen_nfev', 'fit_nfev', 'refine'):
+        for name in ('replicas', 'replica_nfev', 'screen_nfev', 'fit_nfev'):
             if getattr(self, name) < 2:
                 raise InvalidParameterError(f'{name} must be >= 2, got {getattr(self, name)}')
+        if self.refine < 1:
+            raise InvalidParameterError(f'refine must be >= 1, got {self.refine}')
         if self.confirm_replicas < 0 or self.confirm_replicas == 1:
             raise InvalidParameterError(
                 f'confirm_replicas must be 0 or >= 2, got {self.confirm_replicas}'
@@ -101,7 +103,11 @@ class Policy:
 
     @classmethod
     def live(cls, time_budget: float = 1.0) -> Policy:
-        """Return the live monitor's budget: the same rules, fewer replicas and fits.
+        """Return the live monitor's budget: the same rules, fewer replicas, one effect.
+
+        The fits keep the offline budgets (a fit stopped early is a different fit, and the
+        verdict must not depend on where one runs); the window's wall-time budget stops
+        the screening and refinement of further forms.
 
         Parameters
         ----------
@@ -114,12 +120,9 @@ class Policy:
             The live policy.
         """
         return cls(
-            replicas=4,
+            replicas=3,
             confirm_replicas=0,
-            replica_nfev=6,
-            screen_nfev=8,
-            fit_nfev=15,
-            refine=2,
+            replica_nfev=8,
             max_effects=1,
             time_budget=time_budget,
         )

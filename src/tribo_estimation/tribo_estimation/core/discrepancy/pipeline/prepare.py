@@ -94,10 +94,10 @@ def prepare(
     rec = torsion_compensated_record(record, rig, tq.used)
     pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
     sticks = pb.segments.stick_phases()
-    accel = identify_accel_sensor(rec, rig, sticks)
+    accel = identify_accel_sensor(rec, rig)
     sensor = identify_speed_sensor(rec, rig, sticks)
     speed_gain = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
-    if accel.gain != 1.0 or accel.offset != 0.0 or sensor.gain != 1.0:
+    if accel.gain != 1.0 or sensor.gain != 1.0:
         # the channels in the torsion moment's frame (a common gain of all three is
         # the torque's calibration: it scales mu0 and mu_inf alike)
         rec = replace(

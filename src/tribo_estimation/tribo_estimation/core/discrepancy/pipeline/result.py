@@ -7,15 +7,23 @@ adequacy statistics are dimensionless (:mod:`.null`).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .. import candidates as cand_lib
 from ..fitting import Problem, SimulatedRecord
-from ..select.results import Unexplained
-from .decide import NAMED
+from .decide import CANNOT_TELL_APART, NAMED
+from .describe import Unexplained
 from .null import NullLaw
 from .policy import Policy
 from .screen import FormFit
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from tribo_estimation.core.record import InputFindings
 
 
 @dataclass(frozen=True)
@@ -169,7 +177,7 @@ class Traces:
     final: SimulatedRecord
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MissingPhysics:
     """The result of :func:`.run.find_missing_physics`.
 
@@ -197,9 +205,13 @@ class MissingPhysics:
     run_time : float
         Wall time [s].
     simulations : int
-        Simulations run (replicas included).
+        Simulations of the records' fits (the replicas' own not counted).
     traces : tuple of Traces
         Per record, the arrays behind the plots.
+    inputs : tuple of InputFindings
+        Per record, what the input checks found (empty: none ran).
+    sources : tuple of str
+        Per record, where it came from.
     """
 
     verdict: str
@@ -213,39 +225,76 @@ class MissingPhysics:
     policy: Policy
     run_time: float
     simulations: int
-    traces: tuple[Traces, ...] = ()
+    traces: tuple[Traces, ...] = field(default=(), repr=False)
+    inputs: tuple[InputFindings, ...] = ()
+    sources: tuple[str, ...] = ()
+
+    FILES = ('discrepancy.json',)
 
     @property
     def is_named(self) -> bool:
         """True when effects were named."""
         return self.verdict == NAMED
 
-    def summary(self) -> str:
-        """Return the verdict in one line."""
+    @property
+    def added(self) -> tuple[str, ...]:
+        """The named families, in the order added."""
+        return tuple(e.family for e in self.named)
+
+    @property
+    def joint(self) -> bool:
+        """Whether several records were fitted jointly."""
+        return len(self.records) > 1
+
+    def finding(self) -> str:
+        """Return the verdict in one line (named effects with their values, or the set)."""
+        rms = ', '.join(f'{r.rms_baseline:.3g} -> {r.rms_final:.3g}' for r in self.records)
+        tail = f'; torque residual RMS {rms} N m'
         if self.verdict == NAMED:
             parts = []
             for e in self.named:
                 vals = ', '.join(
-                    f'{k} = {v:.4g} {e.units.get(k, "")}'.strip() for k, v in e.params.items()
+                    f'{k} = {v:.4g} {e.units.get(k, "").strip("-")}'.rstrip()
+                    for k, v in e.params.items()
                 )
                 parts.append(f'{e.family} ({vals})')
-            return 'named: ' + '; '.join(parts)
+            return 'found ' + '; '.join(parts) + tail
         if self.alternatives:
             names = ', '.join(e.family for e in self.alternatives)
-            extra = f' ({self.experiment} would decide)' if self.experiment else ''
-            return f'{self.verdict}: {{{names}}}{extra}'
-        return f'{self.verdict}: {self.reason}'
+            extra = f'; {self.experiment} would decide' if self.experiment else ''
+            what = 'cannot tell apart' if self.verdict == CANNOT_TELL_APART else 'not explained'
+            return f'{what}: {{{names}}}{extra}{tail}'
+        return f'{self.verdict.replace("_", " ")}: {self.reason}{tail}'
+
+    def summary(self) -> dict[str, object]:
+        """Return the headline numbers.
+
+        Returns
+        -------
+        dict
+            ``verdict``, ``added`` (comma-joined families), ``records``, and per the
+            first record the torque residual rms of the baseline and the final model
+            [N m] and the number of unexplained findings.
+        """
+        first = self.records[0]
+        return {
+            'verdict': self.verdict,
+            'added': ','.join(self.added),
+            'records': len(self.records),
+            'rms_baseline': first.rms_baseline,
+            'rms_final': first.rms_final,
+            'unexplained': len(first.unexplained),
+        }
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON-ready report (``discrepancy.json``)."""
         first = self.records[0]
-        return {
+        out: dict[str, object] = {
             'verdict': self.verdict,
-            'summary': self.summary(),
+            'finding': self.finding(),
             'reason': self.reason,
             'experiment': self.experiment,
             'added': [e.as_dict() for e in self.named],
-            'named': [e.family for e in self.named],
             'cannot_tell_apart': [e.as_dict() for e in self.alternatives],
             'partial': [e.as_dict() for e in self.partial],
             'baseline': {'rms': first.rms_baseline, 'params': dict(first.baseline)},
@@ -259,6 +308,58 @@ class MissingPhysics:
             'settings': {**self.policy.as_dict(), 'run_time_s': self.run_time,
                          'simulations': self.simulations, 'records': len(self.records)},
         }  # fmt: skip
+        if len(self.inputs) == 1:
+            out['input'] = self.inputs[0].summary()
+        if self.sources:
+            out['sources'] = list(self.sources)
+        return out
+
+    def rows(self) -> list[dict[str, object]]:
+        """Return one row per reported effect and parameter.
+
+        Returns
+        -------
+        list of dict
+            ``role`` (named, cannot_tell_apart, partial), ``effect``, ``form``,
+            ``param``, ``value``, ``se``, ``unit`` and the share of the excess it
+            explains.
+        """
+        rows: list[dict[str, object]] = []
+        for role, effects in (
+            ('named', self.named),
+            ('cannot_tell_apart', self.alternatives if self.verdict == CANNOT_TELL_APART else ()),
+            ('partial', self.partial if self.verdict != CANNOT_TELL_APART else ()),
+        ):
+            for e in effects:
+                for name, value in e.params.items():
+                    rows.append({
+                        'role': role, 'effect': e.family, 'form': e.form, 'param': name,
+                        'value': float(value), 'se': float(e.se.get(name, math.nan)),
+                        'unit': e.units.get(name, ''), 'explained': e.explained,
+                    })  # fmt: skip
+        return rows
+
+    def to_frame(self) -> pd.DataFrame:
+        """Return :meth:`rows` as a pandas DataFrame."""
+        import pandas as pd
+
+        cols = ('role', 'effect', 'form', 'param', 'value', 'se', 'unit', 'explained')
+        return pd.DataFrame(self.rows(), columns=list(cols))
+
+    def write(self, directory: str | os.PathLike[str]) -> list[Path]:
+        """Write ``discrepancy.json`` (strict JSON) into ``directory``; return the paths."""
+        from ..report import write_json
+
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        return [write_json(self.as_dict(), d / 'discrepancy.json')]
+
+    def plot(self, directory: str | os.PathLike[str]) -> list[Path]:
+        """Draw the figures of the first record into ``directory``; return the paths."""
+        from ..plots import write_plots
+
+        Path(directory).mkdir(parents=True, exist_ok=True)
+        return list(write_plots(self, Path(directory)))
 
 
 __all__ = ['Effect', 'MissingPhysics', 'RecordReport', 'Traces']

@@ -17,10 +17,9 @@ import numpy as np
 from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.errors import InvalidParameterError
 
+from .. import candidates as cand_lib
 from ..fitting import Record
 from ..localise import localise, torque_residual
-from ..select.baseline import drive_report
-from ..select.unexplained import describe_unexplained
 from ..stats import noise_floor
 from .decide import (
     CANNOT_TELL_APART,
@@ -32,7 +31,8 @@ from .decide import (
     decide,
     explained,
 )
-from .ensemble import LEVELS, Ensemble, Fit
+from .describe import describe_unexplained, drive_report
+from .ensemble import LEVELS, Ensemble, Fit, at_bound
 from .null import NullLaw, null_law
 from .policy import Policy, Progress, quiet
 from .prepare import Prepared, fit_record_baseline, prepare
@@ -78,6 +78,52 @@ def _effect(fit: FormFit, ens: Ensemble, current: Model, laws: Sequence[NullLaw]
     sims = ens.simulate(fit.model.values)
     rms = tuple(pb.torque_rms(s) for pb, s in zip(ens.problems, sims, strict=True))
     return Effect.of(fit, rms, explained(fit, current, laws))
+
+
+def _needed(
+    forms: list[FormFit], ens: Ensemble, laws: Sequence[NullLaw], pol: Policy, say: Progress
+) -> list[FormFit]:
+    """Drop the effects an adequate model does not need (backward elimination).
+
+    An effect kept tentatively in an earlier round explained part of the mismatch;
+    once a later effect makes the model adequate, the earlier one is refitted away:
+    when the model without it stays adequate, it is not named.
+
+    Parameters
+    ----------
+    forms : list of FormFit
+        The added forms in order; the last one's model is adequate.
+    ens : Ensemble
+        The records.
+    laws : sequence of NullLaw
+        The records' null laws.
+    pol : Policy
+        Budgets (``fit_nfev``, ``bound_margin``).
+    say : Progress
+        Receiver of progress messages.
+
+    Returns
+    -------
+    list of FormFit
+        The forms the adequate model needs, the last one's model refitted without the
+        others.
+    """
+    kept = list(forms)
+    for f in forms[:-1]:
+        rest = [g for g in kept if g is not f]
+        names = tuple(g.form for g in rest)
+        params = [p for g in rest for p in cand_lib.get(g.form).params]
+        start = {k: v for k, v in kept[-1].model.values.items()
+                 if k not in cand_lib.get(f.form).param_names}  # fmt: skip
+        fit = ens.fit(ens.specs(params), start, max_nfev=pol.fit_nfev)
+        model = judge(ens, names, fit)
+        if not failing(model, laws):
+            say(f'{f.family} is not needed once {rest[-1].family} is in the model')
+            last = rest[-1]
+            bounded = at_bound(cand_lib.get(last.form).params, fit.values, pol.bound_margin)
+            rest[-1] = FormFit(last.family, last.form, model, (), tuple(bounded))
+            kept = rest
+    return kept
 
 
 def find_missing_physics(
@@ -180,8 +226,8 @@ def find_missing_physics(
             current = top.model
     named: list[FormFit] = []
     if decision.kind == NAMED and decision.named is not None:
-        named = [*added, decision.named]
-        final = decision.named.model
+        named = _needed([*added, decision.named], ens, laws, pol, say)
+        final = named[-1].model
         if pol.confirm_replicas:
             own = _null_laws(ens, final, pol, pol.confirm_replicas, pol.seed + 7)
             still = failing(final, own)
@@ -252,7 +298,7 @@ def find_missing_physics(
             Traces(pb, b, f) for pb, b, f in zip(ens.problems, base_sims, final_sims, strict=True)
         ),
     )
-    say(f'{result.summary()} ({run_time:.1f} s, {result.simulations} simulations)')
+    say(f'{result.finding()} ({run_time:.1f} s, {result.simulations} simulations)')
     return result
 
 

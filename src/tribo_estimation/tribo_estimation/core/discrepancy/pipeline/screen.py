@@ -10,8 +10,8 @@ bound for time constants) give the current model back. For each form:
    (``Candidate.profile``, a time constant forming a curved valley with the
    levels) is held at each start value, and a parabola in its logarithm through
    the best point and its neighbours places it before it is freed.
-2. **Refine**: the forms whose screened fit has the lowest whole-record cost
-   (``Policy.refine`` of them) are refitted on the whole record from it.
+2. **Refine**: each family's forms whose screened fit has the lowest whole-record
+   cost (``Policy.refine`` of them per family) are refitted on the whole record.
 3. **Judge**: the refined fit's adequacy statistics (:func:`.null.adequacy`) and
    the parameters at a bound of their box (a form that cannot reach what the record
    asks for: a form mismatch, never a name).
@@ -31,7 +31,7 @@ import numpy as np
 from .. import candidates as cand_lib
 from ..candidates import Candidate, ParamSpec, StartContext
 from ..stats import stick_durations
-from .ensemble import Ensemble, Fit, at_bound
+from .ensemble import Ensemble, Fit, at_bound, own, plain
 from .null import Adequacy, NullLaw, adequacy
 from .policy import Policy, Progress
 
@@ -186,7 +186,12 @@ def start_context(ens: Ensemble, current: Model) -> StartContext:
 
 def _parabola_vertex(points: Sequence[tuple[float, float]]) -> float | None:
     """Return the vertex (log value) of a parabola through the best point and its neighbours."""
-    pts = sorted((math.log(v), c) for v, c in points if v > 0 and math.isfinite(c))
+    best: dict[float, float] = {}
+    for v, c in points:  # one point per value (the lowest cost)
+        if v > 0 and math.isfinite(c):
+            x = round(math.log(v), 9)
+            best[x] = min(c, best.get(x, math.inf))
+    pts = sorted(best.items())
     if len(pts) < 3:
         return None
     k = min(range(len(pts)), key=lambda i: pts[i][1])
@@ -228,16 +233,31 @@ def screen_form(
     Fit
         The best screened fit (values of all parameters).
     """
-    specs = ens.specs([*current.params(), *form.params])
+    # screening frees the levels (mu0, mu_inf) and the effects' parameters; k and the
+    # instrument terms stay at the start (fewer parameters: more iterations per budget),
+    # the refinement frees them
+    specs = [
+        p for p in ens.specs([*current.params(), *form.params])
+        if plain(p.name) in ('mu0', 'mu_inf') or '@' not in p.name
+    ]  # fmt: skip
     held = form.profile
     free = [p for p in specs if p.name != held]
     best: Fit | None = None
     profile: list[tuple[float, float]] = []
-    for pt in form.start_points(ctx):
-        start = {**current.values, **pt}
+    starts = [{**current.values, **pt} for pt in form.start_points(ctx)]
+    # the baseline's k may have absorbed part of the effect (k and a friction-law effect
+    # trade at one drive speed): the default start once more from RIG.yaml's k
+    config_k = {
+        own('k', i): pb.k
+        for i, pb in enumerate(ens.problems)
+        if abs(math.log(current.values.get(own('k', i), pb.k) / pb.k)) > 0.1
+    }
+    if config_k:
+        starts.append({**current.values, **form.default_start(), **config_k})
+    for start in starts:
         fo = ens.fit(free if held else specs, start, max_nfev=policy.screen_nfev, fold=0)
         if held:
-            profile.append((float(pt[held]), fo.cost))
+            profile.append((float(start[held]), fo.cost))
         if best is None or fo.cost < best.cost:
             best = fo
     assert best is not None
@@ -282,7 +302,7 @@ def screen(
     exclude : sequence of str
         Families not screened (those already in the model).
     deadline : float
-        ``time.perf_counter()`` after which no further form is refined.
+        ``time.perf_counter()`` after which no further form is screened or refined.
 
     Returns
     -------
@@ -296,13 +316,25 @@ def screen(
         if fam in exclude:
             continue
         for form in cand_lib.forms(fam):
+            if screened and _time.perf_counter() > deadline:
+                break
             fo = screen_form(ens, current, form, ctx, policy)
             whole = ens.cost(fo.values)
             screened.append((whole, form, fo))
             say(f'screen {form.name:<26s} cost {whole:.4g} (current {current.fit.cost:.4g})')
     screened.sort(key=lambda e: e[0])
+    # every family's best screened forms (``Policy.refine`` of them) are refined: the
+    # screening's short fits rank the forms of a family, not the families (a form whose
+    # effect the baseline's k absorbed screens far worse than it fits)
+    chosen: list[tuple[float, Candidate, Fit]] = []
+    count: dict[str, int] = {}
+    for entry in screened:
+        fam = entry[1].family_name
+        if count.get(fam, 0) < policy.refine:
+            chosen.append(entry)
+            count[fam] = count.get(fam, 0) + 1
     out: list[FormFit] = []
-    for whole, form, fo in screened[: policy.refine]:
+    for whole, form, fo in chosen:
         if _time.perf_counter() > deadline and out:
             break
         specs = ens.specs([*current.params(), *form.params])

@@ -1,15 +1,19 @@
-"""What no candidate explains: residual structure described, terms proposed.
+"""Where and how large: the drive profile report, and what no candidate explains.
 
-:func:`describe_unexplained` reports spectral lines, a phase-concentrated excess, a
-trend, a shaft-angle dependence, each with where / how large / which frequency,
-rather than forcing a name; :func:`propose_terms` fits a data-driven term (sparse
-regression, :mod:`..sparse`).
+:func:`drive_report` is the measured drive profile of ``discrepancy.json``;
+:func:`describe_unexplained` reports the residual structure a model leaves
+(spectral lines, a phase-concentrated excess, a trend, a time block, a shaft-angle
+dependence), each with where, how large and which frequency, rather than forcing a
+name; :func:`propose_terms` fits a data-driven term (sparse regression,
+:mod:`..sparse`) as a hint. These describe; they decide nothing (the decisions are
+:mod:`.decide`'s).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,7 +29,101 @@ from ..stats import (
     spectral_lines,
     trend,
 )
-from .results import Unexplained
+
+
+@dataclass(frozen=True)
+class Unexplained:
+    """Residual structure no candidate explains.
+
+    ``kind`` one of 'spectral_line', 'phase', 'trend', 'time', 'shaft_angle',
+    'broadband', 'instrument' (the stick kinematics drift: the rig or a sensor
+    changes during the record); ``where`` says where it concentrates; ``size`` its
+    magnitude (N m: line amplitude, phase excess rms, trend change over the record,
+    excess rms of the worst time block, angle-harmonic amplitude; for 'instrument'
+    the torque residual's rms it leaves); ``frequency`` Hz for lines (else None).
+    """
+
+    kind: str
+    where: str
+    size: float
+    frequency: float | None = None
+    details: dict[str, float] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON-ready form.
+
+        Returns
+        -------
+        dict[str, object]
+            Kind, where, size [N m], unit, frequency [Hz] and the details.
+        """
+        return {
+            'kind': self.kind,
+            'where': self.where,
+            'size': self.size,
+            'unit': 'N m',
+            'frequency': self.frequency,
+            **dict(self.details.items()),
+        }
+
+
+def block_speeds(pb: Problem) -> list[dict[str, float]]:
+    """Return the mean drive speed of every time block.
+
+    Parameters
+    ----------
+    pb : Problem
+        The record's fit problem.
+
+    Returns
+    -------
+    list[dict[str, float]]
+        Per block: ``block`` index, ``t_start`` / ``t_end`` [s], mean drive speed
+        ``w0`` [rad/s] of the measured profile.
+    """
+    de = pb.drive_estimate
+    seg = pb.segments
+    t = pb.record.time
+    blocks = []
+    for b in range(seg.n_blocks):
+        m = seg.block == b
+        t0 = float(t[seg.start[m][0]])
+        t1 = float(t[min(int(seg.stop[m][-1]), t.size - 1)])
+        blocks.append({'block': float(b), 't_start': t0, 't_end': t1, 'w0': de.mean_speed(t0, t1)})
+    return blocks
+
+
+def drive_report(pb: Problem) -> dict[str, object]:
+    """Return the measured drive profile for ``discrepancy.json``.
+
+    Parameters
+    ----------
+    pb : Problem
+        The record's fit problem.
+
+    Returns
+    -------
+    dict[str, object]
+        Level and nominal speed [rad/s], relative mismatch [-] and its warning, the
+        knots of the piecewise-linear profile [s, rad/s] and the mean drive speed
+        used per time block [rad/s].
+    """
+    de = pb.drive_estimate
+    blocks: list[dict[str, object]] = [
+        {'block': int(b['block']), 't_start': b['t_start'], 't_end': b['t_end'], 'w0': b['w0']}
+        for b in block_speeds(pb)
+    ]
+    return {
+        'level': de.level,
+        'nominal': de.nominal,
+        'mismatch': de.mismatch,
+        'mismatched': de.mismatched,
+        'warning': de.warning() or '',
+        'from_record': de.from_record,
+        'knot_time': [float(x) for x in de.knot_time],
+        'knot_speed': [float(x) for x in de.knot_speed],
+        'blocks': blocks,
+    }
 
 
 def describe_unexplained(
@@ -208,4 +306,4 @@ def propose_terms(
     return model.terms
 
 
-__all__ = ['describe_unexplained', 'propose_terms']
+__all__ = ['Unexplained', 'block_speeds', 'describe_unexplained', 'drive_report', 'propose_terms']

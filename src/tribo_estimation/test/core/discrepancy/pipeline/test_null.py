@@ -1,0 +1,56 @@
+"""The null law's bounds: Student-t prediction bounds of the replicas' log statistics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import t as student_t
+
+from tribo_estimation.core.discrepancy.pipeline.noise import ChannelNoise, NoiseModel
+from tribo_estimation.core.discrepancy.pipeline.null import Adequacy, NullLaw
+
+NOISE = NoiseModel(ChannelNoise(0.05), ChannelNoise(2.0), ChannelNoise(0.005))
+
+
+def _law(alpha: float = 0.01) -> NullLaw:
+    tq = (1.04, 1.05, 1.045, 1.06, 1.035, 1.05, 1.055, 1.04)
+    return NullLaw({'torsion_moment': tq, 'speed': tq, 'blocks': tq}, alpha, (0.001, -0.002, 0.0))
+
+
+def test_bound_is_the_t_prediction_bound_of_the_logs() -> None:
+    law = _law()
+    x = np.log(law.samples['torsion_moment'])
+    q = student_t.ppf(1.0 - 0.01 / 3, x.size - 1)
+    expected = math.exp(x.mean() + q * x.std(ddof=1) * math.sqrt(1.0 + 1.0 / x.size))
+    assert law.bound('torsion_moment') == pytest.approx(expected, rel=1e-12)
+    assert law.centre('torsion_moment') == pytest.approx(math.exp(x.mean()), rel=1e-12)
+
+
+def test_failing_names_the_statistics_beyond_their_bounds() -> None:
+    law = _law()
+    b = law.bound('speed')
+    inside = Adequacy({'torsion_moment': 1.0, 'speed': 0.99 * b, 'blocks': 1.0}, NOISE)
+    outside = Adequacy({'torsion_moment': 1.0, 'speed': 1.01 * b, 'blocks': 1.0}, NOISE)
+    assert law.failing(inside) == ()
+    assert law.failing(outside) == ('speed',)
+
+
+def test_a_smaller_alpha_widens_the_bound() -> None:
+    assert _law(0.001).bound('blocks') > _law(0.05).bound('blocks')
+
+
+def test_drift_outlier_is_two_sided_around_the_replicas() -> None:
+    law = _law()
+    x = np.asarray(law.drifts)
+    q = student_t.ppf(1.0 - 0.01 / 2, x.size - 1)
+    half = q * x.std(ddof=1) * math.sqrt(1.0 + 1.0 / x.size)
+    assert not law.drift_outlier(float(x.mean() + 0.99 * half))
+    assert law.drift_outlier(float(x.mean() + 1.01 * half))
+    assert law.drift_outlier(float(x.mean() - 1.01 * half))
+
+
+def test_one_replica_gives_no_bound() -> None:
+    law = NullLaw({'torsion_moment': (1.05,)}, 0.01)
+    assert law.bound('torsion_moment') == math.inf

@@ -1,0 +1,102 @@
+"""The missing-physics pipeline end to end, on records of the independent generator.
+
+Each record comes from ``validation/tribo_scenarios`` (its own equations and
+integrator): the paper's Tab. 1 rig, white noise at config/rig.yaml's levels, a drive
+profile and one hidden effect in a given form. Short records (3-4 s) keep the suite
+fast; the randomized bench (bench/bench_discrepancy_random.py) is the validation.
+"""
+
+from __future__ import annotations
+
+import pytest
+from discrepancy_scenarios import constant, record, rpm, step, sweep
+from tribo_scenarios.spec import EffectSpec
+
+from tribo_estimation.core.discrepancy import Policy, find_missing_physics
+from tribo_estimation.core.discrepancy.monitor import MonitorConfig, WindowMonitor
+from tribo_estimation.core.discrepancy.pipeline.decide import (
+    CANNOT_TELL_APART,
+    NAMED,
+    NOTHING_MISSING,
+)
+
+pytestmark = pytest.mark.slow
+
+#: A torque residual within this factor of the white noise floor fits "to the floor" [-]
+#: (the shooting segments restart from measured, noisy states: a correct model leaves
+#: about 1.05 of the floor on these records).
+FLOOR_FACTOR = 1.3
+
+
+def _lag(tau: float) -> EffectSpec:
+    return EffectSpec(
+        'library', 'frictional_lag', 'first_order', {'tau': tau}, library_params={'lag_tau': tau}
+    )
+
+
+def test_control_at_one_speed_names_nothing() -> None:
+    rec, rig, drv = record(1, constant(rpm(25)))
+    res = find_missing_physics([rec], rig, [drv])
+    assert res.verdict == NOTHING_MISSING, res.finding()
+    rep = res.records[0]
+    assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor
+
+
+def test_a_sweep_ending_inside_the_record_fits_to_the_floor() -> None:
+    # 8 -> 40 rpm over 2 s, ending 1.5 s before the record does
+    rec, rig, drv = record(4, sweep(rpm(8), rpm(40), 0.5, 2.0), duration=4.0)
+    res = find_missing_physics([rec], rig, [drv])
+    assert res.verdict == NOTHING_MISSING, res.finding()
+    rep = res.records[0]
+    assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor
+    # the profile's last knot holds the sweep's end level (40 rpm) within 2 %
+    assert rep.drive['knot_speed'][-1] == pytest.approx(rpm(40), rel=0.02)
+
+
+def test_a_saturating_drift_is_named_as_friction_drift() -> None:
+    eff = EffectSpec(
+        'library', 'friction_drift', 'saturating', {'A_mu0': 0.006, 'A_mu_inf': 0.004, 'tau': 1.5}
+    )
+    # the record starts 0.5 s into the drift: D*(1 - exp(-(t + 0.5)/tau)) is the form with
+    # D' = D*exp(-0.5/tau) and the levels shifted
+    rec, rig, drv = record(2, constant(rpm(25), start=0.5), effect=eff, duration=4.0)
+    res = find_missing_physics([rec], rig, [drv])
+    assert res.verdict == NAMED, res.finding()
+    (e,) = res.named
+    assert e.family == 'friction_drift' and e.form == 'friction_drift_saturating'
+    assert e.params['drift_sat_tau'] == pytest.approx(1.5, rel=0.2)
+    assert e.params['drift_sat_mu0'] == pytest.approx(0.006 * 0.7165, rel=0.2)
+    rep = res.records[0]
+    assert rep.rms_final < FLOOR_FACTOR * rep.noise_floor
+
+
+def test_frictional_lag_is_named_and_single_joint_and_live_agree() -> None:
+    rec, rig, drv = record(3, constant(rpm(25)), effect=_lag(0.002))
+    single = find_missing_physics([rec], rig, [drv])
+    assert single.verdict == NAMED, single.finding()
+    assert single.added == ('frictional_lag',)
+    assert single.named[0].params['lag_tau'] == pytest.approx(0.002, rel=0.2)
+    # the same record as two records fitted jointly (its two halves): the same verdict
+    half = rec.time[rec.time.size // 2]
+    parts = [rec.window(0.0, half - rec.time[0]), rec.window(half - rec.time[0], 0.0)]
+    joint = find_missing_physics(parts, rig, [drv, drv])
+    assert joint.verdict == NAMED and joint.added == ('frictional_lag',), joint.finding()
+    assert joint.named[0].params['lag_tau'] == pytest.approx(0.002, rel=0.2)
+    # the live monitor on the same record (one window, the live budget)
+    mon = WindowMonitor(rig, drv, config=MonitorConfig(window=3.0, hop=3.0, time_budget=60.0))
+    (win,) = mon.push(rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
+    assert win.verdict == NAMED and win.candidate == 'frictional_lag', win.identifiable_reason
+
+
+def test_one_speed_cannot_tell_a_lag_from_k_and_shape_but_a_speed_step_decides() -> None:
+    # a 1 ms lag at one speed is what a smaller k or another Stribeck shape also gives
+    rec, rig, drv = record(6, constant(rpm(25)), effect=_lag(0.001))
+    res = find_missing_physics([rec], rig, [drv], policy=Policy(max_effects=1))
+    assert res.verdict in (CANNOT_TELL_APART, NOTHING_MISSING), res.finding()
+    if res.verdict == CANNOT_TELL_APART:
+        assert 'frictional_lag' in {e.family for e in res.alternatives}
+        assert 'speed' in res.experiment
+    # a 12 -> 30 rpm step in the record separates them
+    rec2, rig2, drv2 = record(6, step(rpm(12), rpm(30), 1.5), effect=_lag(0.001))
+    res2 = find_missing_physics([rec2], rig2, [drv2])
+    assert res2.verdict == NAMED and res2.added == ('frictional_lag',), res2.finding()
