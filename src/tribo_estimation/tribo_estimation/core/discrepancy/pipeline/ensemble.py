@@ -196,6 +196,11 @@ class Ensemble:
             n += int(np.count_nonzero(sim.covered))
         return total / max(n, 1)
 
+    def screen_folds(self, seconds: float) -> int:
+        """Return the folds whose first holds about ``seconds`` of each record (at least 2)."""
+        longest = max(float(pb.record.time[-1] - pb.record.time[0]) for pb in self.problems)
+        return max(2, round(longest / max(seconds, 1e-9)))
+
     def n_evals(self) -> int:
         """Return the simulations run so far (all records)."""
         return sum(pb.n_evals for pb in self.problems)
@@ -208,6 +213,7 @@ class Ensemble:
         *,
         max_nfev: int,
         fold: int | None = None,
+        folds: int = 2,
     ) -> Fit:
         """Fit the ``free`` parameters by least squares of the output error.
 
@@ -221,6 +227,8 @@ class Ensemble:
             Most simulation rounds (each simulates every record).
         fold : int or None
             Fit only the time blocks of one fold (None: all).
+        folds : int
+            Number of folds (the blocks ``b % folds == fold`` are fitted).
 
         Returns
         -------
@@ -247,7 +255,7 @@ class Ensemble:
         hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
         x0 = np.asarray([to_x(p, float(start.get(p.name, p.initial))) for p in free])
         sol = levenberg_marquardt(
-            lambda x: self.residuals(from_x(x), fold),
+            lambda x: self.residuals(from_x(x), fold, folds),
             x0,
             lo,
             hi,

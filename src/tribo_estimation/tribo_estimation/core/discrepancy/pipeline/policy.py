@@ -40,7 +40,9 @@ class Policy:
     replica_nfev : int
         Simulations of a replica's refit.
     screen_nfev : int
-        Simulations of a screening fit (on half the time blocks).
+        Simulations of a screening fit.
+    screen_seconds : float
+        Record time a screening fit sees [s] (every k-th time block; at least half).
     fit_nfev : int
         Simulations of a refinement on the whole record.
     refine : int
@@ -67,6 +69,7 @@ class Policy:
     confirm_replicas: int = 4
     replica_nfev: int = 10
     screen_nfev: int = 15
+    screen_seconds: float = 2.0
     fit_nfev: int = 40
     refine: int = 1
     families: tuple[str, ...] | None = None
@@ -96,6 +99,8 @@ class Policy:
             raise InvalidParameterError(
                 f'bound_margin must be in [0, 0.5), got {self.bound_margin}'
             )
+        if not self.screen_seconds > 0.0:
+            raise InvalidParameterError(f'screen_seconds must be > 0 s, got {self.screen_seconds}')
         if not self.block_time > 0.0:
             raise InvalidParameterError(f'block_time must be > 0 s, got {self.block_time}')
         if not self.time_budget > 0.0:
@@ -135,6 +140,7 @@ class Policy:
             'confirm_replicas': self.confirm_replicas,
             'replica_nfev': self.replica_nfev,
             'screen_nfev': self.screen_nfev,
+            'screen_seconds': self.screen_seconds,
             'fit_nfev': self.fit_nfev,
             'refine': self.refine,
             'families': list(self.families) if self.families is not None else None,

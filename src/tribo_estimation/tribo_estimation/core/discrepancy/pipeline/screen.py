@@ -6,7 +6,8 @@ bound for time constants) give the current model back. For each form:
 
 1. **Screen**: a short fit from each of its start points (the default, the nested
    start and those computed from the current residual, e.g. a ripple's frequency
-   from a spectral line) on half the time blocks. A *profiled* parameter
+   from a spectral line) on every k-th time block (about ``Policy.screen_seconds`` of
+   each record, at least half its blocks). A *profiled* parameter
    (``Candidate.profile``, a time constant forming a curved valley with the
    levels) is held at each start value, and a parabola in its logarithm through
    the best point and its neighbours places it before it is freed.
@@ -242,6 +243,7 @@ def screen_form(
     ]  # fmt: skip
     held = form.profile
     free = [p for p in specs if p.name != held]
+    folds = ens.screen_folds(policy.screen_seconds)
     best: Fit | None = None
     profile: list[tuple[float, float]] = []
     starts = [{**current.values, **pt} for pt in form.start_points(ctx)]
@@ -255,7 +257,9 @@ def screen_form(
     if config_k:
         starts.append({**current.values, **form.default_start(), **config_k})
     for start in starts:
-        fo = ens.fit(free if held else specs, start, max_nfev=policy.screen_nfev, fold=0)
+        fo = ens.fit(
+            free if held else specs, start, max_nfev=policy.screen_nfev, fold=0, folds=folds
+        )
         if held:
             profile.append((float(start[held]), fo.cost))
         if best is None or fo.cost < best.cost:
@@ -268,7 +272,10 @@ def screen_form(
             if xv is None or any(abs(math.log(v) - xv) < 0.02 for v, _ in profile):
                 break
             value = min(max(math.exp(xv), spec.lower), spec.upper)
-            fo = ens.fit(free, {**best.values, held: value}, max_nfev=policy.screen_nfev, fold=0)
+            fo = ens.fit(
+                free, {**best.values, held: value}, max_nfev=policy.screen_nfev, fold=0,
+                folds=folds,
+            )  # fmt: skip
             profile.append((value, fo.cost))
             if fo.cost < best.cost:
                 best = fo
