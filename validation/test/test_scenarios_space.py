@@ -23,9 +23,9 @@ from tribo_scenarios.__main__ import main
 from tribo_scenarios.space import RPM
 
 PKG = Path(__file__).resolve().parents[1] / 'tribo_scenarios'
-SPEC_LABELS = {'rig', 'fs', 'drive', 'speed_lag', 'torque_lag', 'hum', 'coloured_noise', 'spikes',
-               'torque_noise', 'config_shaft', 'config_k', 'category', 'family', 'form',
-               'duration'}  # fmt: skip
+SPEC_LABELS = {'rig', 'fs', 'drive', 'speed_lag', 'torque_lag', 'accel_lag', 'hum',
+               'coloured_noise', 'spikes', 'torque_noise', 'config_shaft', 'config_k',
+               'category', 'family', 'form', 'duration'}  # fmt: skip
 
 
 @pytest.fixture(scope='module')

@@ -728,14 +728,15 @@ def instrument_labels(ins: InstrumentSpec) -> dict[str, str]:
     Returns
     -------
     dict[str, str]
-        ``speed_lag``, ``torque_lag``, ``hum``, ``coloured_noise``, ``spikes``,
-        ``torque_noise`` ('<0.03', '0.03-0.06', '>0.06' N m).
+        ``speed_lag``, ``torque_lag``, ``accel_lag``, ``hum``, ``coloured_noise``,
+        ``spikes``, ``torque_noise`` ('<0.03', '0.03-0.06', '>0.06' N m).
     """
     chans = (ins.torque, ins.accel, ins.speed)
     n = ins.torque.noise
     return {
         'speed_lag': _lag_label(ins.speed),
         'torque_lag': _lag_label(ins.torque),
+        'accel_lag': _lag_label(ins.accel),
         'hum': 'yes' if any(c.hum_freq > 0 for c in chans) else 'no',
         'coloured_noise': 'yes' if any(c.coloured != 'none' for c in chans) else 'no',
         'spikes': 'yes' if any(c.spikes > 0 for c in chans) else 'no',
