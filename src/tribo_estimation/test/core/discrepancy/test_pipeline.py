@@ -9,8 +9,8 @@ fast; the randomized bench (bench/bench_discrepancy_random.py) is the validation
 from __future__ import annotations
 
 import pytest
-from discrepancy_scenarios import constant, record, rpm, step, sweep
-from tribo_scenarios.spec import EffectSpec
+from discrepancy_scenarios import clean_instrument, constant, record, rpm, step, sweep
+from tribo_scenarios.spec import ChannelSpec, EffectSpec, InstrumentSpec
 
 from tribo_estimation.core.discrepancy import Policy, find_missing_physics
 from tribo_estimation.core.discrepancy.monitor import MonitorConfig, WindowMonitor
@@ -39,6 +39,25 @@ def test_control_at_one_speed_names_nothing() -> None:
     res = find_missing_physics([rec], rig, [drv])
     assert res.verdict == NOTHING_MISSING, res.finding()
     rep = res.records[0]
+    assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor
+
+
+def test_mains_hum_is_instrument_not_physics() -> None:
+    # 50 Hz hum and its harmonic on the torque (2x and 0.8x the noise), 50 Hz on the speed
+    c = clean_instrument()
+    hummed = InstrumentSpec(
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, 0.05, hum_freq=50.0, hum_amps=(0.1, 0.04),
+                    hum_phases=(0.3, 1.0)),
+        c.accel,
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, 0.005, hum_freq=50.0, hum_amps=(0.01,),
+                    hum_phases=(2.0,)),
+    )  # fmt: skip
+    rec, rig, drv = record(7, constant(rpm(25)), instrument=hummed)
+    res = find_missing_physics([rec], rig, [drv])
+    assert res.verdict == NOTHING_MISSING, res.finding()
+    rep = res.records[0]
+    lines = {(h['channel'], h['frequency']) for h in rep.instrument['mains_hum']}
+    assert {('torsion_moment', 50.0), ('torsion_moment', 100.0), ('speed', 50.0)} <= lines
     assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor
 
 

@@ -753,3 +753,116 @@ def sensor_view(
     off = sensor.offset if math.isfinite(sensor.offset) else 0.0
     w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
     return speed_slope(record.speed, record.dt), w1, (tau, off)
+
+
+#: Mains frequencies whose lines on a channel are instrument (hum), not physics [Hz].
+MAINS_HZ: tuple[float, ...] = (50.0, 60.0)
+#: Harmonics of a mains frequency tested [-].
+MAINS_HARMONICS = 5
+#: Neighbouring frequencies (multiples of the record's resolution 1/T) that give a
+#: line's local null level [-].
+_HUM_NEIGHBOURS = tuple(j for j in range(-12, 13) if abs(j) >= 2)
+
+
+@dataclass(frozen=True)
+class Hum:
+    """Mains hum on the channels: the lines found and taken out.
+
+    Parameters
+    ----------
+    lines : tuple of (str, float, float, float)
+        Per line: channel name, frequency [Hz], amplitude [unit of the channel],
+        phase [rad] (``x += amplitude*sin(2 pi f t + phase)``).
+    """
+
+    lines: tuple[tuple[str, float, float, float], ...] = ()
+
+    def remove(self, record: Record) -> Record:
+        """Return the record with the lines subtracted from their channels."""
+        if not self.lines:
+            return record
+        cols = {c: record.channel(c).copy() for c in HUM_CHANNELS}
+        t = record.time
+        for c, f, a, p in self.lines:
+            cols[c] -= a * np.sin(2.0 * math.pi * f * t + p)
+        return replace(
+            record,
+            torsion_moment=cols['torsion_moment'],
+            angular_acceleration=cols['angular_acceleration'],
+            speed=cols['speed'],
+        )
+
+    def report(self) -> list[dict[str, object]]:
+        """Return the ``mains_hum`` entry of ``discrepancy.json``."""
+        return [
+            {'channel': c, 'frequency': f, 'amplitude': a, 'phase': p} for c, f, a, p in self.lines
+        ]
+
+
+#: Channels whose mains lines are taken out.
+HUM_CHANNELS: tuple[str, str, str] = ('torsion_moment', 'angular_acceleration', 'speed')
+
+
+def _line(t: FloatArray, r: FloatArray, f: float) -> tuple[float, float]:
+    """Least-squares sine at ``f`` [Hz] through ``r``: amplitude and phase."""
+    w = 2.0 * math.pi * f * t
+    X = np.column_stack((np.sin(w), np.cos(w)))
+    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+    a, b = float(coef[0]), float(coef[1])
+    return math.hypot(a, b), math.atan2(b, a)
+
+
+def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: float) -> Hum:
+    """Find the mains lines on a model's residuals (instrument, not physics).
+
+    For each channel, mains frequency (:data:`MAINS_HZ`) and harmonic (up to
+    :data:`MAINS_HARMONICS`) the least-squares sine through the residual is compared
+    with the sines at the neighbouring frequencies ``f + j/T`` (|j| = 2..12, T the
+    record's span): without a line its power is exponentially distributed around
+    theirs, so ``P(f)/median(P(f + j/T))`` exceeds ``x`` with probability about
+    ``2^-x``. A line is taken out when that ratio exceeds ``log2(m/alpha)`` (m the
+    lines tested: Bonferroni), so noise and a model mismatch's broad spectrum leave
+    it alone.
+
+    Parameters
+    ----------
+    time : FloatArray
+        Sample times [s] (the residuals' samples).
+    residuals : mapping of str to FloatArray
+        Per channel of :data:`HUM_CHANNELS`, measured - simulated [unit]; NaN samples
+        are left out.
+    alpha : float
+        Chance that a record without hum has a line taken out [-].
+
+    Returns
+    -------
+    Hum
+        The lines found.
+    """
+    span = float(time[-1] - time[0]) if time.size > 1 else 0.0
+    if span <= 0.0:
+        return Hum()
+    fs = (time.size - 1) / span
+    tests = [
+        (c, k * fm)
+        for c in HUM_CHANNELS
+        for fm in MAINS_HZ
+        for k in range(1, MAINS_HARMONICS + 1)
+        if k * fm < 0.45 * fs
+    ]
+    if not tests:
+        return Hum()
+    limit = math.log2(len(tests) / alpha)
+    lines: list[tuple[str, float, float, float]] = []
+    for c, f in tests:
+        r = residuals[c]
+        ok = np.isfinite(r)
+        if np.count_nonzero(ok) < 100:
+            continue
+        t, x = time[ok], r[ok] - float(np.mean(r[ok]))
+        amp, phase = _line(t, x, f)
+        near = [_line(t, x, f + j / span)[0] ** 2 for j in _HUM_NEIGHBOURS]
+        level = float(np.median(near))
+        if level > 0.0 and amp * amp / level > limit:
+            lines.append((c, f, amp, phase))
+    return Hum(tuple(lines))

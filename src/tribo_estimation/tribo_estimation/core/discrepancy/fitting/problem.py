@@ -128,6 +128,8 @@ class Problem:
             )
         )
         self.n_evals = 0
+        #: mains lines per raw channel [Hz] (instrument; projected out of the residuals)
+        self.hum_lines: dict[str, tuple[float, ...]] = {}
         #: instrument parameters refitted with every model (the baseline frees the
         #: speed-sensor lag and offset when the lag is significant; none by default)
         self.free_instrument: tuple[ParamSpec, ...] = ()
@@ -225,6 +227,7 @@ class Problem:
             block_time=self.block_time,
         )  # fmt: skip
         pb.free_instrument = self.free_instrument
+        pb.hum_lines = dict(self.hum_lines)
         return pb
 
     # ------------------------------------------------------------------ weights
@@ -660,7 +663,8 @@ class Problem:
             w = self.weights.get(c, 0.0)
             if w > 0:
                 r = self._meas[c][cov] - sim.channel(c)[cov]
-                parts.append(w * r)
+                src = 'angular_acceleration' if c == 'chamber_speed' else c
+                parts.append(w * self.without_lines(src, r, cov))
         v = np.concatenate(parts)
         # a diverged simulation (NaN) is a very bad fit, not a crash of the optimiser
         return np.where(np.isfinite(v), v, 1e3)
@@ -697,7 +701,46 @@ class Problem:
         """
         cov = sim.covered
         r = self.record.torsion_moment[cov] - sim.torsion_moment[cov]
+        r = self.without_lines('torsion_moment', r, cov)
         return float(np.sqrt(np.mean(r * r)))
+
+    def without_lines(
+        self, channel: str, residual: FloatArray, covered: npt.NDArray[np.bool_]
+    ) -> FloatArray:
+        """Return a residual with the channel's mains lines projected out.
+
+        The lines (:attr:`hum_lines`, instrument, not physics: :func:`.identify_hum`)
+        are linear nuisance terms: the least-squares sine and cosine at each of their
+        frequencies over the compared samples are taken out, whatever the model.
+
+        Parameters
+        ----------
+        channel : str
+            The raw channel (``torsion_moment``, ``angular_acceleration``, ``speed``).
+        residual : FloatArray
+            Measured - simulated over the ``covered`` samples [unit].
+        covered : numpy.ndarray of bool
+            The compared samples of the record.
+
+        Returns
+        -------
+        FloatArray
+            The residual without the lines [unit].
+        """
+        freqs = self.hum_lines.get(channel, ())
+        if not freqs or residual.size < 4 * len(freqs) + 1:
+            return residual
+        t = self.record.time[covered]
+        cols = []
+        for f in freqs:
+            w = 2.0 * math.pi * f * t
+            cols.extend((np.sin(w), np.cos(w)))
+        X = np.column_stack(cols)
+        ok = np.isfinite(residual)
+        if not np.all(ok):
+            return residual
+        coef, *_ = np.linalg.lstsq(X, residual, rcond=None)
+        return np.asarray(residual - X @ coef, dtype=np.float64)
 
     # --------------------------------------------------------------------- fit
     def fit(

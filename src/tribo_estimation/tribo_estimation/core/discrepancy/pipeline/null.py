@@ -68,6 +68,8 @@ class Adequacy:
 def raw_residuals(problem: Problem, sim: SimulatedRecord) -> dict[str, FloatArray]:
     """Return measured minus simulated per raw channel (NaN off the simulated samples).
 
+    The channel's mains lines (:attr:`..fitting.Problem.hum_lines`) are projected out.
+
     Parameters
     ----------
     problem : Problem
@@ -81,7 +83,13 @@ def raw_residuals(problem: Problem, sim: SimulatedRecord) -> dict[str, FloatArra
         Per :data:`.noise.RAW_CHANNELS` [unit].
     """
     rec = problem.record
-    return {c: np.asarray(rec.channel(c) - sim.channel(c), dtype=np.float64) for c in RAW_CHANNELS}
+    cov = sim.covered
+    out = {}
+    for c in RAW_CHANNELS:
+        r = np.asarray(rec.channel(c) - sim.channel(c), dtype=np.float64)
+        r[cov] = problem.without_lines(c, r[cov], cov)
+        out[c] = r
+    return out
 
 
 def _rms(x: FloatArray) -> float:

@@ -1,6 +1,7 @@
 """Steps 1 and 2 of the pipeline: prepare each record, fit the baseline.
 
-``prepare`` turns a checked record into a fit problem: the torsion amplifier's lag
+``prepare`` turns a checked record into a fit problem: the torsion amplifier's (or the
+accelerometer's) lag
 is identified from the chamber kinematics and compensated
 (:func:`..fitting.identify_torsion_lag`), the record is cut into segments that start
 in its stick phases, the drive profile is measured from it
@@ -17,6 +18,7 @@ free when the lag is significant; they then stay free in every model of the reco
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -25,6 +27,7 @@ from tribo_estimation.core.model import DriveProfile, RigParams
 
 from ..fitting import (
     CHANNELS,
+    HUM_CHANNELS,
     MU0,
     SPEED_LAG,
     SPEED_OFFSET,
@@ -34,6 +37,7 @@ from ..fitting import (
     SpeedSensor,
     TorsionLag,
     identify_accel_sensor,
+    identify_hum,
     identify_speed_sensor,
     identify_torsion_lag,
     torsion_compensated_record,
@@ -128,6 +132,62 @@ def prepare(
         'stick_samples': sensor.n,
     }
     return Prepared(pb, tq, sensor, instrument)
+
+
+def without_hum(prep: Prepared, values: Mapping[str, float], policy: Policy) -> Prepared:
+    """Take the mains hum the baseline leaves out of the record (instrument, not physics).
+
+    The lines of :func:`..fitting.identify_hum` on the baseline's residuals of the
+    torsion moment and the shaft speed (the record's channels in the torsion moment's
+    frame) are subtracted from the record, so the segments' start states are free of
+    them; the problem and the speed sensor are built again from the cleaned record,
+    and the lines' frequencies stay linear nuisance terms of its fits
+    (:attr:`..fitting.Problem.hum_lines`, what a later pass finds adds to them).
+    Unchanged (the same object) without new lines.
+
+    Parameters
+    ----------
+    prep : Prepared
+        The prepared record.
+    values : mapping of str to float
+        Its baseline's values.
+    policy : Policy
+        The policy (``alpha``, ``block_time``).
+
+    Returns
+    -------
+    Prepared
+        The record without the hum (``instrument['mains_hum']`` lists the lines of
+        every pass).
+    """
+    pb = prep.problem
+    sim = pb.simulate(values)
+    res = {
+        c: np.where(sim.covered, pb.record.channel(c) - sim.channel(c), np.nan)
+        if c in _HUM_JUDGED else np.full(sim.covered.size, np.nan)
+        for c in HUM_CHANNELS
+    }  # fmt: skip
+    hum = identify_hum(pb.record.time, res, policy.alpha)
+    if not hum.lines:
+        return prep
+    earlier = prep.instrument.get('mains_hum')
+    found = [*earlier] if isinstance(earlier, list) else []
+    instrument = {**prep.instrument, 'mains_hum': [*found, *hum.report()]}
+    rec = hum.remove(pb.record)
+    new = Problem(rec, pb.rig, pb.drive, k=pb.k, block_time=policy.block_time)
+    lines = dict(pb.hum_lines)
+    for c, f, _, _ in hum.lines:
+        if f not in lines.get(c, ()):
+            lines[c] = (*lines.get(c, ()), f)
+    new.hum_lines = lines
+    sensor = identify_speed_sensor(rec, pb.rig, new.segments.stick_phases())
+    return Prepared(new, prep.torsion_lag, sensor, instrument)
+
+
+#: Channels whose hum is looked for on the baseline's residual: the acceleration's
+#: residual carries lines the torsion moment's hum induces through the segments'
+#: start states (and its own hum integrates to little chamber speed).
+_HUM_JUDGED: tuple[str, ...] = ('torsion_moment', 'speed')
 
 
 def baseline_starts(problem: Problem) -> list[dict[str, float]]:
@@ -237,4 +297,5 @@ __all__ = [
     'channel_floors',
     'fit_record_baseline',
     'prepare',
+    'without_hum',
 ]

@@ -35,9 +35,12 @@ from .describe import describe_unexplained, drive_report
 from .ensemble import LEVELS, Ensemble, Fit, at_bound
 from .null import NullLaw, null_law
 from .policy import Policy, Progress, quiet
-from .prepare import Prepared, fit_record_baseline, prepare
+from .prepare import Prepared, fit_record_baseline, prepare, without_hum
 from .result import Effect, MissingPhysics, RecordReport, Traces
 from .screen import FormFit, Model, failing, judge, screen
+
+#: Passes of the hum's removal (each takes out what the baseline left of it).
+_HUM_PASSES = 3
 
 
 def _null_laws(
@@ -178,6 +181,16 @@ def find_missing_physics(
         prepare(r, rig, d, k=k, policy=pol) for r, d in zip(records, drives, strict=True)
     ]
     base_vals = [fit_record_baseline(p, pol, say) for p in preps]
+    for i in range(len(preps)):
+        # the baseline absorbs part of a hum line (its segments start from states that
+        # carry it): the lines are taken out, the baseline refitted, until none is left
+        for _ in range(_HUM_PASSES):
+            cleaned = without_hum(preps[i], base_vals[i], pol)
+            if cleaned is preps[i]:
+                break
+            say(f'record {i}: mains hum taken out: {cleaned.problem.hum_lines}')
+            preps[i] = cleaned
+            base_vals[i] = fit_record_baseline(cleaned, pol, say)
     ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)
     start = ens.join(base_vals)
     if ens.shared_friction:
