@@ -19,6 +19,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -254,6 +255,7 @@ def find_missing_physics(
     families: Sequence[str] | None = None,
     max_effects: int = 2,
     alpha: float = 0.01,
+    time_budget: float | None = None,
     torsion_lag: bool = True,
     shared_friction: bool = False,
     progress: Progress | None = None,
@@ -281,6 +283,9 @@ def find_missing_physics(
     alpha : float
         False-alarm rate of every adequacy decision [-] (a bound on the rate of
         naming an effect in a record with nothing missing).
+    time_budget : float or None
+        Wall time after which no further candidate form is fitted [s] (None: no limit);
+        a family is then named only if every family was fitted.
     torsion_lag : bool
         Identify and compensate the torsion amplifier's (or accelerometer's) lag.
     shared_friction : bool
@@ -314,7 +319,13 @@ def find_missing_physics(
     names = tuple(families) if families else None
     for n in names or ():
         cand_lib.forms(n)  # raises UnknownCandidateError naming the known families
-    policy = Policy(alpha=alpha, families=names, max_effects=max_effects, torsion_lag=torsion_lag)
+    policy = Policy(
+        alpha=alpha,
+        families=names,
+        max_effects=max_effects,
+        torsion_lag=torsion_lag,
+        time_budget=math.inf if time_budget is None else time_budget,
+    )
     result = run_pipeline(
         recs,
         cfg.rig,

@@ -121,6 +121,14 @@ def register(sub: Subparsers) -> None:
         help='most effects to add (2)',
     )
     p.add_argument(
+        '--time-budget',
+        type=bounded_float(1.0, 1e6, unit='s'),
+        default=None,
+        metavar='S',
+        help='wall time after which no further candidate form is fitted [s] (none); a '
+        'family is then named only if every family was fitted',
+    )
+    p.add_argument(
         '--alpha',
         type=bounded_float(1e-4, 0.2),
         default=0.01,
@@ -192,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
         families=names,
         max_effects=args.max_effects,
         alpha=args.alpha,
+        time_budget=args.time_budget,
         torsion_lag=not args.no_torsion_lag,
         shared_friction=args.shared_friction,
         progress=_say,

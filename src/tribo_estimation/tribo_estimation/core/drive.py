@@ -398,6 +398,15 @@ def _corners(inner: FloatArray) -> FloatArray:
     return np.asarray(sorted(out), dtype=np.float64)
 
 
+#: Most corners whose instants are searched [-]: more are the smoothed speed following
+#: slow stick-slip cycles (a drive at a few rpm), not transitions of the drive; they
+#: keep the smoothing's instants (the search's cost grows with their square).
+_MAX_PLACED = 8
+#: Most drive angles the corner placement fits [-] (the knot speeds of the final
+#: profile are solved on all of them).
+_PLACE_SAMPLES = 3000
+
+
 def _place(
     tk: FloatArray,
     free: npt.NDArray[np.bool_],
@@ -435,6 +444,11 @@ def _place(
         The knot times [s].
     """
     tk = tk.copy()
+    if tt.size > _PLACE_SAMPLES:
+        # the corners' placement sees at most this many angles (evenly thinned): every
+        # trial is a least-squares solve over them
+        pick = np.linspace(0, tt.size - 1, _PLACE_SAMPLES).astype(np.int64)
+        tt, ph = tt[pick], ph[pick]
     _, best = _solve_speeds(tk, tt, ph, start)
     idx = np.flatnonzero(free).tolist()
     moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
@@ -545,7 +559,7 @@ def refine_with_angles(
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
         tk0 = tk
-        if free.any():
+        if free.any() and int(free.sum()) <= _MAX_PLACED:
             tk = _place(tk0, free, tt, ph, start_speed, not keep_corners)
     else:
         tk = drive.knot_time.copy()

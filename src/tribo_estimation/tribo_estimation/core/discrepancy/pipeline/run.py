@@ -226,6 +226,16 @@ def find_missing_physics(
                 exclude=[f.family for f in added], deadline=deadline,
             )  # fmt: skip
             decision = decide(fits, current, laws, single_speed=_single_speed(ens))
+            screened = {f.family for f in fits}
+            wanted = set(pol.families or cand_lib.families()) - {f.family for f in added}
+            if decision.kind == NAMED and not wanted <= screened and decision.named is not None:
+                # a name says no other family explains the record: every family must
+                # have been fitted for that
+                decision = Decision(
+                    UNEXPLAINED, None, (decision.named,), decision.partial,
+                    f'{decision.named.family} explains the mismatch, but the time budget '
+                    f'ended before {", ".join(sorted(wanted - screened))} were fitted',
+                )  # fmt: skip
             rounds.append(tuple(_effect(f, ens, current, laws) for f in fits))
             say(f'round {rnd + 1}: {decision.kind}: {decision.reason}')
             if decision.kind in (NAMED, CANNOT_TELL_APART):

@@ -324,6 +324,7 @@ def screen(
             continue
         for form in cand_lib.forms(fam):
             if screened and _time.perf_counter() > deadline:
+                say(f'time budget spent: {form.name} and later forms not screened')
                 break
             fo = screen_form(ens, current, form, ctx, policy)
             whole = ens.cost(fo.values)
@@ -343,6 +344,7 @@ def screen(
     out: list[FormFit] = []
     for whole, form, fo in chosen:
         if _time.perf_counter() > deadline and out:
+            say(f'time budget spent: {form.name} and later forms not refined')
             break
         specs = ens.specs([*current.params(), *form.params])
         fit = ens.fit(specs, fo.values, max_nfev=policy.fit_nfev)
