@@ -51,6 +51,8 @@ def test_drift_outlier_is_two_sided_around_the_replicas() -> None:
     assert law.drift_outlier(float(x.mean() - 1.01 * half))
 
 
-def test_one_replica_gives_no_bound() -> None:
+def test_without_two_replicas_there_is_no_law_and_nothing_is_adequate() -> None:
     law = NullLaw({'torsion_moment': (1.05,)}, 0.01)
-    assert law.bound('torsion_moment') == math.inf
+    assert math.isnan(law.bound('torsion_moment'))
+    fit = Adequacy({'torsion_moment': 1.0}, NOISE)
+    assert law.failing(fit) == ('torsion_moment',)

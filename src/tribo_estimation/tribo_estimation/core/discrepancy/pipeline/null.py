@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tribo_estimation.errors import EstimationError
+
 from ..candidates import ParamSpec
 from ..fitting import Problem, Record, SimulatedRecord
 from .noise import RAW_CHANNELS, NoiseModel, measure_noise
@@ -201,7 +203,7 @@ class NullLaw:
         return min((len(v) for v in self.samples.values()), default=0)
 
     def bound(self, name: str) -> float:
-        """Return the threshold of one statistic [-] (inf without two replicas).
+        """Return the threshold of one statistic [-] (NaN without two replicas: no law).
 
         Parameters
         ----------
@@ -216,7 +218,7 @@ class NullLaw:
         x = np.log(np.asarray([v for v in self.samples[name] if v > 0 and math.isfinite(v)]))
         b = x.size
         if b < 2:
-            return math.inf
+            return math.nan
         from scipy.stats import t as student_t
 
         q = float(student_t.ppf(1.0 - self.alpha / max(len(self.samples), 1), b - 1))
@@ -273,9 +275,10 @@ class NullLaw:
         Returns
         -------
         tuple of str
-            The names of the failing statistics.
+            The names of the failing statistics (all of them without a law: a model is
+            only adequate against a measured null law).
         """
-        return tuple(n for n in self.samples if stats.values[n] > self.bound(n))
+        return tuple(n for n in self.samples if not stats.values[n] <= self.bound(n))
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON-ready form (per statistic: replicas' centre and bound)."""
@@ -329,9 +332,12 @@ def null_law(
     out: dict[str, list[float]] = {n: [] for n in STATISTICS}
     drifts: list[float] = []
     for _ in range(replicas):
-        rep = problem.like(replica(problem, values, noise, rng))
-        fo = rep.fit(free, values, max_nfev=max_nfev)
-        st = adequacy(rep, rep.simulate(fo.values))
+        try:
+            rep = problem.like(replica(problem, values, noise, rng))
+            fo = rep.fit(free, values, max_nfev=max_nfev)
+            st = adequacy(rep, rep.simulate(fo.values))
+        except EstimationError:  # a replica that cannot be fitted gives no sample
+            continue
         for n in STATISTICS:
             out[n].append(st.values[n])
         drifts.append(identify_speed_sensor(rep.record, rep.rig, rep.segments.stick_phases()).drift)
