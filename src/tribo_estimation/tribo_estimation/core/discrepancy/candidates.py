@@ -222,12 +222,6 @@ class Candidate:
             for p, xi in zip(self.params, x, strict=True)
         }
 
-    def unit_bounds(self) -> tuple[FloatArray, FloatArray]:
-        """Bounds in the optimiser's coordinates."""
-        lo = [math.log(p.lower) if p.log else p.lower / p.scale for p in self.params]
-        hi = [math.log(p.upper) if p.log else p.upper / p.scale for p in self.params]
-        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-
     def units(self) -> dict[str, str]:
         """Parameter name -> SI unit."""
         return {p.name: p.unit for p in self.params}

@@ -216,7 +216,6 @@ class WindowMonitor:
         self._n = 0
         self._fs: float | None = None
         self._next_end: float | None = None
-        self._last_values: dict[str, float] | None = None
 
     # ------------------------------------------------------------------ input
     def reset(self) -> None:

@@ -21,15 +21,10 @@ from .stats import FloatArray
 
 @dataclass(frozen=True)
 class SparseTerm:
-    """One selected term: ``coefficient * feature``.
-
-    ``contribution_rms`` is the rms of that product over the record (residual
-    unit, N m for torque).
-    """
+    """One selected term: ``coefficient * feature`` (residual unit, N m for torque)."""
 
     name: str
     coefficient: float
-    contribution_rms: float
 
 
 @dataclass(frozen=True)
@@ -93,7 +88,7 @@ def stlsq(
         coef[active] = sol
     resid = y - np.sum(X * coef, axis=1)
     terms = tuple(
-        SparseTerm(names[i], float(coef[i]), float(abs(coef[i]) * col_rms[i]))
+        SparseTerm(names[i], float(coef[i]))
         for i in np.argsort(-np.abs(coef) * col_rms)
         if active[i] and coef[i] != 0.0
     )

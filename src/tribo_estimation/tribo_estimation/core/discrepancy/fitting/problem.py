@@ -551,57 +551,6 @@ class Problem:
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
-    def drive_state(self) -> tuple[DriveEstimate, DriveKnots]:
-        """Return the current drive profile (for :meth:`restore_drive_state`).
-
-        Returns
-        -------
-        tuple of (DriveEstimate, DriveKnots)
-            The profile and its kernel knots.
-        """
-        return self.drive_estimate, self._knots
-
-    def restore_drive_state(self, state: tuple[DriveEstimate, DriveKnots]) -> None:
-        """Restore a drive profile saved by :meth:`drive_state`.
-
-        Parameters
-        ----------
-        state : tuple of (DriveEstimate, DriveKnots)
-            The saved profile and knots.
-        """
-        self.drive_estimate, self._knots = state
-
-    def replace_drive(self, values: Mapping[str, float]) -> None:
-        """Search the drive profile's corners again, locally, with the model ``values``.
-
-        The corners are placed once, with the baseline (:meth:`_set_instrument`); a
-        model whose terms change the drive angles at the stick samples (a drive
-        ripple, a torque-offset drift) only re-fits the knot speeds at every
-        simulation, so corners placed under the baseline's unmodelled ripple stay
-        where its angles put them (a speed step's corner 2.7 ms off). Called once for
-        an accepted model; the caller keeps the result only if it fits better.
-
-        Parameters
-        ----------
-        values : mapping of str to float
-            Model values (see :meth:`model_objects`).
-        """
-        if self.segments.sliding:
-            return
-        _, ext = self.model_objects(values)
-        tau = float(values.get('speed_lag_tau', 0.0))
-        offset = float(values.get('speed_offset', 0.0))
-        ripple = (
-            ext.ripple_amp,
-            ext.ripple_freq,
-            ext.ripple_phase,
-            ext.ripple2_amp,
-            ext.ripple2_phase,
-        )
-        torque = (ext.torque_offset, ext.torque_offset_drift)
-        self._set_instrument(tau, offset, ripple, torque)
-        self._fit_drive(tau, offset, ripple, torque, place=True)
-
     def _sliding_drive(self) -> DriveEstimate:
         """Return the drive profile of a record without stick-slip.
 
@@ -731,7 +680,7 @@ class Problem:
         if not freqs or residual.size < 4 * len(freqs) + 1:
             return residual
         t = self.record.time[covered]
-        cols = []
+        cols: list[FloatArray] = []
         for f in freqs:
             w = 2.0 * math.pi * f * t
             cols.extend((np.sin(w), np.cos(w)))

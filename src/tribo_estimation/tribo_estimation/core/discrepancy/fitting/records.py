@@ -7,7 +7,6 @@ Units: SI (s, N m, rad/s, rad/s^2).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -132,21 +131,6 @@ class Segments:
     def n_blocks(self) -> int:
         """Number of time blocks."""
         return int(self.block.max()) + 1 if self.block.size else 0
-
-    def mask_blocks(self, blocks: Sequence[int] | npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
-        """Return the boolean segment mask of the segments in the given blocks.
-
-        Parameters
-        ----------
-        blocks : sequence of int
-            Block ids.
-
-        Returns
-        -------
-        numpy.ndarray of bool
-            One entry per segment.
-        """
-        return np.isin(self.block, np.asarray(blocks, dtype=np.int64))
 
     def sample_mask(
         self, n: int, seg_mask: npt.NDArray[np.bool_] | None = None

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import candidates as cand_lib
 from ..candidates import SUGGEST_LONGER, SUGGEST_MORE, SUGGEST_SPEED
@@ -80,15 +81,14 @@ def best_per_family(fits: Sequence[FormFit]) -> list[FormFit]:
     return sorted(best.values(), key=lambda f: f.model.fit.cost)
 
 
-def _torque_log(model: Model) -> FloatArrayLike:
-    return np.log([a['torsion_moment'] for a in model.adequacy])
+def _torque_log(model: Model) -> npt.NDArray[np.float64]:
+    """Return the log torsion-moment statistic of every record of a model."""
+    return np.log(np.asarray([a['torsion_moment'] for a in model.adequacy], dtype=np.float64))
 
 
-FloatArrayLike = np.ndarray
-
-
-def _tolerance(laws: Sequence[NullLaw]) -> FloatArrayLike:
-    return np.asarray([law.tolerance('torsion_moment') for law in laws])
+def _tolerance(laws: Sequence[NullLaw]) -> npt.NDArray[np.float64]:
+    """Return each record's tolerance of the torsion-moment statistic (log)."""
+    return np.asarray([law.tolerance('torsion_moment') for law in laws], dtype=np.float64)
 
 
 def indistinguishable(a: Model, b: Model, laws: Sequence[NullLaw]) -> bool:

@@ -43,8 +43,6 @@ FloatArray = np.ndarray
 #: events, whose sub-sample timing a rig's accelerometer and the model sample differently,
 #: so its null law is not one the replicas reproduce.
 STATISTICS: tuple[str, ...] = ('torsion_moment', 'speed', 'blocks')
-#: Statistics reported beside them.
-REPORTED: tuple[str, ...] = ('angular_acceleration',)
 
 
 @dataclass(frozen=True)
@@ -130,18 +128,6 @@ def adequacy(problem: Problem, sim: SimulatedRecord) -> Adequacy:
             block_rms.append(_rms(res['torsion_moment'][m]))
     vals['blocks'] = max(block_rms) / float(np.median(block_rms)) if len(block_rms) >= 3 else 1.0
     return Adequacy(vals, noise)
-
-
-def _record_sticks(problem: Problem) -> np.ndarray:
-    """Return the record's measured stick phases as a sample mask."""
-    n = problem.record.time.size
-    out = np.zeros(n, dtype=bool)
-    phases = problem.segments.stick_phases()
-    if phases is None:
-        return out
-    for a, b in zip(*phases, strict=True):
-        out[int(a) : int(b)] = True
-    return out
 
 
 def replica(

@@ -232,11 +232,6 @@ class MissingPhysics:
     FILES = ('discrepancy.json',)
 
     @property
-    def is_named(self) -> bool:
-        """True when effects were named."""
-        return self.verdict == NAMED
-
-    @property
     def added(self) -> tuple[str, ...]:
         """The named families, in the order added."""
         return tuple(e.family for e in self.named)
