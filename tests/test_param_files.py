@@ -62,17 +62,22 @@ def test_params_file_keys_are_declared(path: Path, node_name: str, params: dict[
 
     cls = WITH_FILE[node_name].node_class()
     values = dict(params)
+    extra: dict[str, Any] = {}
     if node_name == 'wear_monitor':
-        values['nvct_config'] = str(CONFIG / 'nvct.yaml')  # relative to the workspace root
-        values['state_file'] = ''
+        extra['nvct_config'] = str(CONFIG / 'nvct.yaml')  # relative to the workspace root
+        extra['state_file'] = ''
     if 'autostart' in values:
-        values['autostart'] = False  # no device is opened
+        extra['autostart'] = False  # no device is opened
+    values.update(extra)
     context = rclpy.Context()
     rclpy.init(context=context)
     try:
-        # The node declares its parameters; a value of the wrong type raises here.
+        # The file reaches the node as `--params-file` does (rcl's YAML parser: an empty
+        # list arrives without a type); the node declares its parameters, and a value of
+        # the wrong type raises here.
         node = cls(
-            parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+            cli_args=['--ros-args', '--params-file', str(path)],
+            parameter_overrides=[Parameter(k, value=v) for k, v in extra.items()],
             context=context,
         )
         try:

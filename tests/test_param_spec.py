@@ -187,6 +187,7 @@ def test_parameter_docs_are_current() -> None:
 @pytest.mark.parametrize('node_name', sorted(nodes.BY_NAME))
 def test_declared_parameters_come_from_the_spec(node_name: str) -> None:
     import rclpy
+    from rcl_interfaces.msg import ParameterType
     from rclpy.parameter import Parameter
 
     cls = nodes.BY_NAME[node_name].node_class()
@@ -210,6 +211,8 @@ def test_declared_parameters_come_from_the_spec(node_name: str) -> None:
                 d = node.describe_parameter(name)
                 assert d.read_only == s.read_only, name
                 assert s.unit in d.description and s.description in d.description, name
+                if s.type == 'str_list':  # typed even when empty (rclpy: [] is a byte array)
+                    assert d.type == ParameterType.PARAMETER_STRING_ARRAY, name
                 if s.type == 'float' and (s.lower is not None or s.upper is not None):
                     (r,) = d.floating_point_range
                     lo = -math.inf if s.lower is None else s.lower

@@ -202,7 +202,7 @@ NODES: tuple[NodeInfo, ...] = (
         'ModelMonitorNode', NodeKind.MONITOR, False,
         ('tribo_estimation.nodes.specs:MODEL_MONITOR_PARAMS',), 'model_monitor.yaml',
         ('sim',), (),
-        'live model monitor: residual vs noise floor over a rolling window, best candidate',
+        'live model monitor: the missing-physics verdict over a rolling window',
     ),
     NodeInfo(
         'wear_monitor', 'tribo_nvct', 'tribo_nvct.nodes.wear_monitor', 'WearMonitor',

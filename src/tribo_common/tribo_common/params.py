@@ -20,6 +20,7 @@ from typing import TypeVar, cast
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from tribo_common.paramspec import ParamSpec
 
@@ -93,7 +94,10 @@ def declare(
             )
         ]
     try:
-        value = cast(_V, node.declare_parameter(name, default, desc).value)
+        if isinstance(default, list):
+            value = cast(_V, _declare_strings(node, name, default, desc))
+        else:
+            value = cast(_V, node.declare_parameter(name, default, desc).value)
     except InvalidParameterValueException as exc:
         raise ParameterError(
             f'parameter {name!r} ({description}): value out of range [{low}, {high}]: {exc}'
@@ -118,6 +122,52 @@ def declare(
                 f'parameter {name!r} ({description}) must be <= {high}, got {value}'
             )
     return value
+
+
+def _declare_strings(
+    node: Node, name: str, default: list[str], desc: ParameterDescriptor
+) -> list[str]:
+    """Declare a list-of-strings parameter (type STRING_ARRAY) and return its value.
+
+    An empty list carries no element type: rclpy would declare ``[]`` as a byte array
+    (and then refuse every list of strings), and a parameter file's ``[]`` reaches the
+    node as a value without a type. The parameter is therefore declared by its type
+    alone; when it has no value then (no override, or ``[]`` in a parameter file) it
+    is set to ``default``, and ``desc.read_only`` applies from then on.
+
+    Parameters
+    ----------
+    node
+        The node that owns the parameter.
+    name
+        Parameter name.
+    default
+        The value when none is given (``[]`` in a parameter file also gives it).
+    desc
+        The descriptor (description, read_only).
+
+    Returns
+    -------
+    list of str
+        The value the node starts with.
+
+    Raises
+    ------
+    ParameterError
+        The default cannot be set.
+    """
+    writable = ParameterDescriptor(description=desc.description, read_only=False)
+    param = node.declare_parameter(name, Parameter.Type.STRING_ARRAY, writable)
+    if param.type_ == Parameter.Type.NOT_SET:
+        (result,) = node.set_parameters([Parameter(name, Parameter.Type.STRING_ARRAY, default)])
+        if not result.successful:
+            raise ParameterError(f'parameter {name!r}: cannot set {default!r}: {result.reason}')
+    if desc.read_only:
+        final = ParameterDescriptor(
+            description=desc.description, read_only=True, type=writable.type
+        )
+        node.set_descriptor(name, final)
+    return [str(v) for v in node.get_parameter(name).value]
 
 
 def declare_spec(node: Node, spec: ParamSpec) -> DeclaredValue:

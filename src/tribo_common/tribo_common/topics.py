@@ -111,8 +111,8 @@ NVCT_WEAR = Topic(
 )  # fmt: skip
 MODEL_DISCREPANCY = Topic(
     'model/discrepancy', 'tribo_msgs/msg/ModelDiscrepancy', QosKind.HISTORY, 0.5, '',
-    'live model monitor: residual rms vs noise floor over a rolling window, best candidate '
-    'effect and whether it is identifiable, latched history',
+    'live model monitor: residual rms vs noise floor over a rolling window, the named effect '
+    'family or the best partial explanation, latched history',
 )  # fmt: skip
 DIAGNOSTICS = Topic(
     '/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', QosKind.STATUS, 1.0, '',
