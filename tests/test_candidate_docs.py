@@ -12,7 +12,8 @@ import numpy as np
 
 from tribo_bringup.paramdocs import CANDIDATES_BEGIN, CANDIDATES_END, render_physics
 from tribo_estimation.core import measurement
-from tribo_estimation.core.discrepancy import candidates, identify
+from tribo_estimation.core.discrepancy import candidates
+from tribo_estimation.core.discrepancy.pipeline.decide import experiment
 from tribo_estimation.core.model import Extensions
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -36,19 +37,35 @@ def test_physics_candidate_table_is_current() -> None:
 def test_every_candidate_has_its_equation_and_suggestion() -> None:
     for c in candidates.all_candidates():
         assert c.equation, f'{c.name}: no equation text'
-        # identify.py's suggestion agrees with the registration
-        assert identify.suggestion(c.name) == c.suggest, c.name
+        # each form belongs to a family, and its family lists it
+        assert c in candidates.forms(c.family_name), c.name
+    for fam in candidates.families():
+        wanted = {f.suggest for f in candidates.forms(fam)}
+        # the experiment the pipeline suggests for a family is one of its forms' suggestions
+        assert experiment([fam], single_speed=False) in wanted, fam
+        # a form that wants a second speed decides the experiment of a one-speed record
+        if candidates.SUGGEST_SPEED in wanted:
+            assert experiment([fam], single_speed=True) == candidates.SUGGEST_SPEED, fam
+    # a family of one form: the pipeline's experiment is that form's registered suggestion
+    (viscous,) = candidates.forms('viscous_friction')
+    assert experiment(['viscous_friction'], single_speed=False) == viscous.suggest
 
 
 def test_measurement_fields_come_from_the_effects() -> None:
     from tribo_estimation.core.discrepancy import fitting
 
     fields = measurement.measurement_fields()
-    assert fields == {'torque_offset', 'torque_offset_drift', 'torque_lag_tau'}
+    assert fields == {
+        'torque_offset', 'torque_offset_drift', 'torque_lag_tau', 'torque_thermal',
+        'torque_thermal_tau',
+    }  # fmt: skip
     # the fit's hand-written list agrees with the registered hooks
     assert fields == fitting.MEASUREMENT_FIELDS
     kinds = {c.name for c in candidates.all_candidates() if c.measurement is not None}
     assert kinds == {'torque_offset', 'torque_sensor_lag'}
+    # the thermal form has no hook of its own: its fields go through its family's
+    fitted = {p.name for c in candidates.forms('torque_offset') for p in c.params}
+    assert {'torque_thermal', 'torque_thermal_tau'} <= fitted
 
 
 def test_measurement_transforms_round_trip_at_segment_starts() -> None:

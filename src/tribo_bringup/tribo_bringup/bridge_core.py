@@ -401,10 +401,10 @@ DISCREPANCY_FIELDS: dict[str, tuple[str, str]] = {
     'ratio': ('number', 'residual rms / noise floor [-]'),
     'concentration': ('string', 'where the residual concentrates (stick, slip, ..., uniform)'),
     'concentration_share': ('number', 'share of the residual energy there [-]'),
-    'candidate': ('string', 'best single candidate effect ("" = none)'),
+    'candidate': ('string', 'named effect family, or the best partial explanation ("" = none)'),
     'candidate_rms': ('number', 'torsion-moment residual rms with the candidate [N m]'),
-    'identifiable': ('boolean', 'whether the window can tell the candidate from mu0/mu_inf'),
-    'identifiable_reason': ('string', 'why (not)'),
+    'identifiable': ('boolean', 'whether the window names the candidate (verdict named)'),
+    'identifiable_reason': ('string', 'the verdict in one line'),
     'processing_time': ('number', 'wall time spent on the window [s]'),
     'quality': ('string', 'ok or ;-separated flags'),
 }

@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -56,10 +56,6 @@ def frame(rows: Sequence[dict[str, Cell]], columns: Sequence[str] = ()) -> pd.Da
     import pandas as pd
 
     return pd.DataFrame(list(rows), columns=list(columns) if not rows and columns else None)
-
-
-def _finite_or_none(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
 
 
 def _json_value(x: object) -> object:
@@ -312,50 +308,6 @@ def __getattr__(name: str) -> object:
 
         return MissingPhysics
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
-def _fmt3(x: object) -> str:
-    """Format a number with 3 significant digits ('n/a' for None, NaN, text)."""
-    if isinstance(x, bool) or not isinstance(x, int | float):
-        return 'n/a' if x is None else str(x)
-    return f'{float(x):.3g}' if math.isfinite(float(x)) else 'n/a'
-
-
-def discrepancy_finding(data: Mapping[str, object]) -> str:
-    """Summarise a one-record ``discrepancy.json`` in one line.
-
-    Parameters
-    ----------
-    data : mapping
-        The content of ``discrepancy.json`` (:meth:`MissingPhysics.as_dict`).
-
-    Returns
-    -------
-    str
-        The effects found with their values and the torque residual RMS [N m]
-        before and after (``no missing effect found (...)`` when none).
-    """
-
-    def mapping(x: object) -> Mapping[str, object]:
-        return x if isinstance(x, Mapping) else {}
-
-    added = data.get('added') or []
-    rms = (
-        f'torque residual RMS {_fmt3(mapping(data.get("baseline")).get("rms"))} -> '
-        f'{_fmt3(mapping(data.get("final")).get("rms"))} N m'
-    )
-    if not isinstance(added, list | tuple) or not added:
-        return f'no missing effect found ({rms})'
-    parts = []
-    for item in added:
-        a = mapping(item)
-        units = mapping(a.get('units'))
-        params = ', '.join(
-            f'{k} = {_fmt3(v)} {str(units.get(k, "")).strip("-")}'.rstrip()
-            for k, v in mapping(a.get('params')).items()
-        )
-        parts.append(f'{a.get("effect")} ({params})')
-    return f'found {"; ".join(parts)}; {rms}'
 
 
 # ----------------------------------------------------------------------------- decay

@@ -18,16 +18,23 @@ from tribo_bringup.errors import ConfigError
 CONFIG = Path(__file__).resolve().parents[4] / 'config'
 
 
-def test_every_candidate_effect_has_a_demo_rig() -> None:
+def test_every_effect_family_has_a_demo_rig() -> None:
     from tribo_estimation.core.discrepancy import candidates
 
-    for name in candidates.names():
-        rig, source = demo.rig_for_demo(None, name)
-        if candidates.get(name).demo_effects is None:
-            assert source.endswith(f'rig_hidden_{name}.yaml')
-        else:
-            assert name in source
-        assert rig['effects'], name  # the effect is switched on
+    for fam in candidates.families():
+        rig, source = demo.rig_for_demo(None, fam)
+        if (CONFIG / f'rig_hidden_{fam}.yaml').is_file():
+            assert source.endswith(f'rig_hidden_{fam}.yaml')
+        else:  # config/rig.yaml with the demo values of one of its forms
+            assert source.endswith(f'rig.yaml + {fam} demo values'), source
+            demo_values = [f.demo_effects for f in candidates.forms(fam) if f.demo_effects]
+            assert rig['effects'] == dict(demo_values[0]), fam
+        assert rig['effects'], fam  # the effect is switched on
+    # a form with neither a rig file nor demo values is refused by name
+    with pytest.raises(ConfigError, match='friction_drift_saturating'):
+        demo.rig_for_demo(None, 'friction_drift_saturating')
+    with pytest.raises(ConfigError, match='unknown effect'):
+        demo.rig_for_demo(None, 'no_such_effect')
 
 
 def test_none_is_the_nominal_rig() -> None:

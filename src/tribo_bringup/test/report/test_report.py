@@ -363,31 +363,53 @@ def test_block_results_become_estimates() -> None:
     assert set(ests[0]) == set(bc.FRICTION_FIELDS)
 
 
-def test_discrepancy_result_is_summarised_and_embedded(tmp_path: Path) -> None:
-    from tribo_bringup.report import AnalysisOutcome, analysis_section, discrepancy_finding
+def test_discrepancy_result_is_summarised_and_embedded() -> None:
+    """A verdict that names nothing (a set the record cannot tell apart) reaches the page
+    as that verdict, with the set and the experiment that would decide, not as 'no effect'."""
+    from tribo_bringup.analyses.discrepancy import ANALYSIS
+    from tribo_bringup.report import AnalysisOutcome, analysis_section
+    from tribo_estimation.core.discrepancy.pipeline import Effect, MissingPhysics, Policy
+    from tribo_estimation.core.discrepancy.pipeline.null import NullLaw
+    from tribo_estimation.core.discrepancy.pipeline.result import RecordReport
 
-    result = {
-        'baseline': {'rms': 1.415, 'params': {'mu0': 0.13}},
-        'added': [
-            {
-                'effect': 'dwell_time_stiction',
-                'params': {'stiction_gain': 0.0191, 'stiction_tau': 0.00516},
-                'units': {'stiction_gain': '-', 'stiction_tau': 's'},
-            }
-        ],
-        'final': {'rms': 0.0609},
-    }
-    text = discrepancy_finding(result)
-    assert text.startswith('found dwell_time_stiction')
-    assert 'stiction_tau = 0.00516 s' in text and '1.42 -> 0.0609 N m' in text
-    assert discrepancy_finding({'added': []}).startswith('no missing effect found')
+    def effect(family: str, name: str, value: float, unit: str) -> Effect:
+        return Effect(family, family, {name: value}, {name: 0.1 * value}, {name: unit},
+                      (0.0531,), (1.04,), 0.97)  # fmt: skip
+
+    lag = effect('frictional_lag', 'lag_tau', 0.00101, 's')
+    shape = effect('stribeck_shape', 'stribeck_shape', -0.21, '-')
+    law = NullLaw({'torsion_moment': (1.03, 1.05, 1.04), 'speed': (1.0, 1.02, 1.01)}, 0.01)
+    rep = RecordReport(
+        baseline={'mu0': 0.13, 'mu_inf': 0.1}, final={'mu0': 0.13, 'mu_inf': 0.1},
+        rms_baseline=0.212, rms_final=0.212, noise_floor=0.05,
+        statistics_baseline={'torsion_moment': 4.2}, statistics_final={'torsion_moment': 4.2},
+        null=law, noise={}, instrument={}, drive={}, drift_outlier=False,
+    )  # fmt: skip
+    result = MissingPhysics(
+        verdict='cannot_tell_apart',
+        reason='frictional_lag, stribeck_shape each explain the mismatch down to the noise',
+        experiment='a second drive speed or a speed step',
+        named=(), alternatives=(lag, shape), partial=(lag, shape), records=(rep,),
+        rounds=((lag, shape),), policy=Policy(), run_time=1.0, simulations=10,
+    )  # fmt: skip
+    finding = ANALYSIS.finding(result)
+    assert finding.startswith('cannot tell apart: {frictional_lag, stribeck_shape}'), finding
+    assert 'a second drive speed or a speed step would decide' in finding
+    assert '0.212 -> 0.212 N m' in finding
+    summary = ANALYSIS.summary(result)
+    assert summary['verdict'] == 'cannot_tell_apart' and summary['added'] == []
+    apart = summary['cannot_tell_apart']
+    assert isinstance(apart, list)
+    assert [e['family'] for e in apart] == ['frictional_lag', 'stribeck_shape']
+    assert summary['experiment'] == 'a second drive speed or a speed step'
     res = AnalysisOutcome(
-        'discrepancy', ok=True, directory='analyses/discrepancy', what='run_discrepancy(x)',
-        seconds=1.0, note='analysed 5 s', summary=result, finding=text,
+        'discrepancy', ok=True, directory='analyses/discrepancy', what='find_missing_physics(x)',
+        seconds=1.0, note='analysed 5 s', summary=summary, finding=finding,
     )  # fmt: skip
     sec = analysis_section(res, 'Discrepancy')
     assert sec.available and 'id="discrepancy-finding"' in sec.body
-    assert 'dwell_time_stiction' in sec.body and 'analysed 5 s' in sec.body
+    assert 'cannot tell apart' in sec.body and 'analysed 5 s' in sec.body
+    assert 'stribeck_shape' in sec.body and 'a second drive speed or a speed step' in sec.body
     failed = analysis_section(AnalysisOutcome('wear', reason='no /nvct/counts'), 'Wear')
     assert not failed.available and 'no /nvct/counts' in failed.body
 

@@ -14,6 +14,13 @@ if TYPE_CHECKING:
     from tribo_estimation.results import MissingPhysics
 
 
+#: The ``discrepancy.json`` keys the report shows (the file has them all).
+SUMMARY_KEYS: tuple[str, ...] = (
+    'verdict', 'reason', 'experiment', 'added', 'cannot_tell_apart', 'partial', 'baseline',
+    'final', 'noise_floor',
+)  # fmt: skip
+
+
 class DiscrepancyAnalysis:
     """The missing-physics workflow on a window of a session (:mod:`.base`)."""
 
@@ -49,19 +56,25 @@ class DiscrepancyAnalysis:
         return find_missing_physics(rec, inp.rig, progress=lambda s: inp.progress(f'  {s}'))
 
     def summary(self, result: AnalysisResult) -> dict[str, object]:
-        """Return the baseline, the effects added and the final model, and the input's damage."""
+        """Return the verdict and its evidence (``discrepancy.json`` keys), and the input's damage.
+
+        The verdict, its reason and the experiment that would decide; the families named
+        (``added``), the set the record cannot tell apart and the partial explanations;
+        the baseline and the final model (torque residual rms [N m], values) and the noise
+        floor [N m].
+        """
         from tribo_estimation.results import MissingPhysics
 
         assert isinstance(result, MissingPhysics)
         data = result.as_dict()
-        out: dict[str, object] = {k: data[k] for k in ('baseline', 'added', 'final') if k in data}
+        out: dict[str, object] = {k: data[k] for k in SUMMARY_KEYS if k in data}
         cut = result.inputs[0].truncated if result.inputs else ''
         if cut:
             out['input_truncated'] = cut
         return out
 
     def finding(self, result: AnalysisResult) -> str:
-        """Return the effects found and the residual before and after, in one line."""
+        """Return the verdict in one line (named families or the set, residual before and after)."""
         from tribo_estimation.results import MissingPhysics
 
         assert isinstance(result, MissingPhysics)

@@ -54,10 +54,11 @@ def register(sub: Subparsers) -> None:
     p.add_argument(
         '--effect',
         default='dwell_time_stiction',
-        help='hidden effect switched on in the simulated rig, one of the candidates of the '
-        'discrepancy workflow (tribo discrepancy --list-candidates): the rig of '
-        'config/rig_hidden_<EFFECT>.yaml if present, else config/rig.yaml with the '
-        "candidate's demo values; or 'none' for config/rig.yaml (default %(default)s)",
+        help='hidden effect switched on in the simulated rig, an effect family (or form) of '
+        'the discrepancy workflow (tribo discrepancy --list-candidates): the rig of '
+        'config/rig_hidden_<EFFECT>.yaml if present, else config/rig.yaml with the demo '
+        "values of the family's first form that has them; or 'none' for config/rig.yaml "
+        '(default %(default)s)',
     )
     p.add_argument('--rig', help='run this RIG.yaml (with its own effects) instead of --effect')
     p.add_argument(
@@ -80,8 +81,10 @@ def register(sub: Subparsers) -> None:
 def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]:
     """Return the RIG.yaml contents with the hidden effect, and the file they came from.
 
-    ``effect`` names a registered candidate: its ``config/rig_hidden_<effect>.yaml``
-    if present, else ``config/rig.yaml`` with the candidate's ``demo_effects``.
+    ``effect`` names an effect family or one of its forms (:mod:`candidates
+    <tribo_estimation.core.discrepancy.candidates>`): its ``config/rig_hidden_<effect>.yaml``
+    if present, else ``config/rig.yaml`` with the ``demo_effects`` of the first form (of the
+    family, or the form itself) that has them.
     """
     from tribo_bringup.report.page import as_mapping
     from tribo_estimation.core.config import load_rig_config
@@ -95,10 +98,14 @@ def rig_for_demo(base: str | None, effect: str) -> tuple[dict[str, object], str]
     else:
         path = CONFIG / f'rig_hidden_{effect}.yaml'
         if not path.is_file():
-            if effect not in candidates.names():
-                known = ', '.join(candidates.names())
+            if effect in candidates.families():
+                forms = candidates.forms(effect)
+            elif effect in candidates.names():
+                forms = (candidates.get(effect),)
+            else:
+                known = ', '.join(candidates.families())
                 raise ConfigError(f'unknown effect {effect!r}; known: none, {known}')
-            spec = candidates.get(effect).demo_effects
+            spec = next((f.demo_effects for f in forms if f.demo_effects is not None), None)
             if spec is None:
                 raise ConfigError(f'effect {effect!r}: no {path.name} and no demo values')
             demo_effects = dict(spec)

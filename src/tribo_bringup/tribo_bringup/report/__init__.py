@@ -31,7 +31,7 @@ Modules: :mod:`.scan` (bag scan), :mod:`.analyses` (offline analyses),
 
 from __future__ import annotations
 
-from .analyses import AnalysisOutcome, discrepancy_finding
+from .analyses import AnalysisOutcome
 from .build import ReportResult, build_report, load_rig
 from .page import clean_json, fmt
 from .provenance import git_state, provenance
@@ -50,7 +50,6 @@ __all__ = [
     'build_report',
     'clean_json',
     'detail_trace',
-    'discrepancy_finding',
     'fmt',
     'git_state',
     'load_rig',

@@ -17,8 +17,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from tribo_estimation.results import discrepancy_finding as discrepancy_finding
-
 if TYPE_CHECKING:
     from tribo_bringup.analyses import Analysis, AnalysisInputs, AnalysisResult
     from tribo_estimation.core.blockfit import BlockResult

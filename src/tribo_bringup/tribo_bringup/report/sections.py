@@ -395,8 +395,9 @@ def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Sec
 
     One row per window: end time from the first window [s], baseline mu0/mu_inf
     (Equ. 8), torsion residual rms and noise floor [N m] and their ratio, where the
-    residual concentrates, the best candidate with its fitted values, the rms with
-    it [N m], whether the window can identify it and why, and the processing time [s].
+    residual concentrates, the named family or the best partial explanation with its
+    fitted values, the rms with it [N m], whether the window names it (it alone explains
+    the window down to the noise), the verdict in one line, and the processing time [s].
     """
     ws = scan.monitor
     if not ws:
@@ -408,15 +409,18 @@ def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Sec
         *[k for k in bc.DISCREPANCY_FIELDS if k not in ('t_start', 't_end')],
     )
     write_csv(out / 'monitor_windows.csv', ws, (*cols, 'params'))
+    # per family: the windows that name it, and those where it is the best partial explanation
     named: dict[str, int] = {}
+    partial: dict[str, int] = {}
     for w in ws:
         if w['candidate']:
-            named[w['candidate']] = named.get(w['candidate'], 0) + 1
+            counts = named if w['identifiable'] else partial
+            counts[w['candidate']] = counts.get(w['candidate'], 0) + 1
     times = [w['processing_time'] for w in ws if w['processing_time'] is not None]
     results['monitor'] = {
         'windows': len(ws),
         'named': named,
-        'identifiable_windows': sum(1 for w in ws if w['identifiable']),
+        'partial': partial,
         'processing_time_max_s': max(times) if times else None,
         'processing_time_median_s': float(np.median(times)) if times else None,
     }
@@ -442,12 +446,13 @@ def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Sec
     header = (
         'window end - first [s]', 'mu0 [-]', 'mu_inf [-]', 'residual rms [N m]',
         'noise floor [N m]', 'ratio [-]', 'concentrates in (share)', 'best candidate',
-        'fitted', 'rms with it [N m]', 'identifiable', 'why', 'processing [s]',
+        'fitted', 'rms with it [N m]', 'named', 'verdict', 'processing [s]',
     )  # fmt: skip
     body = (
         f"<p>{len(ws)} windows of the live model monitor: the paper's model (Equ. 1-8) "
         'fitted over a rolling window of the rig streams, its residual against the noise '
-        'floor, where the residual concentrates and the best single candidate effect. '
+        'floor, where the residual concentrates and the verdict of the missing-physics '
+        'pipeline (live budget): the family it names or the best partial explanation. '
         'Windows as CSV: <code>monitor_windows.csv</code>.</p>'
     )
     body += table(rows, header, 'monitor-windows')

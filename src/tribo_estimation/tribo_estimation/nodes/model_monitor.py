@@ -3,9 +3,10 @@
 Subscribes ``/rig/torsion_moment``, ``/rig/angular_acceleration``, ``/rig/speed``
 (tribo_msgs/SampleBlock), aligns them by sample index (a gap or a restart
 empties the window: windows never bridge missing samples) and every ``hop``
-seconds evaluates the last ``window`` seconds: baseline fit of the paper's
-model (Equ. 1-8), noise floor, where the residual concentrates, the best
-single candidate effect and whether this window can identify it. Publishes one
+seconds evaluates the last ``window`` seconds with the missing-physics pipeline
+(live budget): baseline fit of the paper's model (Equ. 1-8), noise floor, where the
+residual concentrates, and the verdict (the effect family the window names, or the
+best partial explanation). Publishes one
 ``/model/discrepancy`` (tribo_msgs/ModelDiscrepancy, reliable and latched)
 per window.
 
