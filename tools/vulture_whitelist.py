@@ -66,21 +66,3 @@ _.zeta_se  # DecayResult.to_dict
 _.git_commit
 _.git_dirty
 _.created
-
-# Temporary: dead code in other areas, until its owner removes it.
-_.rms0  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
-_.rms1  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
-_.wall_single  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
-_.wall_joint  # owner: discrepancy redesign (bench/bench_discrepancy_matrix.py)
-_.unit_bounds  # owner: discrepancy redesign (core/discrepancy/candidates.py)
-_.mask_blocks  # owner: discrepancy redesign (core/discrepancy/fitting/records.py)
-_.REPORTED  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
-_._record_sticks  # owner: discrepancy redesign (core/discrepancy/pipeline/null.py)
-_.is_named  # owner: discrepancy redesign (core/discrepancy/pipeline/result.py)
-_.residual_blocks  # owner: discrepancy redesign (test/test_discrepancy_identify.py)
-_.drive_state  # owner: discrepancy redesign (core/discrepancy/fitting/problem.py)
-_.restore_drive_state  # owner: discrepancy redesign (core/discrepancy/fitting/problem.py)
-_.replace_drive  # owner: discrepancy redesign (core/discrepancy/fitting/problem.py)
-_.feature_library  # owner: discrepancy redesign (core/discrepancy/sparse.py)
-_.sources  # owner: H3, tribo_estimation (results.py)
-_.joint  # owner: H3, tribo_estimation (results.py)
