@@ -66,7 +66,7 @@ class MonitorConfig:
     candidates: tuple[str, ...] = ()
     time_budget: float = 1.5
     alpha: float = 0.01
-    replicas: int = 3
+    replicas: int = 2
 
     def __post_init__(self) -> None:
         """Refuse non-positive or non-finite times and a hop longer than the window."""

@@ -804,11 +804,19 @@ HUM_CHANNELS: tuple[str, str, str] = ('torsion_moment', 'angular_acceleration', 
 
 
 def _line(t: FloatArray, r: FloatArray, f: float) -> tuple[float, float]:
-    """Least-squares sine at ``f`` [Hz] through ``r``: amplitude and phase."""
+    """Least-squares sine at ``f`` [Hz] through ``r``: amplitude and phase.
+
+    The 2 x 2 normal equations of the sine and cosine columns.
+    """
     w = 2.0 * math.pi * f * t
-    X = np.column_stack((np.sin(w), np.cos(w)))
-    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
-    a, b = float(coef[0]), float(coef[1])
+    s, c = np.sin(w), np.cos(w)
+    ss, cc, sc = float(s @ s), float(c @ c), float(s @ c)
+    rs, rc = float(s @ r), float(c @ r)
+    det = ss * cc - sc * sc
+    if not det > 0.0:
+        return 0.0, 0.0
+    a = (cc * rs - sc * rc) / det
+    b = (ss * rc - sc * rs) / det
     return math.hypot(a, b), math.atan2(b, a)
 
 
@@ -816,13 +824,15 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
     """Find the mains lines on a model's residuals (instrument, not physics).
 
     For each channel, mains frequency (:data:`MAINS_HZ`) and harmonic (up to
-    :data:`MAINS_HARMONICS`) the least-squares sine through the residual is compared
-    with the sines at the neighbouring frequencies ``f + j/T`` (|j| = 2..12, T the
-    record's span): without a line its power is exponentially distributed around
-    theirs, so ``P(f)/median(P(f + j/T))`` exceeds ``x`` with probability about
-    ``2^-x``. A line is taken out when that ratio exceeds ``log2(m/alpha)`` (m the
-    lines tested: Bonferroni), so noise and a model mismatch's broad spectrum leave
-    it alone.
+    :data:`MAINS_HARMONICS`) the residual's power at the line is compared with its
+    power at the neighbouring frequencies ``f + j/T`` (|j| = 2..12, T the record's
+    span), from one zero-padded FFT per channel (bins of about 1/(4T)): without a
+    line each bin's power is exponentially distributed around the neighbours'
+    median, so the largest of the three bins nearest the line exceeds ``x`` times
+    that median with probability about ``3*2^-x``. A line is taken out when the ratio
+    exceeds ``log2(3*m/alpha)`` (m the lines tested: Bonferroni), so noise and a
+    model mismatch's broad spectrum leave it alone; its amplitude and phase are the
+    least-squares sine through the residual.
 
     Parameters
     ----------
@@ -830,7 +840,7 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
         Sample times [s] (the residuals' samples).
     residuals : mapping of str to FloatArray
         Per channel of :data:`HUM_CHANNELS`, measured - simulated [unit]; NaN samples
-        are left out.
+        are set to zero for the spectrum and left out of the sine fit.
     alpha : float
         Chance that a record without hum has a line taken out [-].
 
@@ -852,17 +862,27 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
     ]
     if not tests:
         return Hum()
-    limit = math.log2(len(tests) / alpha)
+    limit = math.log2(3.0 * len(tests) / alpha)
+    n_fft = 1 << math.ceil(math.log2(4 * time.size))
+    per_t = n_fft / time.size  # bins per 1/T
     lines: list[tuple[str, float, float, float]] = []
+    power: dict[str, FloatArray] = {}
     for c, f in tests:
         r = residuals[c]
         ok = np.isfinite(r)
         if np.count_nonzero(ok) < 100:
             continue
-        t, x = time[ok], r[ok] - float(np.mean(r[ok]))
-        amp, phase = _line(t, x, f)
-        near = [_line(t, x, f + j / span)[0] ** 2 for j in _HUM_NEIGHBOURS]
-        level = float(np.median(near))
-        if level > 0.0 and amp * amp / level > limit:
+        if c not in power:
+            x = np.where(ok, r - float(np.mean(r[ok])), 0.0)
+            power[c] = np.abs(np.fft.rfft(x, n_fft)) ** 2
+        p = power[c]
+        k0 = round(f * n_fft / fs)
+        near = [round(k0 + j * per_t) for j in _HUM_NEIGHBOURS]
+        if k0 < 2 or max(near) >= p.size or min(near) < 0:
+            continue
+        level = float(np.median(p[near]))
+        peak = float(np.max(p[k0 - 1 : k0 + 2]))
+        if level > 0.0 and peak / level > limit:
+            amp, phase = _line(time[ok], r[ok] - float(np.mean(r[ok])), f)
             lines.append((c, f, amp, phase))
     return Hum(tuple(lines))

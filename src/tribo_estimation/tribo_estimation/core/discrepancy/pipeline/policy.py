@@ -61,7 +61,10 @@ class Policy:
     seed : int
         Seed of the bootstrap replicas' noise.
     time_budget : float
-        Wall time after which no further form is refined [s] (inf: none).
+        Wall time after which no further form is screened or refined [s] (inf: none).
+    describe : bool
+        Describe where the residual concentrates (localisation, spectral lines) for
+        the report; the decisions do not use it.
     """
 
     alpha: float = 0.01
@@ -79,6 +82,7 @@ class Policy:
     torsion_lag: bool = True
     seed: int = 0
     time_budget: float = math.inf
+    describe: bool = True
 
     def __post_init__(self) -> None:
         """Refuse settings out of range."""
@@ -125,11 +129,12 @@ class Policy:
             The live policy.
         """
         return cls(
-            replicas=3,
+            replicas=2,
             confirm_replicas=0,
             replica_nfev=8,
             max_effects=1,
             time_budget=time_budget,
+            describe=False,
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -149,6 +154,7 @@ class Policy:
             'block_time': self.block_time,
             'torsion_lag': self.torsion_lag,
             'seed': self.seed,
+            'describe': self.describe,
         }
 
 

@@ -279,7 +279,9 @@ def find_missing_physics(
         r_final = torque_residual(pb, fs_)[fs_.covered]
         sigma = noise_floor(r_final)
         inadequate = bool(law.failing(final_model.adequacy[i]))
-        unexplained = describe_unexplained(pb, fs_, sigma=sigma) if inadequate else []
+        unexplained = (
+            describe_unexplained(pb, fs_, sigma=sigma) if inadequate and pol.describe else []
+        )
         reports.append(
             RecordReport(
                 baseline=ens.split(baseline.values)[i],
@@ -295,7 +297,11 @@ def find_missing_physics(
                 drive=drive_report(pb),
                 drift_outlier=drift[i],
                 unexplained=tuple(unexplained),
-                localisation={'baseline': localise(pb, bs), 'final': localise(pb, fs_)},
+                localisation=(
+                    {'baseline': localise(pb, bs), 'final': localise(pb, fs_)}
+                    if pol.describe
+                    else {}
+                ),
                 rejected=pb.segments.rejected,
             )
         )
