@@ -77,7 +77,7 @@ MODEL_MONITOR_PARAMS: tuple[ParamSpec, ...] = (
         'replicas',
         '-',
         _MONITOR.replicas,
-        2,
+        3,
         100,
         "bootstrap replicas of each window's null law",
         type='int',

@@ -66,7 +66,7 @@ class MonitorConfig:
     candidates: tuple[str, ...] = ()
     time_budget: float = 1.5
     alpha: float = 0.01
-    replicas: int = 2
+    replicas: int = 3
 
     def __post_init__(self) -> None:
         """Refuse non-positive or non-finite times and a hop longer than the window."""
@@ -78,8 +78,10 @@ class MonitorConfig:
             raise InvalidParameterError(
                 f'monitor hop ({self.hop} s) must not exceed the window ({self.window} s)'
             )
-        if self.replicas < 2:
-            raise InvalidParameterError(f'monitor replicas must be >= 2, got {self.replicas}')
+        if self.replicas < 3:
+            # two replicas give a Student t bound with one degree of freedom: so wide
+            # that no window would ever be called inadequate
+            raise InvalidParameterError(f'monitor replicas must be >= 3, got {self.replicas}')
         if not 0.0 < self.alpha < 0.5:
             raise InvalidParameterError(f'monitor alpha must be in (0, 0.5), got {self.alpha}')
         known = set(cand_lib.families())

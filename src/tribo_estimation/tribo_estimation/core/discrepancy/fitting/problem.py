@@ -14,7 +14,7 @@ residuals (measured - simulated) of :data:`.records.CHANNELS`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -68,6 +68,74 @@ from .segments import begins_at_drive_start, make_segments, sliding_start_states
 #: profile's corners (:meth:`Problem._set_instrument`).
 _REPLACE_LAG = 1e-4
 _REPLACE_OFFSET = 1e-2
+
+
+def scaled_fit(
+    residuals: Callable[[dict[str, float]], FloatArray],
+    free: Sequence[ParamSpec],
+    start: Mapping[str, float],
+    max_nfev: int,
+) -> tuple[dict[str, float], float, int, bool, dict[str, float]]:
+    """Fit ``free`` by bounded least squares in the solver's coordinates; the one home.
+
+    Each parameter is value/scale (log(value) for time constants) within its box;
+    :func:`~tribo_estimation.core.lsq.levenberg_marquardt` minimises the squared
+    ``residuals`` of the value mapping (the start's other names held fixed). Standard
+    errors from the last Jacobian, ``s^2 (J^T J)^-1``, in value units.
+
+    Parameters
+    ----------
+    residuals : callable
+        Residual vector of a value mapping [-].
+    free : sequence of ParamSpec
+        The fitted parameters (at least one).
+    start : mapping of str to float
+        Start values of every name the residuals need.
+    max_nfev : int
+        Most residual evaluations.
+
+    Returns
+    -------
+    tuple
+        The values, the sum of squared residuals [-], the evaluations, whether the
+        solver converged, and the standard errors (SI) by name.
+    """
+    fixed = {k: float(v) for k, v in start.items()}
+
+    def clip(p: ParamSpec, v: float) -> float:
+        return min(max(v, p.lower), p.upper)
+
+    def from_x(x: FloatArray) -> dict[str, float]:
+        out = dict(fixed)
+        for p, xi in zip(free, x, strict=True):
+            out[p.name] = math.exp(float(xi)) if p.log else float(xi) * p.scale
+        return out
+
+    lo = np.asarray([math.log(p.lower) if p.log else p.lower / p.scale for p in free])
+    hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
+    x0 = np.asarray(
+        [
+            math.log(clip(p, float(start.get(p.name, p.initial))))
+            if p.log
+            else clip(p, float(start.get(p.name, p.initial))) / p.scale
+            for p in free
+        ]
+    )
+    sol = levenberg_marquardt(
+        lambda x: residuals(from_x(x)), x0, lo, hi, max_nfev=max_nfev, max_iter=max_nfev,
+        ftol=1e-6, lam0=1e-3,
+    )  # fmt: skip
+    dof = max(1, sol.fun.size - len(free))
+    try:
+        cov = np.linalg.inv(sol.jac.T @ sol.jac) * (sol.cost / dof)
+        sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    except np.linalg.LinAlgError:
+        sd = np.full(len(free), math.nan)
+    se = {
+        p.name: float(math.exp(float(xi)) * si if p.log else si * p.scale)
+        for p, xi, si in zip(free, sol.x, sd, strict=True)
+    }
+    return from_x(sol.x), float(sol.cost), int(sol.nfev), bool(sol.converged), se
 
 
 class Problem:
@@ -724,49 +792,14 @@ class Problem:
         FitOutcome
             Values, cost, evaluations, convergence and standard errors.
         """
-        names = [p.name for p in free]
-        # values in ``start`` that are not free (e.g. the instrument model) stay fixed
-        fixed_vals = {k: float(v) for k, v in start.items() if k not in names}
+        fixed_vals = {k: float(v) for k, v in start.items() if k not in {p.name for p in free}}
         fixed_vals.update(fixed or {})
-
-        def to_x(vals: Mapping[str, float]) -> FloatArray:
-            return np.asarray(
-                [
-                    math.log(min(max(float(vals[p.name]), p.lower), p.upper))
-                    if p.log
-                    else min(max(float(vals[p.name]), p.lower), p.upper) / p.scale
-                    for p in free
-                ]
-            )
-
-        def from_x(x: FloatArray) -> dict[str, float]:
-            out = dict(fixed_vals)
-            for p, xi in zip(free, x, strict=True):
-                out[p.name] = math.exp(float(xi)) if p.log else float(xi) * p.scale
-            return out
-
-        lo = np.asarray([math.log(p.lower) if p.log else p.lower / p.scale for p in free])
-        hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
-        x0 = np.clip(to_x(start), lo, hi)
-
-        def fun(x: FloatArray) -> FloatArray:
-            return self.residual_vector(self.simulate(from_x(x), seg_mask))
-
-        if not names:
+        if not free:
             sim = self.simulate(fixed_vals, seg_mask)
             return FitOutcome(dict(fixed_vals), self.cost(sim), 1, True)
-        sol = levenberg_marquardt(
-            fun, x0, lo, hi, max_nfev=max_nfev, max_iter=max_nfev, ftol=1e-6, lam0=1e-3
-        )
+        values, sse, nfev, converged, se = scaled_fit(
+            lambda v: self.residual_vector(self.simulate(v, seg_mask)),
+            free, {**start, **fixed_vals}, max_nfev,
+        )  # fmt: skip
         n = int(np.count_nonzero(self.segments.sample_mask(self.record.time.size, seg_mask)))
-        # standard errors from the (last) Jacobian: s^2 (J^T J)^-1, in value units
-        se: dict[str, float] = {}
-        dof = max(1, sol.fun.size - len(names))
-        try:
-            cov = np.linalg.inv(sol.jac.T @ sol.jac) * (sol.cost / dof)
-            sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        except np.linalg.LinAlgError:
-            sd = np.full(len(names), math.nan)
-        for p, xi, si in zip(free, sol.x, sd, strict=True):
-            se[p.name] = float(math.exp(float(xi)) * si if p.log else si * p.scale)
-        return FitOutcome(from_x(sol.x), sol.cost / max(n, 1), sol.nfev, sol.converged, se)
+        return FitOutcome(values, sse / max(n, 1), nfev, converged, se)

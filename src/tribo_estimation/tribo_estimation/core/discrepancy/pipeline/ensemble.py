@@ -20,11 +20,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
-from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.errors import InvalidParameterError
 
 from ..candidates import ParamSpec
 from ..fitting import K_DECAY, MU0, MU_INF, Problem, SimulatedRecord
+from ..fitting.problem import scaled_fit
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -238,48 +238,14 @@ class Ensemble:
         fixed = {k: float(v) for k, v in start.items()}
         if not free:
             return Fit(fixed, self.cost(fixed), 1, True, {})
-
-        def clip(p: ParamSpec, v: float) -> float:
-            return min(max(v, p.lower), p.upper)
-
-        def to_x(p: ParamSpec, v: float) -> float:
-            return math.log(clip(p, v)) if p.log else clip(p, v) / p.scale
-
-        def from_x(x: FloatArray) -> dict[str, float]:
-            out = dict(fixed)
-            for p, xi in zip(free, x, strict=True):
-                out[p.name] = math.exp(float(xi)) if p.log else float(xi) * p.scale
-            return out
-
-        lo = np.asarray([math.log(p.lower) if p.log else p.lower / p.scale for p in free])
-        hi = np.asarray([math.log(p.upper) if p.log else p.upper / p.scale for p in free])
-        x0 = np.asarray([to_x(p, float(start.get(p.name, p.initial))) for p in free])
-        sol = levenberg_marquardt(
-            lambda x: self.residuals(from_x(x), fold, folds),
-            x0,
-            lo,
-            hi,
-            max_nfev=max_nfev,
-            max_iter=max_nfev,
-            ftol=1e-6,
-            lam0=1e-3,
+        values, sse, nfev, converged, se = scaled_fit(
+            lambda v: self.residuals(v, fold, folds), free, fixed, max_nfev
         )
-        values = from_x(sol.x)
-        m = int(sol.fun.size)
-        dof = max(1, m - len(free))
-        se: dict[str, float] = {}
-        try:
-            cov = np.linalg.inv(sol.jac.T @ sol.jac) * (sol.cost / dof)
-            sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        except np.linalg.LinAlgError:
-            sd = np.full(len(free), math.nan)
-        for p, xi, si in zip(free, sol.x, sd, strict=True):
-            se[p.name] = float(math.exp(float(xi)) * si if p.log else si * p.scale)
         n = sum(
             int(np.count_nonzero(pb.segments.sample_mask(pb.record.time.size)))
             for pb in self.problems
         )
-        return Fit(values, float(sol.cost) / max(n, 1), sol.nfev, sol.converged, se)
+        return Fit(values, sse / max(n, 1), nfev, converged, se)
 
 
 def at_bound(specs: Sequence[ParamSpec], values: Mapping[str, float], margin: float) -> list[str]:

@@ -129,7 +129,7 @@ class Policy:
             The live policy.
         """
         return cls(
-            replicas=2,
+            replicas=3,
             confirm_replicas=0,
             replica_nfev=8,
             max_effects=1,
