@@ -31,6 +31,7 @@ from . import candidates as cand_lib
 from .localise import torque_residual
 from .pipeline import Policy, find_missing_physics
 from .pipeline.decide import NAMED
+from .pipeline.null import NullLaw
 from .stats import (
     SLIP_ACCEL,
     SLIP_DECEL,
@@ -58,7 +59,9 @@ class MonitorConfig:
     the whole library); ``time_budget`` wall time per window after which no further
     form is screened or refined [s] (keep it below ``hop``); ``alpha`` the
     adequacy decisions' false-alarm rate [-]; ``replicas`` bootstrap replicas of
-    the window's null law.
+    the window's null law; ``null_reuse`` windows that reuse a null law before it is
+    measured again (the windows overlap: the same process, the same noise; 0: every
+    window measures its own).
     """
 
     window: float = 6.0
@@ -67,6 +70,7 @@ class MonitorConfig:
     time_budget: float = 1.5
     alpha: float = 0.01
     replicas: int = 3
+    null_reuse: int = 2
 
     def __post_init__(self) -> None:
         """Refuse non-positive or non-finite times and a hop longer than the window."""
@@ -78,6 +82,8 @@ class MonitorConfig:
             raise InvalidParameterError(
                 f'monitor hop ({self.hop} s) must not exceed the window ({self.window} s)'
             )
+        if self.null_reuse < 0:
+            raise InvalidParameterError(f'monitor null_reuse must be >= 0, got {self.null_reuse}')
         if self.replicas < 3:
             # two replicas give a Student t bound with one degree of freedom: so wide
             # that no window would ever be called inadequate
@@ -218,6 +224,8 @@ class WindowMonitor:
         self._n = 0
         self._fs: float | None = None
         self._next_end: float | None = None
+        self._null: tuple[NullLaw, ...] | None = None
+        self._null_age = 0
 
     # ------------------------------------------------------------------ input
     def reset(self) -> None:
@@ -349,10 +357,19 @@ class WindowMonitor:
         if w0 <= 0.0:
             w0 = float(np.mean(w.speed))
         drive = DriveProfile(w0, self.drive.ramp_time)
+        fresh = self._null is None or self._null_age >= cfg.null_reuse
         try:
-            res = find_missing_physics([w], self.rig, [drive], k=self.k, policy=cfg.policy())
+            res = find_missing_physics(
+                [w], self.rig, [drive], k=self.k, policy=cfg.policy(),
+                null=None if fresh else self._null,
+            )  # fmt: skip
         except EstimationError:
             return self._empty(w, t0, 'fit_failed', w0)
+        if fresh:
+            self._null = tuple(r.null for r in res.records)
+            self._null_age = 0
+        else:
+            self._null_age += 1
         rep = res.records[0]
         tr = res.traces[0]
         pb = tr.problem

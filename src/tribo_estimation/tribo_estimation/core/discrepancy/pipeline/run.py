@@ -138,6 +138,7 @@ def find_missing_physics(
     policy: Policy | None = None,
     progress: Progress | None = None,
     shared_friction: bool = False,
+    null: Sequence[NullLaw] | None = None,
 ) -> MissingPhysics:
     """Find what the rig model misses in one record or several (module docstring).
 
@@ -159,6 +160,10 @@ def find_missing_physics(
         Receiver of one-line progress messages.
     shared_friction : bool
         Several records of one contact at several drive speeds: one friction law.
+    null : sequence of NullLaw or None
+        Per record, a null law measured before on the same process (the live monitor's
+        previous window of an overlapping stream) instead of bootstrapping it again
+        (None: bootstrapped here).
 
     Returns
     -------
@@ -198,7 +203,11 @@ def find_missing_physics(
     else:
         fit0 = Fit(start, ens.cost(start), 0, True, {})
     baseline = judge(ens, (), fit0)
-    laws = _null_laws(ens, baseline, pol, pol.replicas, pol.seed)
+    laws = (
+        list(null)
+        if null is not None and len(null) == ens.n
+        else _null_laws(ens, baseline, pol, pol.replicas, pol.seed)
+    )
     drift = [law.drift_outlier(p.sensor.drift) for law, p in zip(laws, preps, strict=True)]
     fails = failing(baseline, laws)
     say(
