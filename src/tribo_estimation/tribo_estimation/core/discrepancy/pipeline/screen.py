@@ -214,7 +214,7 @@ def screen_form(
     ctx: StartContext,
     policy: Policy,
 ) -> Fit:
-    """Screen one form's start points on half the blocks; return the best screened fit.
+    """Screen one form's start points on a subset of the blocks; return the best screened fit.
 
     Parameters
     ----------
