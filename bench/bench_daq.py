@@ -37,6 +37,7 @@ def bench_decode(n: int = 2_000_000, chunk: int = 1 << 20) -> None:
         got = 0
         for pos in range(0, len(data), chunk):
             got += len(dec.feed(data[pos : pos + chunk]))
+        got += len(dec.flush())
         dt = time.perf_counter() - t0
         best = max(best, n / dt)
     print(f'decode: {n} frames in chunks of {chunk} B, {got} decoded, '

@@ -89,6 +89,39 @@ def test_resync_after_garbage_and_lost_byte() -> None:
     assert samples.torsion_moment.tolist() == [0.0, 3.0, 6.0, 9.0, 15.0, 18.0, 21.0, 24.0, 27.0]
 
 
+@pytest.mark.parametrize('lost', [FRAME_SIZE - 1, FRAME_SIZE])
+def test_frames_sharing_one_byte_are_both_decoded(lost: int) -> None:
+    # Frame k ends with CRC high byte 0xA5, the first byte of frame k + 1.  Whichever copy of
+    # that byte the line loses, both frames pass the CRC on the shared byte; both are real.
+    idx = np.arange(200_000)
+    raw = np.frombuffer(encode_frames(idx, idx * 3, -idx, idx % 7), dtype=np.uint8)
+    k = int(np.flatnonzero(raw.reshape(-1, FRAME_SIZE)[:, FRAME_SIZE - 1] == 0xA5)[0])
+    buf = bytearray(frames(6, start=k - 2))
+    del buf[2 * FRAME_SIZE + lost]  # frame k's last byte, or frame k + 1's first
+    want = list(range(k - 2, k + 4))
+    samples, _ = decode_buffer(bytes(buf), UNIT)
+    assert samples.sample_index.tolist() == want
+    assert samples.torsion_moment.tolist() == [3.0 * i for i in want]
+    assert [r[1] for r in decode_scalar(bytes(buf), UNIT)] == want
+    dec = DaqDecoder(UNIT)  # byte by byte: each frame waits for the bytes that may overlap it
+    got = [i for b in bytes(buf) for i in dec.feed(bytes([b])).sample_index.tolist()]
+    got += dec.flush().sample_index.tolist()
+    assert got == want
+    assert dec.stats.discarded_bytes == 0
+
+
+def test_overlapping_frame_without_the_next_index_is_dropped() -> None:
+    # The same shared byte, but the overlapping frame is not the next sample: only the earlier
+    # frame is taken (a valid frame inside an accepted one is taken only as its successor).
+    idx = np.arange(200_000)
+    raw = np.frombuffer(encode_frames(idx, idx * 3, -idx, idx % 7), dtype=np.uint8)
+    k = int(np.flatnonzero(raw.reshape(-1, FRAME_SIZE)[:, FRAME_SIZE - 1] == 0xA5)[0])
+    buf = frames(1, start=k) + frames(1, start=k + 500)[1:] + frames(2, start=k + 501)
+    samples, _ = decode_buffer(buf, UNIT)
+    assert samples.sample_index.tolist() == [k, k + 501, k + 502]
+    assert [r[1] for r in decode_scalar(buf, UNIT)] == [k, k + 501, k + 502]
+
+
 def test_crc_errors_counted_once_per_corrupted_frame() -> None:
     buf = bytearray(frames(50))
     for k in (3, 17, 30, 31, 49):
@@ -141,6 +174,7 @@ def test_streaming_chunks_equal_whole_buffer() -> None:
         step = int(rng.integers(1, 97))  # chunk boundaries anywhere, also inside sync words
         got += dec.feed(buf[pos : pos + step]).sample_index.tolist()
         pos += step
+    got += dec.flush().sample_index.tolist()
     assert got == whole.sample_index.tolist()
     assert dec.stats.crc_errors == whole.crc_errors
     assert dec.pending_bytes < FRAME_SIZE

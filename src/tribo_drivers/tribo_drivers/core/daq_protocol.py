@@ -19,10 +19,15 @@ quantities of the paper's rig model (torsion moment C1*phi1 and w1' of Equ. 1-2,
 of Equ. 3-4, numbering per ``docs/physics.md``).
 
 The decoder is vectorised with numpy (several million frames per second): it finds every
-``A5 5A`` sync candidate in the buffer, checks all CRCs at once and keeps the earliest
-non-overlapping valid frames, which is exactly what a byte-by-byte scanner
-(:func:`decode_scalar`) accepts.  Garbage, corrupted frames and lost bytes therefore cost only
-the damaged frames; every intact frame is recovered.
+``A5 5A`` sync candidate in the buffer, checks all CRCs at once and keeps non-overlapping valid
+frames, earliest first, which is exactly what a byte-by-byte scanner (:func:`decode_scalar`)
+accepts.  Two valid frames may share one byte: when a frame's last byte equals the next
+frame's first sync byte (0xA5) and one of the two copies is lost on the line, both frames
+still pass the CRC.  A valid frame that overlaps an accepted one is therefore also accepted
+when its sample index is the next one (a false frame would have to pass the CRC and carry
+exactly that index).  Garbage, corrupted frames and lost bytes therefore cost only the damaged
+frames; every intact frame is recovered.  A streaming decoder holds a frame back until every
+frame that could overlap it is complete (``2 * FRAME_SIZE - 1`` bytes).
 """
 
 from __future__ import annotations
@@ -188,61 +193,90 @@ def _scale(
     return out[0], out[1], out[2]
 
 
-def _select_non_overlapping(valid: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Earliest-first non-overlapping subset of sorted frame start positions."""
+def _select_frames(
+    valid: npt.NDArray[np.int64], index: npt.NDArray[np.uint32]
+) -> npt.NDArray[np.int64]:
+    """Return the accepted subset of sorted valid frame starts (see the module docstring).
+
+    index: the sample index of every valid frame.  Non-overlapping frames are kept earliest
+    first; a frame overlapping the last kept one is kept too if its index is the next one.
+    """
     if valid.size < 2 or np.all(np.diff(valid) >= FRAME_SIZE):
         return valid
     keep: list[int] = []
+    pos = valid.tolist()
+    idx = index.tolist()
     end = -1
-    for p in valid.tolist():  # rare path: a valid-looking frame overlaps another one
-        if p >= end:
+    last = -1
+    for i, p in enumerate(pos):  # rare path: a valid-looking frame overlaps another one
+        if p >= end or (last >= 0 and idx[i] == (idx[last] + 1) % INDEX_MODULUS):
             keep.append(p)
             end = p + FRAME_SIZE
+            last = i
     return np.asarray(keep, dtype=np.int64)
 
 
-def scan_buffer(buf: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.int64], int]:
-    """Start positions of the accepted frames in ``buf`` and the number of CRC failures.
+def scan_buffer(
+    buf: npt.NDArray[np.uint8], final: bool = True
+) -> tuple[npt.NDArray[np.int64], int, int]:
+    """Return the accepted frame starts in ``buf``, the CRC failures and the consumed length.
 
-    Only complete candidates (start <= len - 20) are examined.  A CRC failure is a sync
-    candidate whose CRC is wrong and that does not lie inside an accepted frame.
+    final: decide every complete frame.  Otherwise a frame is decided only when every frame
+    that could overlap it is complete (it starts at most ``n - 2 * FRAME_SIZE + 1``), and
+    the bytes from the consumed length on are to be scanned again with what follows.  A CRC
+    failure is a sync candidate below the consumed length whose CRC is wrong and that does
+    not lie inside an accepted frame.
     """
     n = buf.size
+    horizon = n - FRAME_SIZE + 1 if final else n - 2 * FRAME_SIZE + 2
     if n < FRAME_SIZE:
-        return np.zeros(0, dtype=np.int64), 0
+        return np.zeros(0, dtype=np.int64), 0, max(horizon, 0)
     head = buf[: n - FRAME_SIZE + 1]
     is_sync = (head == SYNC[0]) & (buf[1 : n - FRAME_SIZE + 2] == SYNC[1])
     cand = np.flatnonzero(is_sync).astype(np.int64)
     if cand.size == 0:
-        return cand, 0
+        return cand, 0, max(horizon, 0)
     windows = np.lib.stride_tricks.sliding_window_view(buf, FRAME_SIZE)
     frames = windows[cand]
     stored = frames[:, CRC_END].astype(np.uint16) | (frames[:, CRC_END + 1].astype(np.uint16) << 8)
     ok = crc16_rows(frames[:, CRC_START:CRC_END]) == stored
-    accepted = _select_non_overlapping(cand[ok])
+    index = np.ascontiguousarray(frames[ok, 2:6]).view('<u4').reshape(-1)
+    selected = _select_frames(cand[ok], index)
+    accepted = selected[selected < horizon]
+    resume = 0
+    if accepted.size:  # where scanning resumes: after the last frame, or at its overlapping twin
+        resume = int(accepted[-1]) + FRAME_SIZE
+        if selected.size > accepted.size:
+            resume = min(resume, int(selected[accepted.size]))
+    consumed = max(resume, horizon, 0)
     rejected = cand[~ok]
+    rejected = rejected[rejected < consumed]
     if rejected.size and accepted.size:
         k = np.searchsorted(accepted, rejected, side='right') - 1
         inside = (k >= 0) & (rejected < accepted[np.maximum(k, 0)] + FRAME_SIZE)
         crc_errors = int(np.count_nonzero(~inside))
     else:
         crc_errors = int(rejected.size)
-    return accepted, crc_errors
+    return accepted, crc_errors, consumed
 
 
 def decode_buffer(
-    data: bytes | bytearray | memoryview | npt.NDArray[np.uint8], scaling: DaqScaling
+    data: bytes | bytearray | memoryview | npt.NDArray[np.uint8],
+    scaling: DaqScaling,
+    final: bool = True,
 ) -> tuple[DaqSamples, int]:
-    """Decode all complete frames of a buffer; returns the samples and the consumed length.
+    """Decode the frames of a buffer; returns the samples and the consumed length.
 
-    Bytes from the consumed length on may still hold the start of a frame and should be kept
-    for the next call (see :class:`DaqDecoder`).
+    final: decode every complete frame (the end of the stream); otherwise the last frames
+    wait for the bytes that could still overlap them (see :func:`scan_buffer`).  Bytes from
+    the consumed length on should be kept for the next call (see :class:`DaqDecoder`).
     """
     buf = np.frombuffer(data, dtype=np.uint8) if not isinstance(data, np.ndarray) else data
-    pos, crc_errors = scan_buffer(buf)
-    n = buf.size
-    last_end = int(pos[-1]) + FRAME_SIZE if pos.size else 0
-    consumed = max(last_end, n - FRAME_SIZE + 1, 0)
+    pos, crc_errors, consumed = scan_buffer(buf, final)
+    covered = 0
+    if pos.size:  # bytes in accepted frames below the consumed length (twins share one)
+        ends = np.minimum(pos + FRAME_SIZE, np.append(pos[1:], consumed))
+        covered = int(np.sum(np.clip(np.minimum(ends, consumed) - pos, 0, None)))
     if pos.size:
         windows = np.lib.stride_tricks.sliding_window_view(buf, FRAME_SIZE)
         frames = np.ascontiguousarray(windows[pos]).view(FRAME_DTYPE).reshape(-1)
@@ -255,7 +289,7 @@ def decode_buffer(
         angular_acceleration=a,
         speed=s,
         crc_errors=crc_errors,
-        discarded_bytes=consumed - FRAME_SIZE * int(pos.size),
+        discarded_bytes=consumed - covered,
     )
     return samples, consumed
 
@@ -278,9 +312,20 @@ class DaqDecoder:
     _tail: bytes = b''
 
     def feed(self, chunk: bytes | bytearray | memoryview) -> DaqSamples:
-        """Decode ``chunk`` appended to the undecoded tail of earlier chunks."""
+        """Decode ``chunk`` appended to the undecoded tail of earlier chunks.
+
+        The last frame is held back until the bytes that could overlap it have arrived;
+        :meth:`flush` decodes it when the line falls idle.
+        """
         data = self._tail + bytes(chunk) if self._tail else bytes(chunk)
-        samples, consumed = decode_buffer(data, self.scaling)
+        return self._decode(data, final=False)
+
+    def flush(self) -> DaqSamples:
+        """Decode every complete frame still held (the line is idle or the stream ends)."""
+        return self._decode(self._tail, final=True)
+
+    def _decode(self, data: bytes, final: bool) -> DaqSamples:
+        samples, consumed = decode_buffer(data, self.scaling, final)
         self._tail = data[consumed:]
         self.stats.frames += len(samples)
         self.stats.crc_errors += samples.crc_errors
@@ -302,28 +347,39 @@ def decode_scalar(data: bytes, scaling: DaqScaling) -> list[tuple[int, int, floa
     """Decode ``data`` byte by byte: (position, sample_index, torque, accel, speed) per frame.
 
     Slow; used to check the vectorised decoder.  At each position it accepts a frame if the
-    sync bytes and the CRC match and then jumps past it, otherwise it advances by one byte.
+    sync bytes and the CRC match; it then moves to a valid frame with the next sample index
+    starting inside the accepted one if there is one, and past the accepted frame otherwise.
+    Elsewhere it advances by one byte.
     """
     import struct
+
+    def valid(i: int) -> bool:
+        if i + FRAME_SIZE > n or data[i] != SYNC[0] or data[i + 1] != SYNC[1]:
+            return False
+        (crc,) = struct.unpack_from('<H', data, i + CRC_END)
+        return bool(crc16_ccitt_false(data[i + CRC_START : i + CRC_END]) == crc)
 
     out: list[tuple[int, int, float, float, float]] = []
     i = 0
     n = len(data)
     while i + FRAME_SIZE <= n:
-        if data[i] == SYNC[0] and data[i + 1] == SYNC[1]:
-            (crc,) = struct.unpack_from('<H', data, i + CRC_END)
-            if crc16_ccitt_false(data[i + CRC_START : i + CRC_END]) == crc:
-                idx, tq, ac, sp = struct.unpack_from('<Iiii', data, i + 2)
-                out.append(
-                    (
-                        i,
-                        idx,
-                        (tq - scaling.offset[0]) * scaling.gain[0],
-                        (ac - scaling.offset[1]) * scaling.gain[1],
-                        (sp - scaling.offset[2]) * scaling.gain[2],
-                    )
-                )
-                i += FRAME_SIZE
-                continue
-        i += 1
+        if not valid(i):
+            i += 1
+            continue
+        idx, tq, ac, sp = struct.unpack_from('<Iiii', data, i + 2)
+        out.append(
+            (
+                i,
+                idx,
+                (tq - scaling.offset[0]) * scaling.gain[0],
+                (ac - scaling.offset[1]) * scaling.gain[1],
+                (sp - scaling.offset[2]) * scaling.gain[2],
+            )
+        )
+        twins = [
+            j
+            for j in range(i + 1, i + FRAME_SIZE)
+            if valid(j) and struct.unpack_from('<I', data, j + 2)[0] == (idx + 1) % INDEX_MODULUS
+        ]
+        i = twins[0] if twins else i + FRAME_SIZE
     return out

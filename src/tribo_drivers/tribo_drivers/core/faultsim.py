@@ -35,7 +35,8 @@ class FaultReport:
     delivered: int
     delivered_unique: int
     intact_missing: int  # intact frames never published
-    invented: int  # published indices that were not sent intact
+    recovered: int  # damaged frames published with their true content (a lost byte's twin)
+    invented: int  # published indices that were never sent
     value_errors: int  # published values differing from the truth
     lost_counted: int  # samples in the gap counters
     span: int  # last - first published index + 1
@@ -172,6 +173,9 @@ def _account(
         idx = np.zeros(0, dtype=np.int64)
     intact = emu.truth.intact_indices()
     uncertain = emu.truth.uncertain_indices()
+    damaged = (
+        np.concatenate(emu.truth.damaged) if emu.truth.damaged else np.zeros(0, dtype=np.int64)
+    )
     uniq = np.unique(idx)
     value_errors = 0
     if idx.size:
@@ -204,7 +208,8 @@ def _account(
         delivered=int(idx.size),
         delivered_unique=int(uniq.size),
         intact_missing=int(np.setdiff1d(intact, uniq).size),
-        invented=int(np.setdiff1d(uniq, np.concatenate([intact, uncertain])).size),
+        recovered=int(np.intersect1d(uniq, damaged).size),
+        invented=int(np.setdiff1d(uniq, np.concatenate([intact, uncertain, damaged])).size),
         value_errors=value_errors,
         lost_counted=c.lost,
         span=span,

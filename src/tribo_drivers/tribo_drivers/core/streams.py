@@ -19,7 +19,7 @@ import numpy as np
 
 from tribo_drivers.core import counter_protocol as cp
 from tribo_drivers.core.can_protocol import CanCodec, CanStreamSpec
-from tribo_drivers.core.daq_protocol import CHANNELS, UNITS, DaqDecoder, DaqScaling
+from tribo_drivers.core.daq_protocol import CHANNELS, UNITS, DaqDecoder, DaqSamples, DaqScaling
 from tribo_drivers.core.diagnostics import DriverCounters, RateMeter
 from tribo_drivers.core.gaps import BlockBatcher, IndexTracker, SampleBlock, block_size_for
 from tribo_drivers.core.reconnect import Backoff, ReconnectState
@@ -118,12 +118,13 @@ class DeviceStream(ABC, Generic[T]):
             return self._lost(str(exc))
 
     def _lost(self, message: str) -> list[T]:
+        out = self._flush()
         self._close()
         self.connection.lost(message)
         self.counters.connected = False
         self.counters.disconnects = self.connection.disconnects
         self.counters.last_error = message
-        return self._flush()
+        return out
 
     def open(self) -> None:
         """Open now (lifecycle *configure*); raises the device error instead of backing off."""
@@ -184,11 +185,12 @@ class DaqStream(DeviceStream[SampleBlock]):
         return self.clock.time_of(index)
 
     def _flush(self) -> list[SampleBlock]:
+        blocks = self._ingest(self.decoder.flush(), None)
         if self.clock.offset is None:
-            return []
-        blocks = self.batcher.flush(self._stamp)
-        self._count(blocks)
-        return blocks
+            return blocks
+        tail = self.batcher.flush(self._stamp)
+        self._count(tail)
+        return blocks + tail
 
     def _count(self, blocks: list[SampleBlock]) -> None:
         n = len(blocks) // len(CHANNELS)
@@ -197,9 +199,12 @@ class DaqStream(DeviceStream[SampleBlock]):
     def _read(self, timeout: float) -> list[SampleBlock]:
         data = self.transport.read(timeout)
         now = self.host_clock()
-        if not data:
+        if not data:  # the line is idle: the frame held back for a possible overlap is complete
             return self._flush()
-        samples = self.decoder.feed(data)
+        return self._ingest(self.decoder.feed(data), now)
+
+    def _ingest(self, samples: DaqSamples, now: float | None) -> list[SampleBlock]:
+        """Track, stamp and batch decoded frames; ``now`` is their arrival time [s] if known."""
         st = self.decoder.stats
         c = self.counters
         c.crc_errors = st.crc_errors
@@ -215,7 +220,8 @@ class DaqStream(DeviceStream[SampleBlock]):
             return []
         if tr.restart.any():
             self.clock.reset()
-        self.clock.observe(now, int(tr.index[-1]))
+        if now is not None or self.clock.offset is None:
+            self.clock.observe(self.host_clock() if now is None else now, int(tr.index[-1]))
         values = {ch: getattr(samples, ch)[tr.keep] for ch in CHANNELS}
         c.samples += int(tr.index.size)
         self.rate.add(time.monotonic(), int(tr.index.size))
