@@ -235,4 +235,7 @@ def test_sim_rig_waits_for_the_recorder(tmp_path: Path, procs: list[Proc]) -> No
     checks = {c.topic: c for c in bagio.check_streams(bag)}
     assert set(checks) == set(bagio.RIG_TOPICS), rec.output() + sim.output()
     for c in checks.values():
-        assert c.first_index == 0 and c.missing == 0 and c.samples >= 10_000, c
+        # the point is the start at sample 0 without loss; how many samples fit into the
+        # recorder's 4 s after its own start-up and the match depends on the machine's load
+        # (0.1 s of data shows that the stream really ran)
+        assert c.first_index == 0 and c.missing == 0 and c.samples >= 1_000, c
