@@ -235,16 +235,22 @@ class Replayer(Node):
         return pub
 
     def wait_for_subscribers(
-        self, topics: Iterable[str], timeout: float, min_count: int = 1
+        self,
+        topics: Iterable[str],
+        timeout: float,
+        min_count: int = 1,
+        stop: threading.Event | None = None,
     ) -> bool:
         """Wait until every listed topic's publisher has ``min_count`` subscribers.
 
-        At most ``timeout`` [s], then a settle time: the publisher sees a
-        subscription before the subscriber has matched the publisher, and a
-        volatile subscriber drops the messages of that interval (the first block of
-        a replay into the estimator). Returns whether all were matched.
+        At most ``timeout`` [s] (or until ``stop`` is set), then a settle time: the
+        publisher sees a subscription before the subscriber has matched the
+        publisher, and a volatile subscriber drops the messages of that interval
+        (the first block of a replay into the estimator). Returns whether all were
+        matched.
         """
         wanted = set(topics)
+        wait = (stop or threading.Event()).wait
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if all(
@@ -252,9 +258,10 @@ class Replayer(Node):
                 for t, p in self._pubs.items()
                 if t in wanted
             ):
-                time.sleep(SUBSCRIBER_SETTLE_S)
+                wait(SUBSCRIBER_SETTLE_S)
                 return True
-            time.sleep(0.05)
+            if wait(0.05):
+                return False
         return False
 
     def play(
@@ -274,7 +281,8 @@ class Replayer(Node):
         for topic, msgtype in counts.items():
             self.publisher_for(topic, msgtype)
         if wait_subscribers > 0:
-            self.wait_for_subscribers(counts.keys(), wait_subscribers, min_subscribers)
+            self.wait_for_subscribers(counts.keys(), wait_subscribers, min_subscribers, stop)
+        wait = (stop or threading.Event()).wait
         t_wall0 = time.monotonic()
         t_bag0: int | None = None
         last_report = t_wall0
@@ -287,7 +295,7 @@ class Replayer(Node):
                 due = t_wall0 + (m.timestamp_ns - t_bag0) * 1e-9 / self.rate
                 delay = due - time.monotonic()
                 if delay > 0:
-                    time.sleep(delay)
+                    wait(delay)
             self.publisher_for(m.topic, m.msgtype).publish(m.msg)
             self.published += 1
             now = time.monotonic()

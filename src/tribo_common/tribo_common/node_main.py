@@ -138,6 +138,34 @@ SPIN_STEP_S = 0.1
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
+@contextmanager
+def stop_signals() -> Iterator[threading.Event]:
+    """Turn SIGINT and SIGTERM into an event while a command runs (:class:`_StopRequest`).
+
+    For a process that calls ``rclpy.init`` with ``SignalHandlerOptions.NO``: the
+    caller polls the event, stops its threads, destroys its nodes and only then
+    shuts the context down. After a stop signal, later ones stay ignored until the
+    process ends; otherwise the previous handlers come back. Outside the main
+    thread no handler is installed and the event is only set by the caller.
+
+    Yields
+    ------
+    threading.Event
+        Set by the first SIGINT or SIGTERM.
+    """
+    stop = _StopRequest()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {sig: signal.signal(sig, stop) for sig in STOP_SIGNALS if main_thread}
+    try:
+        yield stop.event
+    finally:
+        for sig, handler in previous.items():
+            # after a stop signal the process is ending: a further one, even during the
+            # interpreter's exit (which resets Python-level handlers to the default, but
+            # leaves an ignored signal ignored), must not kill it
+            signal.signal(sig, signal.SIG_IGN if stop.count else handler)
+
+
 def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     """Create the node with ``factory`` and spin it until SIGINT, SIGTERM or shutdown.
 
@@ -160,40 +188,33 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> 
         The process exit code: 0, or 2 on a parameter or configuration error (one
         line on stderr).
     """
-    stop = _StopRequest()
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = {sig: signal.signal(sig, stop) for sig in STOP_SIGNALS if main_thread}
-    rclpy.init(
-        args=list(args) if args is not None else None,
-        signal_handler_options=SignalHandlerOptions.NO,
-    )
-    node: Node | None = None
-    code = 0
-    try:
-        node = factory()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while not stop.event.is_set() and rclpy_ok():
-            executor.spin_once(timeout_sec=SPIN_STEP_S)
-    except ExternalShutdownException:
-        pass
-    except (ParameterError, ValueError, OSError) as exc:
-        if stop.count == 0:
-            name = node.get_name() if node is not None else _node_name(args)
-            print(f'{name}: error: {exc}', file=sys.stderr)
-            code = 2
-    finally:
-        if node is not None:
-            close = getattr(node, 'close', None)
-            if callable(close):
-                close()
-            node.destroy_node()
-        try_shutdown()
-        for sig, handler in previous.items():
-            # after a stop signal the process is ending: a further one, even during the
-            # interpreter's exit (which resets Python-level handlers to the default, but
-            # leaves an ignored signal ignored), must not kill it
-            signal.signal(sig, signal.SIG_IGN if stop.count else handler)
+    with stop_signals() as stop:
+        rclpy.init(
+            args=list(args) if args is not None else None,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
+        node: Node | None = None
+        code = 0
+        try:
+            node = factory()
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            while not stop.is_set() and rclpy_ok():
+                executor.spin_once(timeout_sec=SPIN_STEP_S)
+        except ExternalShutdownException:
+            pass
+        except (ParameterError, ValueError, OSError) as exc:
+            if not stop.is_set():
+                name = node.get_name() if node is not None else _node_name(args)
+                print(f'{name}: error: {exc}', file=sys.stderr)
+                code = 2
+        finally:
+            if node is not None:
+                close = getattr(node, 'close', None)
+                if callable(close):
+                    close()
+                node.destroy_node()
+            try_shutdown()
     return code
 
 

@@ -55,11 +55,12 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f'--idle-stop must be >= 0, got {args.idle_stop}')
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
     from rclpy.utilities import try_shutdown
 
     from tribo_bringup import bagio
     from tribo_bringup.recorder import Recorder, RecordingError
-    from tribo_common.node_main import spin_background
+    from tribo_common.node_main import spin_background, stop_signals
 
     topics = None
     if args.topics:
@@ -72,19 +73,21 @@ def run(args: argparse.Namespace) -> int:
         topics = {t: bagio.TOPIC_TYPES[t] for t in names}
     # not opened here: the recorder's writer thread opens, writes and closes the bag
     writer = bagio.BagWriter(args.out, storage=args.storage)
-    rclpy.init()
     node: Recorder | None = None
     failure: BaseException | None = None
-    try:
-        node = Recorder(writer, topics, discover=args.discover, namespaces=args.namespace)
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        spinner, stop = spin_background(executor)
-        t0 = time.monotonic()
-        last = t0
-        seen, last_msg = 0, t0
+    # SIGINT/SIGTERM only end the loop below: the spin thread and the writer stop, the
+    # node is destroyed, and only then is the context shut down
+    with stop_signals() as interrupted:
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         try:
-            while not stop.is_set() and not node.failed.is_set():
+            node = Recorder(writer, topics, discover=args.discover, namespaces=args.namespace)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            spinner, stop = spin_background(executor)
+            t0 = time.monotonic()
+            last = t0
+            seen, last_msg = 0, t0
+            while not stop.is_set() and not interrupted.is_set() and not node.failed.is_set():
                 now = time.monotonic()
                 if args.duration and now - t0 >= args.duration:
                     break
@@ -99,19 +102,17 @@ def run(args: argparse.Namespace) -> int:
                 if now - last >= 5.0:
                     print(f'record: {now - t0:6.1f} s, {node.received} messages', file=sys.stderr)
                     last = now
-                time.sleep(0.05)
-        except KeyboardInterrupt:
-            pass
-        stop.set()
-        executor.shutdown(timeout_sec=2.0)
-        spinner.join(timeout=5.0)
-        failure = spinner.error
-    finally:
-        if node is not None:
-            node.close()  # writes what is queued and finishes the bag
-            failure = node.error or failure
-            node.destroy_node()
-        try_shutdown()
+                interrupted.wait(0.05)
+            stop.set()
+            spinner.join()  # spin steps are 0.1 s: no callback runs after this
+            executor.shutdown()
+            failure = spinner.error
+        finally:
+            if node is not None:
+                node.close()  # writes what is queued and finishes the bag
+                failure = node.error or failure
+                node.destroy_node()
+            try_shutdown()
     for topic, n in sorted(writer.counts.items()):
         print(f'  {topic}: {n} messages', file=sys.stderr)
     if failure is not None:

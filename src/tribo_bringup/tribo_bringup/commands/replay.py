@@ -50,29 +50,32 @@ def run(args: argparse.Namespace) -> int:
     """Replay the bag once."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
     from rclpy.utilities import try_shutdown
 
     from tribo_bringup.recorder import Replayer
-    from tribo_common.node_main import spin_background
+    from tribo_common.node_main import spin_background, stop_signals
 
-    rclpy.init()
-    try:
-        node = Replayer(args.bag, args.topics, args.rate)
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        spin, stop = spin_background(executor)
+    # SIGINT/SIGTERM only end the playing: the spin thread stops, the node is destroyed,
+    # and only then is the context shut down
+    with stop_signals() as interrupted:
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         try:
+            node = Replayer(args.bag, args.topics, args.rate)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            spin, stop = spin_background(executor)
             n = node.play(
                 wait_subscribers=args.wait_subscribers,
                 min_subscribers=args.min_subscribers,
                 progress=lambda k, t: print(f'replay: {t:7.1f} s, {k} messages', file=sys.stderr),
+                stop=interrupted,
             )
-        except KeyboardInterrupt:
-            n = node.published
-        stop.set()
-        spin.join(timeout=2.0)
-        node.destroy_node()
-    finally:
-        try_shutdown()
+            stop.set()
+            spin.join()  # spin steps are 0.1 s
+            executor.shutdown()
+            node.destroy_node()
+        finally:
+            try_shutdown()
     print(f'replay: published {n} messages from {args.bag}', file=sys.stderr)
     return 0
