@@ -53,14 +53,18 @@ $(DEPS_STAMP): requirements.txt constraints.txt tools/fix_ros_wheels.py
 	@$(PY) tools/fix_ros_wheels.py
 	@touch $@
 
+# The numba warm-up (pure-Python cores from src/, one core) runs beside the build.
 $(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
-	@echo '[setup] colcon build of the workspace (install/)'
+	@echo '[setup] colcon build of the workspace (install/), numba warm-up beside it'
 	@mkdir -p log
-	@$(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
+	@PYTHONPATH=$(ROOT)/src/tribo_common:$(ROOT)/src/tribo_estimation $(PY) tools/warmup.py \
+	  > log/warmup.txt 2>&1 & warm_pid=$$!; \
+	  $(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
 	  --event-handlers console_direct- summary- \
 	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
-	  || { mkdir -p log; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }
-	@$(IN_ENV) python tools/warmup.py
+	  || { wait $$warm_pid || true; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }; \
+	  wait $$warm_pid || { cat log/warmup.txt >&2; echo 'setup: numba warm-up failed (log/warmup.txt)' >&2; exit 2; }; \
+	  cat log/warmup.txt >&2
 	@touch $@
 
 build:
