@@ -47,7 +47,7 @@ def test_default_state_file_is_under_ros_home(
 def _run(state: Path, *extra: str) -> str:
     r = subprocess.run(
         tribo_cmd(
-            'run', '--nodes', 'sim_detector', 'wear_monitor', '--duration', '4',
+            'run', '--nodes', 'sim_detector', 'wear_monitor', '--duration', '2',
             '--wear-state', str(state), *extra,
         ),
         capture_output=True, text=True, timeout=120, cwd=ROOT,

@@ -115,7 +115,8 @@ def test_one_speed_cannot_tell_a_lag_from_k_and_shape_but_a_speed_step_decides()
     if res.verdict == CANNOT_TELL_APART:
         assert 'frictional_lag' in {e.family for e in res.alternatives}
         assert 'speed' in res.experiment
-    # a 12 -> 30 rpm step in the record separates them
-    rec2, rig2, drv2 = record(6, step(rpm(12), rpm(30), 1.5), effect=_lag(0.001))
+    # a 12 -> 30 rpm step in the record separates them (here sampled at 5 kHz)
+    rec2, rig2, drv2 = record(6, step(rpm(12), rpm(30), 1.5), effect=_lag(0.001), fs=5000.0)
     res2 = find_missing_physics([rec2], rig2, [drv2])
     assert res2.verdict == NAMED and res2.added == ('frictional_lag',), res2.finding()
+    assert res2.named[0].params['lag_tau'] == pytest.approx(0.001, rel=0.2)
