@@ -107,6 +107,13 @@ def test_frictional_lag_is_named_and_single_joint_and_live_agree() -> None:
     assert win.verdict == NAMED and win.candidate == 'frictional_lag', win.identifiable_reason
 
 
+def test_a_spent_time_budget_never_buys_a_name_and_says_what_was_not_fitted() -> None:
+    rec, rig, drv = record(3, constant(rpm(25)), effect=_lag(0.002))
+    res = find_missing_physics([rec], rig, [drv], policy=Policy(replicas=3, time_budget=1e-3))
+    assert res.verdict != NAMED and not res.added, res.finding()
+    assert 'time budget ended before' in res.reason, res.reason
+
+
 def test_one_speed_cannot_tell_a_lag_from_k_and_shape_but_a_speed_step_decides() -> None:
     # a 1 ms lag at one speed is what a smaller k or another Stribeck shape also gives
     rec, rig, drv = record(6, constant(rpm(25)), effect=_lag(0.001))

@@ -231,7 +231,7 @@ def decide(
             None,
             (),
             (),
-            'no family of the library lowers the mismatch beyond what noise allows',
+            'no family fitted lowers the mismatch beyond what noise allows',
         )
     top = partial[0]
     same = tuple(f for f in partial if indistinguishable(f.model, top.model, laws))

@@ -9,6 +9,7 @@ that the record singles out; a named model is confirmed against its own null law
 
 from __future__ import annotations
 
+import dataclasses
 import time as _time
 from collections.abc import Sequence
 
@@ -245,6 +246,13 @@ def find_missing_physics(
                     f'{decision.named.family} explains the mismatch, but the time budget '
                     f'ended before {", ".join(sorted(wanted - screened))} were fitted',
                 )  # fmt: skip
+            elif decision.kind == UNEXPLAINED and not wanted <= screened:
+                # what was not fitted cannot have been found wanting
+                decision = dataclasses.replace(
+                    decision,
+                    reason=f'{decision.reason}; the time budget ended before '
+                    f'{", ".join(sorted(wanted - screened))} were fitted',
+                )
             rounds.append(tuple(_effect(f, ens, current, laws) for f in fits))
             say(f'round {rnd + 1}: {decision.kind}: {decision.reason}')
             if decision.kind in (NAMED, CANNOT_TELL_APART):
