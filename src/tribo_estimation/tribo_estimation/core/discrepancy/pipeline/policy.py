@@ -65,6 +65,9 @@ class Policy:
     describe : bool
         Describe where the residual concentrates (localisation, spectral lines) for
         the report; the decisions do not use it.
+    k_starts : tuple of float
+        Factors on RIG.yaml's k (Equ. 8) from which the baseline fit starts [-]:
+        1, a third and three times (``docs/physics.md`` section 8).
     """
 
     alpha: float = 0.01
@@ -83,6 +86,7 @@ class Policy:
     seed: int = 0
     time_budget: float = math.inf
     describe: bool = True
+    k_starts: tuple[float, ...] = (1.0, 1.0 / 3.0, 3.0)
 
     def __post_init__(self) -> None:
         """Refuse settings out of range."""
@@ -109,10 +113,15 @@ class Policy:
             raise InvalidParameterError(f'block_time must be > 0 s, got {self.block_time}')
         if not self.time_budget > 0.0:
             raise InvalidParameterError(f'time_budget must be > 0 s, got {self.time_budget}')
+        if not self.k_starts or not all(f > 0.0 for f in self.k_starts):
+            raise InvalidParameterError(f'k_starts must be factors > 0, got {self.k_starts}')
 
     @classmethod
     def live(cls, time_budget: float = 1.0) -> Policy:
         """Return the live monitor's budget: the same rules, fewer replicas, one effect.
+
+        The baseline starts from RIG.yaml's k only (a window every hop: the offline
+        run's three starts do not fit the hop).
 
         The fits keep the offline budgets (a fit stopped early is a different fit, and the
         verdict must not depend on where one runs); the window's wall-time budget stops
@@ -135,6 +144,7 @@ class Policy:
             max_effects=1,
             time_budget=time_budget,
             describe=False,
+            k_starts=(1.0,),
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -155,6 +165,7 @@ class Policy:
             'torsion_lag': self.torsion_lag,
             'seed': self.seed,
             'describe': self.describe,
+            'k_starts': list(self.k_starts),
         }
 
 

@@ -190,11 +190,6 @@ def without_hum(prep: Prepared, values: Mapping[str, float], policy: Policy) -> 
 _HUM_JUDGED: tuple[str, ...] = ('torsion_moment', 'speed')
 
 
-#: Factors on the config's k (Equ. 8) of the baseline's extra starts [-]: a decade in
-#: three steps, the spread of k between oils and tests (docs/physics.md section 8).
-K_START_FACTORS = (1.0 / 3.0, 3.0)
-
-
 def baseline_starts(problem: Problem) -> list[dict[str, float]]:
     """Return start values of the baseline fit.
 
@@ -223,7 +218,9 @@ def baseline_starts(problem: Problem) -> list[dict[str, float]]:
     return [{'mu0': mu0, 'mu_inf': f * mu0} for f in (0.7, 0.85, 0.95)]
 
 
-def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[str, float]:
+def fit_record_baseline(
+    prep: Prepared, policy: Policy, say: Progress, k_start: float | None = None
+) -> dict[str, float]:
     """Fit one record's baseline (module docstring); sets its weights and free terms.
 
     Parameters
@@ -231,9 +228,11 @@ def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[s
     prep : Prepared
         The prepared record; its problem's weights and free instrument terms are set.
     policy : Policy
-        The policy (evaluation budgets).
+        The policy (evaluation budgets, ``k_starts`` on RIG.yaml's k).
     say : Progress
         Receiver of progress messages.
+    k_start : float or None
+        Start the fit from this k only [s/rad] (a refit of a fitted baseline).
 
     Returns
     -------
@@ -244,11 +243,12 @@ def fit_record_baseline(prep: Prepared, policy: Policy, say: Progress) -> dict[s
     one = Ensemble([pb])
     sensor = prep.sensor.values()
     best: Fit | None = None
-    # k of Equ. 8 from three starts: the config's k (a preset, or another test's) can
+    # k of Equ. 8 from the policy's starts: the config's k (a preset, or another test's) can
     # start the fit in the wrong valley (at a few rpm, k v spans 0.1-10)
-    for factor in (1.0, *K_START_FACTORS):
+    ks = [k_start] if k_start is not None else [pb.k * f for f in policy.k_starts]
+    for k in ks:
         for s in baseline_starts(pb):
-            start = one.join([{**s, 'k': pb.k * factor, **sensor}])
+            start = one.join([{**s, 'k': k, **sensor}])
             fo = one.fit(one.specs(), start, max_nfev=policy.screen_nfev, fold=0)
             if best is None or fo.cost < best.cost:
                 best = fo
