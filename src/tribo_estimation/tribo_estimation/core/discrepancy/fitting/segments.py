@@ -339,9 +339,11 @@ def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Se
             ),
         )
     if starts.size < 2:
+        stuck = f', stuck for its first {first / fs:.3g} s,' if first > 0 else ''
         raise TooShortError(
-            f'record of {n / fs:.3g} s without stick phases: the discrepancy workflow needs '
-            f'at least {2 * block_time:.3g} s of sliding'
+            f'record of {n / fs:.3g} s{stuck} without two stick phases to fit: the '
+            f'discrepancy workflow needs stick-slip cycles or at least {2 * block_time:.3g} s '
+            'of sliding'
         )
     stops = np.append(starts[1:], n).astype(np.int64)
     return Segments(
