@@ -11,18 +11,26 @@ import numpy as np
 from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, StartContext, register
 
 
-def _starts(ctx: StartContext) -> list[dict[str, float]]:
-    """Stiction time constants around the observed stick durations.
+def stick_time_starts(ctx: StartContext, factors: tuple[float, ...]) -> list[dict[str, float]]:
+    """Return ``stiction_tau`` starts at ``factors`` x the baseline's median stick [s].
 
-    A wide grid (0.1-10 x the baseline's median stick): the baseline's sticks are not
-    the record's (its breakaway threshold lacks the effect), and the screening holds
-    tau fixed at each (``profile``), so the grid is the profile of the cost over tau.
+    The screening holds ``stiction_tau`` fixed at each (``profile``), so the starts
+    are the profile of the cost over the family's time scale; none without sticks.
     """
     d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
     if d.size == 0:
         return []
     med = float(np.median(d))
-    return [{'stiction_tau': med * f} for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
+    return [{'stiction_tau': med * f} for f in factors]
+
+
+def _starts(ctx: StartContext) -> list[dict[str, float]]:
+    """Stiction time constants around the observed stick durations.
+
+    A wide grid (0.1-10 x the baseline's median stick): the baseline's sticks are not
+    the record's (its breakaway threshold lacks the effect).
+    """
+    return stick_time_starts(ctx, (0.1, 0.3, 1.0, 3.0, 10.0))
 
 
 CANDIDATE = register(

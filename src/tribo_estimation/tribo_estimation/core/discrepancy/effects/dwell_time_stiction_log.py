@@ -7,18 +7,13 @@ of the current stick [s], t0 [s]); enters the breakaway test (kernel ``P_ST_LOG`
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..candidates import SUGGEST_SPEED, Candidate, ParamSpec, StartContext, register
+from .dwell_time_stiction import stick_time_starts
 
 
 def _starts(ctx: StartContext) -> list[dict[str, float]]:
     """Time scales t0 around the observed stick durations (a profile grid, 0.03-3 x)."""
-    d = ctx.stick_durations[np.isfinite(ctx.stick_durations)]
-    if d.size == 0:
-        return []
-    med = float(np.median(d))
-    return [{'stiction_tau': med * f} for f in (0.03, 0.1, 0.3, 1.0, 3.0)]
+    return stick_time_starts(ctx, (0.03, 0.1, 0.3, 1.0, 3.0))
 
 
 CANDIDATE = register(
