@@ -15,6 +15,7 @@ from tribo_estimation.core.observer import FrictionObserver
 from tribo_estimation.core.signal import (
     chamber_speed,
     local_slope,
+    longest_run,
     noise_level,
     running_max,
     runs,
@@ -31,6 +32,7 @@ from .lag import chamber_speed_integral, estimate_torsion_lag, torsion_lag_compe
 from .report import MIN_STICK, StickPhase, StickReport
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 def _validate(*arrays: tuple[str, np.ndarray]) -> list[np.ndarray]:
@@ -103,6 +105,10 @@ _V_MIN = 0.4
 #: Window of the drive-speed level taken from the speed channel [s].
 _DRIVE_WIN = 0.05
 
+#: Longest candidate run given one stick line; longer runs are cut into pieces of
+#: this length and their phases joined (:func:`_pieces`) [s].
+_PIECE = 0.05
+
 
 def stick_residual(
     rig: RigParams, torsion: np.ndarray, accel: np.ndarray, speed: np.ndarray
@@ -168,16 +174,18 @@ def _detect_all(
     sig_v = sig / (rig.C2 * dt * math.sqrt(float(np.sum(k * k))))
     thr = speed_threshold if speed_threshold is not None else max(_V_MIN, 6.0 * sig_v)
     w0 = drive_speed_level(w2, fs)
+    half = max(1, round(0.5 * _DRIVE_WIN * fs))  # the level's half window [samples]
     # chamber speed w1 from torsion and acceleration only (complementary filter)
     w1 = -slip_speed(rig, mt, ac, np.zeros_like(w2), fs)
     w2_slope = local_slope(w2, dt, _SLOPE_WIN)
 
     def passes(w0: FloatArray) -> tuple[list[StickPhase], FloatArray]:
         phases: list[StickPhase] = []
+        w0_channel = w0
         for _pass in range(2):
             # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
             v = w0 - slope / rig.C2
-            c_lo, c_stop = runs(np.abs(v) < thr)
+            c_lo, c_stop = _pieces(*runs(np.abs(v) < thr), max(8, round(_PIECE * fs)))
             c_hi = c_stop - 1  # last index of each run (inclusive)
             starts = np.empty(c_lo.size)
             ends = np.empty(c_lo.size)
@@ -197,6 +205,21 @@ def _detect_all(
                     continue
                 i0 = int(np.searchsorted(t, a))
                 i1 = max(i0 + 1, int(np.searchsorted(t, b)))
+                line = sl / rig.C2
+                if abs(line) < thr:
+                    # a stick at (near) rest: its flat line also fits steady sliding
+                    # beside it (a still chamber); it lasts only while the drive's level
+                    # agrees with the line's speed (the level, a centred mean, departs
+                    # half its window before the drive does)
+                    lvl = w0_channel[i0:i1]
+                    agree = np.abs(lvl - line) < np.maximum(thr, 0.5 * np.abs(lvl))
+                    rest_lo, rest_hi = longest_run(agree)
+                    if rest_hi - rest_lo < 2:
+                        continue
+                    lo = i0 + rest_lo - (half if rest_lo > 0 else 0)
+                    hi = i0 + rest_hi + (half if rest_hi < i1 - i0 else 0)
+                    i0, i1 = max(i0, lo), min(i1, hi)
+                    a, b = max(a, float(t[i0]) - 0.5 * dt), min(b, float(t[i1 - 1]) + 0.5 * dt)
                 if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
                     continue
                 kept.append((a, b, sl, i0, i1))
@@ -209,11 +232,22 @@ def _detect_all(
             lines = [ph for ph in phases if math.isfinite(ph.drive_speed)]
             if len(lines) < 2:
                 break
+            # between the lines their speeds are the drive's (exact through ramps and
+            # steps); before the first and after the last the channel's level carries
+            # the drive, corrected by the nearest line (its offset, gain and lag error):
+            # a drive that speeds up after the last stick slides
             mids = np.asarray([0.5 * (ph.start + ph.end) for ph in lines])
-            w0 = np.interp(t, mids, np.asarray([ph.drive_speed for ph in lines]))
+            speeds = np.asarray([ph.drive_speed for ph in lines])
+            w0_lines = np.interp(t, mids, speeds)
+            for k in (0, -1):
+                out = t < mids[0] if k == 0 else t > mids[-1]
+                i = int(np.searchsorted(t, mids[k]).clip(0, t.size - 1))
+                w0_lines[out] = w0_channel[out] + (speeds[k] - w0_channel[i])
+            w0 = w0_lines
         return phases, w0
 
     phases, w0_used = passes(w0)
+    phases = _merged(phases, 2.0 * dt)
     if len(phases) < 2:
         # no stick-slip at the speed channel's level: a speed-channel offset beyond the
         # threshold hides every stick; the stick lines themselves show the drive speed.
@@ -228,6 +262,9 @@ def _detect_all(
             if abs(level + c) < 2.0 * thr:
                 continue
             shifted, w0_shifted = passes(w0 + c)
+            # per phase, too: where the shifted level is near 0 but the channel's is not,
+            # the flat residual is a still chamber in steady sliding, not a stopped drive
+            shifted = [ph for ph in shifted if not _stopped_by_offset(t, ph, w0, w0_shifted, thr)]
             if len(shifted) < max(2, len(phases) + 1):
                 continue
             dev = []
@@ -236,8 +273,66 @@ def _detect_all(
                 i1 = max(i0 + 1, int(np.searchsorted(t, ph.end)))
                 dev.append(float(np.median(w1_torsion[i0:i1] - w0_shifted[i0:i1])))
             if float(np.median(np.abs(dev))) < max(_U_MIN, 0.5 * abs(level + c)):
-                phases, w0_used = shifted, w0_shifted
+                phases, w0_used = _merged(shifted, 2.0 * dt), w0_shifted
     return phases, float(np.mean(w0_used))
+
+
+def _pieces(lo: IntArray, stop: IntArray, most: int) -> tuple[IntArray, IntArray]:
+    """Split candidate runs longer than ``most`` samples into consecutive pieces.
+
+    A long stick (at rest before a start-up, through a stop) is a line of the
+    residual only up to the torsion channel's slow (coloured) noise and drift, which
+    over a second leave the white-noise band; each piece gets its own line, and the
+    pieces of one stick are joined again (:func:`_merged`).
+    """
+    if lo.size == 0 or int(np.max(stop - lo)) <= most:
+        return lo, stop
+    a: list[int] = []
+    b: list[int] = []
+    for i, j in zip(lo.tolist(), stop.tolist(), strict=True):
+        while j - i > most:
+            a.append(i)
+            b.append(i + most)
+            i += most
+        a.append(i)
+        b.append(j)
+    return np.asarray(a, np.int64), np.asarray(b, np.int64)
+
+
+def _merged(phases: list[StickPhase], gap: float) -> list[StickPhase]:
+    """Join phases that overlap or lie within ``gap`` [s] of each other (one stick).
+
+    The joined phase's drive speed is the duration-weighted mean of its pieces'.
+    """
+    out: list[StickPhase] = []
+    for ph in sorted(phases, key=lambda p: p.start):
+        if out and ph.start <= out[-1].end + gap:
+            prev = out[-1]
+            parts = [
+                (q.drive_speed, q.duration) for q in (prev, ph) if math.isfinite(q.drive_speed)
+            ]
+            weight = sum(d for _, d in parts)
+            speed = sum(w * d for w, d in parts) / weight if weight > 0.0 else math.nan
+            out[-1] = StickPhase(prev.start, max(prev.end, ph.end), speed)
+        else:
+            out.append(ph)
+    return out
+
+
+def _stopped_by_offset(
+    t: FloatArray, ph: StickPhase, w0: FloatArray, w0_shifted: FloatArray, thr: float
+) -> bool:
+    """Return whether a shifted level puts a moving drive at rest over a phase.
+
+    A stick line of slope ~0 (Equ. 6 with w0 ~ 0) is also what steady sliding with a
+    still chamber gives; it is a stick at rest only where the speed channel's own level
+    is at rest too (within ``2*thr`` [rad/s]).
+    """
+    i0 = int(np.searchsorted(t, ph.start))
+    i1 = max(i0 + 1, int(np.searchsorted(t, ph.end)))
+    shifted = abs(float(np.mean(w0_shifted[i0:i1])))
+    channel = abs(float(np.mean(w0[i0:i1])))
+    return shifted < 2.0 * thr <= channel
 
 
 def _stick_line_offsets(d: FloatArray, thr: float, most: int = 3) -> list[float]:
