@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from tribo_estimation.core.discrepancy.candidates import SUGGEST_SPEED
@@ -97,3 +99,24 @@ def test_indistinguishable_is_symmetric_and_bounded_by_the_tolerance() -> None:
     assert indistinguishable(a, b, [LAW]) and indistinguishable(b, a, [LAW])
     assert not indistinguishable(a, c, [LAW])
     assert LAW.centre('torsion_moment') < BOUND
+
+
+def test_a_fit_that_only_crosses_the_bound_is_no_name() -> None:
+    # the current model fails just beyond the bound; a family brings it just within:
+    # a change smaller than the replicas' spread (the tolerance) decides nothing
+    tol = LAW.tolerance('torsion_moment')
+    current = _model(BOUND * 1.01, (BOUND * 1.01) ** 2)
+    inside = BOUND * 0.99
+    assert 0.0 < math.log(1.01 / 0.99) < tol
+    fits = [
+        _fit('bearing_friction', 'bearing_friction', inside),
+        _fit('torque_offset', 'torque_offset', inside),
+    ]
+    assert all(f.adequate for f in fits)
+    d = decide(fits, current, [LAW], single_speed=True)
+    assert d.kind == UNEXPLAINED and d.named is None and d.alternatives == ()
+    assert 'cannot decide' in d.reason
+    # the same family from far beyond the bound resolves it: named
+    far = _model(BOUND * math.exp(3.0 * tol), 1.0)
+    d = decide(fits[:1], far, [LAW], single_speed=True)
+    assert d.kind == NAMED and d.named is not None and d.named.family == 'bearing_friction'

@@ -6,9 +6,13 @@ this record (:mod:`.null`); no threshold is tuned:
 - **Adequate**: a model passes every adequacy statistic of every record (bounds at
   ``Policy.alpha``) and none of its added form's parameters sits at a bound of its
   box (a form at its bound cannot reach what the record asks for: a form mismatch).
-- **Named**: exactly one family has an adequate form. The name is the family, with
-  the form that fitted.
-- **Cannot tell apart**: several families have adequate forms; the record does not
+- **Resolves**: an adequate form also lowers a statistic the current model fails by
+  more than the null law's tolerance of it (the replicas' spread): a form that only
+  nudges a statistic from just above its bound to just below explains nothing the
+  noise could not, and is neither a name nor a member of a set.
+- **Named**: exactly one family has an adequate form that resolves. The name is the
+  family, with the form that fitted.
+- **Cannot tell apart**: several families have adequate forms that resolve; the record does not
   decide between them. The answer is the set, each member's evidence and the
   experiment that separates them.
 - **Partial**: no family is adequate, but some lower the torsion-moment statistic
@@ -117,6 +121,33 @@ def improves(better: Model, current: Model, laws: Sequence[NullLaw]) -> bool:
     return bool(np.any(_torque_log(current) - _torque_log(better) > _tolerance(laws)))
 
 
+def resolves(better: Model, current: Model, laws: Sequence[NullLaw]) -> bool:
+    """Tell whether ``better`` lowers a failing statistic of ``current`` beyond noise.
+
+    In some record, a statistic beyond its bound for ``current`` is lower for
+    ``better`` by more than the null law's tolerance of it
+    (:meth:`.null.NullLaw.tolerance`, log ratio).
+
+    Parameters
+    ----------
+    better, current : Model
+        Two models of the same records.
+    laws : sequence of NullLaw
+        The records' null laws.
+
+    Returns
+    -------
+    bool
+        True when the change is larger than what noise varies the failing statistic by.
+    """
+    for a_cur, a_new, law in zip(current.adequacy, better.adequacy, laws, strict=True):
+        for name in law.failing(a_cur):
+            now, then = a_new[name], a_cur[name]
+            if now > 0.0 and math.isfinite(then) and math.log(then / now) > law.tolerance(name):
+                return True
+    return False
+
+
 def explained(fit: FormFit, current: Model, laws: Sequence[NullLaw]) -> float:
     """Return the share of the current model's excess that a form removes [-].
 
@@ -202,7 +233,8 @@ def decide(
         The round's decision.
     """
     per_family = best_per_family(fits)
-    adequate = [f for f in per_family if f.adequate]
+    within = [f for f in per_family if f.adequate]
+    adequate = [f for f in within if resolves(f.model, current, laws)]
     if len(adequate) == 1:
         f = adequate[0]
         return Decision(
@@ -226,13 +258,14 @@ def decide(
         )
     partial = [f for f in per_family if improves(f.model, current, laws)]
     if not partial:
-        return Decision(
-            UNEXPLAINED,
-            None,
-            (),
-            (),
-            'no family fitted lowers the mismatch beyond what noise allows',
-        )
+        why = 'no family fitted lowers the mismatch beyond what noise allows'
+        if within:
+            why += (
+                f'; {", ".join(f.family for f in within)} bring the model within the '
+                'bounds, by less than noise varies the failing statistic: this record '
+                'cannot decide'
+            )
+        return Decision(UNEXPLAINED, None, (), (), why)
     top = partial[0]
     same = tuple(f for f in partial if indistinguishable(f.model, top.model, laws))
     mismatch = [f for f in partial if f.bounded and not f.failing]
@@ -272,4 +305,5 @@ __all__ = [
     'explained',
     'improves',
     'indistinguishable',
+    'resolves',
 ]
