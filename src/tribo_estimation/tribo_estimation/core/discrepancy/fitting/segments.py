@@ -260,10 +260,10 @@ def make_segments(
         if slip[k] <= limit and not cut[k]
     ]
     if len(cand) < 3:
-        # a stick phase (the start-up from rest) has no sliding state: sliding
-        # segments start after it
-        after = max((int(b) for b in s_stop), default=0)
-        return sliding_segments(record, block_time, first=after)
+        # a stick phase (at rest before a start-up, through a stop) has no sliding
+        # state: sliding segments fill the longest stretch between stick phases
+        first, last = longest_free_stretch(s_start, s_stop, record.time.size)
+        return sliding_segments(record, block_time, first=first, last=last)
     min_len = round(min_length * fs)
     chosen = [cand[0]]
     for c in cand[1:]:
@@ -298,7 +298,34 @@ def make_segments(
     )
 
 
-def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Segments:
+def longest_free_stretch(s_start: IntArray, s_stop: IntArray, n: int) -> tuple[int, int]:
+    """Return the first and stop sample of the longest stretch without a stick phase.
+
+    Parameters
+    ----------
+    s_start, s_stop : IntArray
+        First and stop (exclusive) sample of each stick phase.
+    n : int
+        Samples in the record.
+
+    Returns
+    -------
+    tuple of int
+        ``(first, stop)`` of the stretch (``(0, n)`` without stick phases).
+    """
+    edges = sorted(zip(s_start.tolist(), s_stop.tolist(), strict=True))
+    best = (0, 0)
+    at = 0
+    for a, b in [*edges, (n, n)]:
+        if a - at > best[1] - best[0]:
+            best = (at, a)
+        at = max(at, b)
+    return best
+
+
+def sliding_segments(
+    record: Record, block_time: float, *, first: int = 0, last: int | None = None
+) -> Segments:
     """Cut a record without stick-slip (slip-slip, steady sliding) into segments.
 
     One segment per ``block_time``, each starting from the measured sliding
@@ -313,6 +340,9 @@ def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Se
     first : int
         First sample a segment may start at (after a stick phase: the samples
         before are not fitted and are listed in ``Segments.rejected``).
+    last : int or None
+        Stop sample of the last segment (before a stick phase: the samples from it
+        on are not fitted and are listed in ``Segments.rejected``); default: the end.
 
     Returns
     -------
@@ -326,26 +356,39 @@ def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Se
     """
     fs = record.fs
     n = record.time.size
+    stop = n if last is None else min(n, last)
     length = max(round(block_time * fs), 100)
     edge = SLIDE_WIN  # the local fits at a start need samples on both sides
-    starts = np.arange(max(edge, first + edge), n - length // 2, length, dtype=np.int64)
-    rejected: tuple[tuple[float, str], ...] = ()
+    starts = np.arange(max(edge, first + edge), stop - length // 2, length, dtype=np.int64)
+    rejected: list[tuple[float, str]] = []
     if first > 0:
-        rejected = (
+        rejected.append(
             (
                 float(record.time[0]),
                 f'not fitted: {float(record.time[min(first, n - 1)] - record.time[0]):.3g} s '
-                'of stick phase (no sliding state) before the first sliding segment',
-            ),
+                'with a stick phase (no sliding state) before the first sliding segment',
+            )
+        )
+    if stop < n:
+        rejected.append(
+            (
+                float(record.time[stop]),
+                f'not fitted: {float(record.time[-1] - record.time[stop]):.3g} s with a '
+                'stick phase (no sliding state) after the last sliding segment',
+            )
         )
     if starts.size < 2:
-        stuck = f', stuck for its first {first / fs:.3g} s,' if first > 0 else ''
+        free = (
+            f', its longest stretch without a stick {(stop - first) / fs:.3g} s,'
+            if (first > 0 or stop < n)
+            else ''
+        )
         raise TooShortError(
-            f'record of {n / fs:.3g} s{stuck} without two stick phases to fit: the '
+            f'record of {n / fs:.3g} s{free} without three stick phases to fit: the '
             f'discrepancy workflow needs stick-slip cycles or at least {2 * block_time:.3g} s '
             'of sliding'
         )
-    stops = np.append(starts[1:], n).astype(np.int64)
+    stops = np.append(starts[1:], stop).astype(np.int64)
     return Segments(
         starts,
         stops,
@@ -354,7 +397,7 @@ def sliding_segments(record: Record, block_time: float, *, first: int = 0) -> Se
         None,
         None,
         True,
-        rejected,
+        tuple(rejected),
     )
 
 
