@@ -219,7 +219,7 @@ def baseline_starts(problem: Problem) -> list[dict[str, float]]:
 
 
 def fit_record_baseline(
-    prep: Prepared, policy: Policy, say: Progress, k_start: float | None = None
+    prep: Prepared, policy: Policy, say: Progress, previous: Mapping[str, float] | None = None
 ) -> dict[str, float]:
     """Fit one record's baseline (module docstring); sets its weights and free terms.
 
@@ -231,8 +231,10 @@ def fit_record_baseline(
         The policy (evaluation budgets, ``k_starts`` on RIG.yaml's k).
     say : Progress
         Receiver of progress messages.
-    k_start : float or None
-        Start the fit from this k only [s/rad] (a refit of a fitted baseline).
+    previous : mapping of str to float or None
+        A fitted baseline of the same record before a change of its instrument terms
+        (the hum taken out): the refit starts from its k only, and from its values
+        too, so it is never worse than they are on the changed record.
 
     Returns
     -------
@@ -245,13 +247,14 @@ def fit_record_baseline(
     best: Fit | None = None
     # k of Equ. 8 from the policy's starts: the config's k (a preset, or another test's) can
     # start the fit in the wrong valley (at a few rpm, k v spans 0.1-10)
-    ks = [k_start] if k_start is not None else [pb.k * f for f in policy.k_starts]
-    for k in ks:
-        for s in baseline_starts(pb):
-            start = one.join([{**s, 'k': k, **sensor}])
-            fo = one.fit(one.specs(), start, max_nfev=policy.screen_nfev, fold=0)
-            if best is None or fo.cost < best.cost:
-                best = fo
+    ks = [previous['k']] if previous is not None else [pb.k * f for f in policy.k_starts]
+    starts = [{**s, 'k': k} for k in ks for s in baseline_starts(pb)]
+    if previous is not None:
+        starts.append({n: previous[n] for n in ('mu0', 'mu_inf', 'k')})
+    for s in starts:
+        fo = one.fit(one.specs(), one.join([{**s, **sensor}]), max_nfev=policy.screen_nfev, fold=0)
+        if best is None or fo.cost < best.cost:
+            best = fo
     assert best is not None
     fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
     values = one.split(fo.values)[0]

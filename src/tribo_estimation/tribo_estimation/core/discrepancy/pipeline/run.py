@@ -196,7 +196,7 @@ def find_missing_physics(
                 break
             say(f'record {i}: mains hum taken out: {cleaned.problem.hum_lines}')
             preps[i] = cleaned
-            base_vals[i] = fit_record_baseline(cleaned, pol, say, k_start=base_vals[i]['k'])
+            base_vals[i] = fit_record_baseline(cleaned, pol, say, previous=base_vals[i])
     ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)
     start = ens.join(base_vals)
     if ens.shared_friction:
