@@ -181,11 +181,12 @@ def _detect_all(
 
     def passes(w0: FloatArray) -> tuple[list[StickPhase], FloatArray]:
         phases: list[StickPhase] = []
+        cuts = np.zeros(0, np.int64)
         w0_channel = w0
         for _pass in range(2):
             # slip speed from the residual's slope: r' = C2*(w0 - v) - I2*v'' - K2*v' + K2*w0'
             v = w0 - slope / rig.C2
-            c_lo, c_stop = _pieces(*runs(np.abs(v) < thr), max(8, round(_PIECE * fs)))
+            c_lo, c_stop, cuts = _pieces(*runs(np.abs(v) < thr), max(8, round(_PIECE * fs)))
             c_hi = c_stop - 1  # last index of each run (inclusive)
             starts = np.empty(c_lo.size)
             ends = np.empty(c_lo.size)
@@ -244,10 +245,11 @@ def _detect_all(
                 i = int(np.searchsorted(t, mids[k]).clip(0, t.size - 1))
                 w0_lines[out] = w0_channel[out] + (speeds[k] - w0_channel[i])
             w0 = w0_lines
-        return phases, w0
+        # the pieces of a cut run are one stick (after the lines have given w0: each
+        # piece's line speed is the drive's at its middle)
+        return _merged(phases, 2.0 * dt, t[cuts]), w0
 
     phases, w0_used = passes(w0)
-    phases = _merged(phases, 2.0 * dt)
     if len(phases) < 2:
         # no stick-slip at the speed channel's level: a speed-channel offset beyond the
         # threshold hides every stick; the stick lines themselves show the drive speed.
@@ -273,40 +275,47 @@ def _detect_all(
                 i1 = max(i0 + 1, int(np.searchsorted(t, ph.end)))
                 dev.append(float(np.median(w1_torsion[i0:i1] - w0_shifted[i0:i1])))
             if float(np.median(np.abs(dev))) < max(_U_MIN, 0.5 * abs(level + c)):
-                phases, w0_used = _merged(shifted, 2.0 * dt), w0_shifted
+                phases, w0_used = shifted, w0_shifted
     return phases, float(np.mean(w0_used))
 
 
-def _pieces(lo: IntArray, stop: IntArray, most: int) -> tuple[IntArray, IntArray]:
+def _pieces(lo: IntArray, stop: IntArray, most: int) -> tuple[IntArray, IntArray, IntArray]:
     """Split candidate runs longer than ``most`` samples into consecutive pieces.
 
     A long stick (at rest before a start-up, through a stop) is a line of the
     residual only up to the torsion channel's slow (coloured) noise and drift, which
     over a second leave the white-noise band; each piece gets its own line, and the
-    pieces of one stick are joined again (:func:`_merged`).
+    pieces of one stick are joined again (:func:`_merged`). Returns the pieces'
+    first and stop samples and the samples where a run was cut.
     """
-    if lo.size == 0 or int(np.max(stop - lo)) <= most:
-        return lo, stop
     a: list[int] = []
     b: list[int] = []
+    cuts: list[int] = []
     for i, j in zip(lo.tolist(), stop.tolist(), strict=True):
         while j - i > most:
             a.append(i)
             b.append(i + most)
             i += most
+            cuts.append(i)
         a.append(i)
         b.append(j)
-    return np.asarray(a, np.int64), np.asarray(b, np.int64)
+    return np.asarray(a, np.int64), np.asarray(b, np.int64), np.asarray(cuts, np.int64)
 
 
-def _merged(phases: list[StickPhase], gap: float) -> list[StickPhase]:
-    """Join phases that overlap or lie within ``gap`` [s] of each other (one stick).
+def _merged(phases: list[StickPhase], gap: float, cuts: FloatArray) -> list[StickPhase]:
+    """Join the phases of the pieces of one cut candidate run (:func:`_pieces`).
 
-    The joined phase's drive speed is the duration-weighted mean of its pieces'.
+    Two phases are one stick when they overlap or lie within ``gap`` [s] of each
+    other across a cut (time [s] in ``cuts``); phases that merely touch elsewhere
+    stay apart (a false stick at the slow end of a slip beside a true one). The
+    joined phase's drive speed is the duration-weighted mean of its pieces'.
     """
+    if cuts.size == 0:
+        return phases
     out: list[StickPhase] = []
     for ph in sorted(phases, key=lambda p: p.start):
-        if out and ph.start <= out[-1].end + gap:
+        across = out and bool(np.any((cuts > out[-1].start) & (cuts < ph.end)))
+        if out and across and ph.start <= out[-1].end + gap:
             prev = out[-1]
             parts = [
                 (q.drive_speed, q.duration) for q in (prev, ph) if math.isfinite(q.drive_speed)
