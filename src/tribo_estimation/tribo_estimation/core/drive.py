@@ -32,6 +32,8 @@ import numpy.typing as npt
 from .signal import moving_average
 
 FloatArray = npt.NDArray[np.float64]
+#: Knot times [s] and speeds [rad/s] of a profile the angle fit is pulled toward.
+Prior = tuple[FloatArray, FloatArray]
 
 #: Averaging time of the shaft speed for the drive level (several stick-slip periods) [s].
 SMOOTH_TIME = 0.1
@@ -283,11 +285,19 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
 
 
 def _solve_speeds(
-    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None = None
+    tk: FloatArray,
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None = None,
+    prior: Prior | None = None,
 ) -> tuple[FloatArray, float]:
     """Solve the knot speeds of the least-squares fit ``c + integral of w0`` to angles.
 
-    A weak second-difference penalty acts on the knot speeds.
+    A weak second-difference penalty acts on the knot speeds, and as weak a pull
+    toward the ``prior`` profile (the smoothed speed channel): where angles pin a
+    knot they decide, and a knot with no angle near it (sliding without sticks
+    before, after or between them) keeps the channel's speed instead of the
+    penalty's straight-line extrapolation.
 
     Parameters
     ----------
@@ -299,6 +309,8 @@ def _solve_speeds(
         Drive angles [rad].
     start : float, optional
         The first knot's speed [rad/s] when known (a drive starting from rest).
+    prior : tuple of FloatArray, optional
+        Knot times [s] and speeds [rad/s] of the profile the knots are pulled toward.
 
     Returns
     -------
@@ -319,7 +331,14 @@ def _solve_speeds(
         for i in range(k - 2):
             d2[i, 1 + i : 4 + i] = (_KNOT_SMOOTH, -2.0 * _KNOT_SMOOTH, _KNOT_SMOOTH)
         basis = np.vstack((basis, d2))
-        rhs = np.concatenate((ph, np.zeros(k - 2)))
+        rhs = np.concatenate((rhs, np.zeros(k - 2)))
+    if prior is not None:
+        pull = np.zeros((k, k + 1))
+        pull[:, 1:] = _KNOT_SMOOTH * np.eye(k)
+        if start is not None:
+            pull[0, 1] = 0.0
+        basis = np.vstack((basis, pull))
+        rhs = np.concatenate((rhs, _KNOT_SMOOTH * np.interp(tk, *prior)))
     sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
     r = basis[: tt.size] @ sol - rhs[: tt.size]
     if start is not None:
@@ -328,7 +347,7 @@ def _solve_speeds(
 
 
 def _outliers(
-    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None
+    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None, prior: Prior | None
 ) -> npt.NDArray[np.bool_]:
     """Flag angle samples far off the least-squares profile with knots ``tk``.
 
@@ -355,7 +374,7 @@ def _outliers(
     numpy.ndarray of bool
         True for an outlier.
     """
-    vk, _ = _solve_speeds(tk, tt, ph, start)
+    vk, _ = _solve_speeds(tk, tt, ph, start, prior)
     model = _angle_basis(tk, tt) @ vk
     r = ph - model
     r = r - np.median(r)
@@ -414,6 +433,7 @@ def _place(
     ph: FloatArray,
     start: float | None = None,
     coarse_grid: bool = True,
+    prior: Prior | None = None,
 ) -> FloatArray:
     """Move the free knot times to the least-squares angle fit.
 
@@ -449,7 +469,7 @@ def _place(
         # trial is a least-squares solve over them
         pick = np.linspace(0, tt.size - 1, _PLACE_SAMPLES).astype(np.int64)
         tt, ph = tt[pick], ph[pick]
-    _, best = _solve_speeds(tk, tt, ph, start)
+    _, best = _solve_speeds(tk, tt, ph, start, prior)
     idx = np.flatnonzero(free).tolist()
     moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
     for j in idx:
@@ -471,7 +491,7 @@ def _place(
                     trial[ks] += d * dirs
                     if not np.all(np.diff(trial) > _MIN_PIECE):
                         continue
-                    _, sse = _solve_speeds(trial, tt, ph, start)
+                    _, sse = _solve_speeds(trial, tt, ph, start, prior)
                     if sse < best:
                         best, tk = sse, trial
     return tk
@@ -486,6 +506,7 @@ def refine_with_angles(
     place: bool = True,
     start_speed: float | None = None,
     keep_corners: bool = False,
+    prior: DriveEstimate | None = None,
 ) -> DriveEstimate:
     """Re-fit the drive profile to measured drive *angles* (least squares).
 
@@ -494,7 +515,8 @@ def refine_with_angles(
     pins the mean drive speed between sticks to the noise of that deflection
     (~1e-3 rad/s), far better than the smoothed shaft speed. Outlying angles (a
     phase taken for a stick while the discs still slip) are dropped
-    (:func:`_outliers`) and the fit repeated.
+    (:func:`_outliers`) and the fit repeated. The knots are weakly pulled toward
+    the ``prior`` profile's speeds, which a knot without angles near it keeps.
 
     Parameters
     ----------
@@ -523,6 +545,9 @@ def refine_with_angles(
         The interior knots of ``drive`` are corners placed before (not blurred
         knots of :func:`estimate_drive`): searched again locally from where they
         are (fine grids only), for angles recomputed with that profile.
+    prior : DriveEstimate, optional
+        The profile of the speed channel (:func:`estimate_drive`) the knot speeds are
+        weakly pulled toward (default: ``drive``).
 
     Returns
     -------
@@ -530,6 +555,8 @@ def refine_with_angles(
         The refined profile (``drive`` itself when the angles are too few).
     """
     t_lo, t_hi = float(drive.knot_time[0]), float(drive.knot_time[-1])
+    base = drive if prior is None else prior
+    pull: Prior = (base.knot_time, base.knot_speed)
     tt = np.asarray(t, dtype=np.float64)
     ph = np.asarray(phi0, dtype=np.float64)
     ok = np.isfinite(tt) & np.isfinite(ph)
@@ -560,7 +587,7 @@ def refine_with_angles(
             return drive
         tk0 = tk
         if free.any() and int(free.sum()) <= _MAX_PLACED:
-            tk = _place(tk0, free, tt, ph, start_speed, not keep_corners)
+            tk = _place(tk0, free, tt, ph, start_speed, not keep_corners, pull)
     else:
         tk = drive.knot_time.copy()
         if tt.size < tk.size + 2 or tk.size < 2:
@@ -570,14 +597,14 @@ def refine_with_angles(
     # a wrongly placed corner come back
     kept = np.ones(tt.size, dtype=bool)
     for _ in range(_OUTLIER_ROUNDS):
-        out = _outliers(tk, tt, ph, start_speed)
+        out = _outliers(tk, tt, ph, start_speed, pull)
         if not out.any() or np.array_equal(~out, kept) or int((~out).sum()) < tk.size + 2:
             break
         kept = ~out
         if place and free.any():
-            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, not keep_corners)
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, not keep_corners, pull)
     tt, ph = tt[kept], ph[kept]
-    vk, _ = _solve_speeds(tk, tt, ph, start_speed)
+    vk, _ = _solve_speeds(tk, tt, ph, start_speed, pull)
     if not np.all(np.isfinite(vk)):
         return drive
     grid2 = np.linspace(tk[0], tk[-1], 512)

@@ -614,6 +614,7 @@ class Problem:
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle, hints, place=place,
                 start_speed=self._start_speed, keep_corners=it > 0 or self._placed,
+                prior=self._drive_speed0,
             )  # fmt: skip
         self._placed = self._placed or place
         self.drive_estimate = drive
