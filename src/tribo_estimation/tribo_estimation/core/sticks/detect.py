@@ -92,6 +92,18 @@ _SETTLE_TAU = 8.0
 #: Window of the local slope of the stick residual (candidate stage) [samples].
 _SLOPE_WIN = 9
 
+#: Longest time the slope window spans [s]: below 4.5 kHz the window shrinks to it,
+#: down to 5 samples (a stick of a few ms at 2 kHz is 5-10 samples long, which a
+#: 9-sample slope of 4.5 ms smears away).
+_SLOPE_TIME = 2e-3
+
+
+def _slope_window(fs: float) -> int:
+    """Return the odd window of the residual's local slope [samples] (5 to 9)."""
+    n = math.floor(_SLOPE_TIME * fs)
+    n -= 1 - n % 2  # odd, at most the time span
+    return max(5, min(_SLOPE_WIN, n))
+
 #: A phase whose median |w0 - w1| exceeds ``max(_U_MIN, _U_FRAC*max|w0 - w1|)`` [rad/s]
 #: (maximum within +-``_U_WIN`` [s]) is a fast slip, not a stick (:func:`_detect_all`).
 _U_MIN = 1.0
@@ -166,18 +178,19 @@ def _detect_all(
     if torsion_lag > 0.0:
         mt = torsion_lag_compensated(mt, w, dt, torsion_lag, rig.C1)
     r = stick_residual(rig, mt, ac, w)
-    slope = local_slope(r, dt, _SLOPE_WIN)
+    win = _slope_window(fs)
+    slope = local_slope(r, dt, win)
     sig = noise_level(r, order=3)
     if not sig > 0.0:  # constant residual, or fewer than 8 samples
         sig = 1e-9 * (float(np.max(np.abs(r))) + 1.0)
-    k = np.arange(-(_SLOPE_WIN // 2), _SLOPE_WIN // 2 + 1, dtype=float)
+    k = np.arange(-(win // 2), win // 2 + 1, dtype=float)
     sig_v = sig / (rig.C2 * dt * math.sqrt(float(np.sum(k * k))))
     thr = speed_threshold if speed_threshold is not None else max(_V_MIN, 6.0 * sig_v)
     w0 = drive_speed_level(w2, fs)
     half = max(1, round(0.5 * _DRIVE_WIN * fs))  # the level's half window [samples]
     # chamber speed w1 from torsion and acceleration only (complementary filter)
     w1 = -slip_speed(rig, mt, ac, np.zeros_like(w2), fs)
-    w2_slope = local_slope(w2, dt, _SLOPE_WIN)
+    w2_slope = local_slope(w2, dt, win)
 
     def passes(w0: FloatArray) -> tuple[list[StickPhase], FloatArray]:
         phases: list[StickPhase] = []
