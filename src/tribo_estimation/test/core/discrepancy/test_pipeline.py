@@ -8,6 +8,8 @@ fast; the randomized bench (bench/bench_discrepancy_random.py) is the validation
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 from discrepancy_scenarios import clean_instrument, constant, record, rpm, step, sweep
 from tribo_scenarios.spec import ChannelSpec, EffectSpec, InstrumentSpec
@@ -155,3 +157,20 @@ def test_the_refit_after_the_hum_is_taken_out_is_never_worse() -> None:
     before = pb.torque_rms(pb.simulate(first))
     after = pb.torque_rms(pb.simulate(again))
     assert after <= before * (1.0 + 1e-9)
+
+
+def test_shaft_design_values_off_are_identified() -> None:
+    # RIG.yaml's shaft 20 % stiffer, 15 % lighter, 30 % more damped than the rig that
+    # made the record: the baseline identifies the shaft and fits to the floor
+    rec, rig, drv = record(5, constant(rpm(25)))
+    design = dataclasses.replace(rig, C2=1.2 * rig.C2, I2=0.85 * rig.I2, K2=1.3 * rig.K2)
+    res = find_missing_physics([rec], design, [drv])
+    assert res.verdict == NOTHING_MISSING, res.finding()
+    rep = res.records[0]
+    shaft = rep.instrument['shaft']
+    assert isinstance(shaft, dict)
+    # C2 and I2 within 3 % of the truth (K2, a weak damping, within 30 %)
+    assert shaft['C2']['value'] == pytest.approx(rig.C2, rel=0.03)
+    assert shaft['I2']['value'] == pytest.approx(rig.I2, rel=0.03)
+    assert shaft['K2']['value'] == pytest.approx(rig.K2, rel=0.3)
+    assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor

@@ -104,6 +104,7 @@ def _slope_window(fs: float) -> int:
     n -= 1 - n % 2  # odd, at most the time span
     return max(5, min(_SLOPE_WIN, n))
 
+
 #: A phase whose median |w0 - w1| exceeds ``max(_U_MIN, _U_FRAC*max|w0 - w1|)`` [rad/s]
 #: (maximum within +-``_U_WIN`` [s]) is a fast slip, not a stick (:func:`_detect_all`).
 _U_MIN = 1.0

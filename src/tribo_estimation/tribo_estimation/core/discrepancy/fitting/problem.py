@@ -57,6 +57,7 @@ from .records import (
     INSTRUMENT_FIELDS,
     MU0,
     MU_INF,
+    SHAFT_FIELDS,
     FitOutcome,
     Record,
     Segments,
@@ -333,6 +334,26 @@ class Problem:
             self.weights[c] = 1.0 / s if s > 0 else 0.0
 
     # --------------------------------------------------------------- simulation
+    def shaft_rig(self, values: Mapping[str, float]) -> RigParams:
+        """Return the rig with the shaft factors of ``values`` applied (I2, K2, C2).
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Model values; ``shaft_I2``, ``shaft_K2``, ``shaft_C2`` [-] scale the
+            problem's I2, K2, C2 (Equ. 2; missing: 1).
+
+        Returns
+        -------
+        RigParams
+            The rig (the problem's own when no factor is given).
+        """
+        f = [float(values.get(n, 1.0)) for n in ('shaft_I2', 'shaft_K2', 'shaft_C2')]
+        if f == [1.0, 1.0, 1.0]:
+            return self.rig
+        r = self.rig
+        return replace(r, I2=r.I2 * f[0], K2=r.K2 * f[1], C2=r.C2 * f[2])
+
     def model_objects(self, values: Mapping[str, float]) -> tuple[FrictionLaw, Extensions]:
         """Return the FrictionLaw and Extensions of a value mapping.
 
@@ -359,6 +380,7 @@ class Problem:
             for k, v in values.items()
             if k not in ('mu0', 'mu_inf', 'k')
             and k not in INSTRUMENT_FIELDS
+            and k not in SHAFT_FIELDS
             and k not in level_names
         }
         unknown = set(ext_vals) - EXT_FIELDS
@@ -400,7 +422,7 @@ class Problem:
             seg_mask = np.zeros(self.segments.n, dtype=bool)
             seg_mask[0] = True
         fr, ext = self.model_objects(values)
-        p = pack_params(self.rig, fr, self.drive, ext)
+        p = pack_params(self.shaft_rig(values), fr, self.drive, ext)
         rec = self.record
         seg = self.segments
         sel = np.ones(seg.n, dtype=bool) if seg_mask is None else seg_mask

@@ -59,6 +59,15 @@ SPEED_OFFSET = ParamSpec('speed_offset', 'rad/s', -1.0, 1.0, 0.01, 0.0)
 INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET)
 INSTRUMENT_FIELDS: frozenset[str] = frozenset(p.name for p in INSTRUMENT)
 
+#: The shaft side of the rig (Equ. 2: I2, K2, C2) as factors on RIG.yaml's design
+#: values, identified with the baseline: inertia and stiffness within 0.6-1.6 of the
+#: design value, the belt damping (the least known) within 0.4-2.5 (docs/physics.md).
+SHAFT_I2 = ParamSpec('shaft_I2', '-', 0.6, 1.6, 0.1, 1.0)
+SHAFT_K2 = ParamSpec('shaft_K2', '-', 0.4, 2.5, 0.1, 1.0)
+SHAFT_C2 = ParamSpec('shaft_C2', '-', 0.6, 1.6, 0.1, 1.0)
+SHAFT: tuple[ParamSpec, ...] = (SHAFT_I2, SHAFT_K2, SHAFT_C2)
+SHAFT_FIELDS: frozenset[str] = frozenset(p.name for p in SHAFT)
+
 
 #: The measured record: the package's one record type
 #: (:class:`~tribo_estimation.core.record.RigRecord`).

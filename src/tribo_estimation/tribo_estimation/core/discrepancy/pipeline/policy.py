@@ -68,6 +68,9 @@ class Policy:
     k_starts : tuple of float
         Factors on RIG.yaml's k (Equ. 8) from which the baseline fit starts [-]:
         1, a third and three times (``docs/physics.md`` section 8).
+    shaft : bool
+        Identify the shaft's I2, K2, C2 with the baseline of a single record
+        (:func:`.prepare.identify_shaft`); they then stay free in every model.
     """
 
     alpha: float = 0.01
@@ -87,6 +90,7 @@ class Policy:
     time_budget: float = math.inf
     describe: bool = True
     k_starts: tuple[float, ...] = (1.0, 1.0 / 3.0, 3.0)
+    shaft: bool = True
 
     def __post_init__(self) -> None:
         """Refuse settings out of range."""
@@ -145,6 +149,7 @@ class Policy:
             time_budget=time_budget,
             describe=False,
             k_starts=(1.0,),
+            shaft=False,
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -166,6 +171,7 @@ class Policy:
             'seed': self.seed,
             'describe': self.describe,
             'k_starts': list(self.k_starts),
+            'shaft': self.shaft,
         }
 
 

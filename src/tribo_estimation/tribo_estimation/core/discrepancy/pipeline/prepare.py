@@ -13,6 +13,11 @@ speed sensor held, sets the channel weights from its residuals (never above one
 over the channel's noise level), and refits with the speed sensor's lag and offset
 free when the lag is significant; they then stay free in every model of the record
 (:attr:`..fitting.Problem.free_instrument`).
+
+``identify_shaft`` identifies the shaft side of the rig (I2, K2, C2 of Equ. 2: design
+values, often 10-25 % off) with the baseline; the record is then prepared again on the
+identified rig, so every later step (drive angles, segment states, the null law's
+replicas, the effect fits) uses it.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from ..fitting import (
     CHANNELS,
     HUM_CHANNELS,
     MU0,
+    SHAFT,
     SPEED_LAG,
     SPEED_OFFSET,
     Problem,
@@ -280,6 +286,79 @@ def fit_record_baseline(
     return values
 
 
+#: Evaluation budget of the shaft's identification, in the baseline fit's [-].
+_SHAFT_NFEV = 4
+
+
+def identify_shaft(
+    prep: Prepared, values: Mapping[str, float], policy: Policy, say: Progress
+) -> tuple[RigParams, dict[str, dict[str, float | bool]]] | None:
+    """Identify the shaft's I2, K2, C2 with the baseline (Equ. 2).
+
+    The baseline is refitted with the factors of :data:`..fitting.SHAFT` on RIG.yaml's
+    I2, K2, C2 free; their standard errors say how well the record pins them. The
+    caller prepares the record again on the identified rig (the torsion lag, the
+    sensors' gains, the segments' states and the drive angles all read it); the null
+    law's replicas then refit without the factors (a conservative law).
+
+    Parameters
+    ----------
+    prep : Prepared
+        The prepared record (its baseline fitted: weights set).
+    values : mapping of str to float
+        Its baseline's values.
+    policy : Policy
+        The policy (evaluation budget).
+    say : Progress
+        Receiver of progress messages.
+
+    Returns
+    -------
+    tuple of (RigParams, dict) or None
+        The identified rig and its report per parameter (``value``, ``design`` [SI],
+        ``se``, ``at_bound``); None when the factors do not lower the baseline's cost.
+    """
+    pb = prep.problem
+    held, weights = pb.free_instrument, dict(pb.weights)
+    pb.free_instrument = (*held, *SHAFT)
+    try:
+        one = Ensemble([pb])
+        start = one.join([{**values, **{p.name: p.initial for p in SHAFT}}])
+        before = one.cost(start)
+        fo = one.fit(one.specs(), start, max_nfev=_SHAFT_NFEV * policy.fit_nfev)
+        if not fo.cost < before:
+            return None
+        # the weights came from the baseline's residuals, which the shaft changes: set
+        # from the new residuals (each channel's level) and fitted once more
+        sim = pb.simulate(one.split(fo.values)[0])
+        pb.set_residual_weights(sim, channel_floors(pb, sim))
+        fo = one.fit(one.specs(), fo.values, max_nfev=_SHAFT_NFEV * policy.fit_nfev)
+    finally:
+        pb.free_instrument = held
+        pb.weights.update(weights)
+    got = one.split(fo.values)[0]
+    rig = pb.shaft_rig(got)
+    report: dict[str, dict[str, float | bool]] = {}
+    for spec, name in zip(SHAFT, ('I2', 'K2', 'C2'), strict=True):
+        f = got[spec.name]
+        design = float(getattr(pb.rig, name))
+        margin = 0.01 * (spec.upper - spec.lower)
+        report[name] = {
+            'value': float(getattr(rig, name)),
+            'design': design,
+            'se': fo.se.get(f'{spec.name}@0', math.nan) * design,
+            'at_bound': bool(min(f - spec.lower, spec.upper - f) < margin),
+        }
+    say(
+        'shaft identified: '
+        + ', '.join(
+            f'{n} {float(r["value"]):.4g} ({float(r["value"]) / float(r["design"]):.2f} x design)'
+            for n, r in report.items()
+        )
+    )
+    return rig, report
+
+
 def channel_floors(problem: Problem, sim: SimulatedRecord) -> dict[str, float]:
     """Return the noise level of every compared channel [unit] (the weights' floor).
 
@@ -307,6 +386,7 @@ __all__ = [
     'baseline_starts',
     'channel_floors',
     'fit_record_baseline',
+    'identify_shaft',
     'prepare',
     'without_hum',
 ]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import time as _time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.errors import InvalidParameterError
 
 from .. import candidates as cand_lib
-from ..fitting import Record
+from ..fitting import SHAFT, Record
 from ..localise import localise, torque_residual
 from ..stats import noise_floor
 from .decide import (
@@ -36,7 +36,7 @@ from .describe import describe_unexplained, drive_report
 from .ensemble import LEVELS, Ensemble, Fit, at_bound
 from .null import NullLaw, null_law
 from .policy import Policy, Progress, quiet
-from .prepare import Prepared, fit_record_baseline, prepare, without_hum
+from .prepare import Prepared, fit_record_baseline, identify_shaft, prepare, without_hum
 from .result import Effect, MissingPhysics, RecordReport, Traces
 from .screen import FormFit, Model, failing, judge, screen
 
@@ -130,6 +130,31 @@ def _needed(
     return kept
 
 
+def _prepared(
+    i: int,
+    record: Record,
+    rig: RigParams,
+    drive: DriveProfile,
+    k: float,
+    pol: Policy,
+    say: Progress,
+    previous: Mapping[str, float] | None = None,
+) -> tuple[Prepared, dict[str, float]]:
+    """Prepare one record, fit its baseline and take out the mains hum (steps 1-2)."""
+    prep = prepare(record, rig, drive, k=k, policy=pol)
+    vals = fit_record_baseline(prep, pol, say, previous=previous)
+    # the baseline absorbs part of a hum line (its segments start from states that
+    # carry it): the lines are taken out, the baseline refitted, until none is left
+    for _ in range(_HUM_PASSES):
+        cleaned = without_hum(prep, vals, pol)
+        if cleaned is prep:
+            break
+        say(f'record {i}: mains hum taken out: {cleaned.problem.hum_lines}')
+        prep = cleaned
+        vals = fit_record_baseline(cleaned, pol, say, previous=vals)
+    return prep, vals
+
+
 def find_missing_physics(
     records: Sequence[Record],
     rig: RigParams,
@@ -183,20 +208,26 @@ def find_missing_physics(
         raise InvalidParameterError(f'{len(drives)} drive profiles for {len(records)} records')
     t_start = _time.perf_counter()
     deadline = t_start + pol.time_budget
-    preps: list[Prepared] = [
-        prepare(r, rig, d, k=k, policy=pol) for r, d in zip(records, drives, strict=True)
-    ]
-    base_vals = [fit_record_baseline(p, pol, say) for p in preps]
-    for i in range(len(preps)):
-        # the baseline absorbs part of a hum line (its segments start from states that
-        # carry it): the lines are taken out, the baseline refitted, until none is left
-        for _ in range(_HUM_PASSES):
-            cleaned = without_hum(preps[i], base_vals[i], pol)
-            if cleaned is preps[i]:
-                break
-            say(f'record {i}: mains hum taken out: {cleaned.problem.hum_lines}')
-            preps[i] = cleaned
-            base_vals[i] = fit_record_baseline(cleaned, pol, say, previous=base_vals[i])
+    preps: list[Prepared] = []
+    base_vals: list[dict[str, float]] = []
+    for i, (r, d) in enumerate(zip(records, drives, strict=True)):
+        prep, vals = _prepared(i, r, rig, d, k, pol, say)
+        # one record: its shaft identified (several records share one rig, whose joint
+        # identification is not built: they keep RIG.yaml's shaft)
+        found = identify_shaft(prep, vals, pol, say) if pol.shaft and len(records) == 1 else None
+        if found is not None:
+            # the whole preparation again on the identified rig: the torsion lag, the
+            # sensors' gains and the drive angles read the shaft's I2, K2, C2 too
+            shaft_rig, report = found
+            prep, vals = _prepared(i, r, shaft_rig, d, k, pol, say, previous=vals)
+            prep = dataclasses.replace(prep, instrument={**prep.instrument, 'shaft': report})
+            # the factors stay free in every later fit (effect forms, the null law's
+            # replicas): an effect the shaft took up in the baseline can take it back
+            pb = prep.problem
+            pb.free_instrument = (*pb.free_instrument, *SHAFT)
+            vals = {**vals, **{p.name: p.initial for p in SHAFT}}
+        preps.append(prep)
+        base_vals.append(vals)
     ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)
     start = ens.join(base_vals)
     if ens.shared_friction:
