@@ -219,13 +219,28 @@ def find_missing_physics(
             # the whole preparation again on the identified rig: the torsion lag, the
             # sensors' gains and the drive angles read the shaft's I2, K2, C2 too
             shaft_rig, report = found
-            prep, vals = _prepared(i, r, shaft_rig, d, k, pol, say, previous=vals)
-            prep = dataclasses.replace(prep, instrument={**prep.instrument, 'shaft': report})
-            # the factors stay free in every later fit (effect forms, the null law's
-            # replicas): an effect the shaft took up in the baseline can take it back
-            pb = prep.problem
-            pb.free_instrument = (*pb.free_instrument, *SHAFT)
-            vals = {**vals, **{p.name: p.initial for p in SHAFT}}
+            again, again_vals = _prepared(i, r, shaft_rig, d, k, pol, say, previous=vals)
+            before = prep.problem.torque_rms(prep.problem.simulate(vals))
+            after = again.problem.torque_rms(again.problem.simulate(again_vals))
+            if after <= before:
+                prep = dataclasses.replace(
+                    again, instrument={**again.instrument, 'shaft': {**report, 'used': True}}
+                )
+                # the factors stay free in every later fit (effect forms, the null law's
+                # replicas): an effect the shaft took up in the baseline can take it back
+                pb = prep.problem
+                pb.free_instrument = (*pb.free_instrument, *SHAFT)
+                vals = {**again_vals, **{p.name: p.initial for p in SHAFT}}
+            else:
+                # prepared on the identified rig the record fits worse (its sticks and
+                # segments read the rig too): RIG.yaml's shaft is kept
+                say(
+                    f'record {i}: shaft not used: prepared on it the baseline leaves '
+                    f"{after:.4g} N m against {before:.4g} N m on RIG.yaml's"
+                )
+                prep = dataclasses.replace(
+                    prep, instrument={**prep.instrument, 'shaft': {**report, 'used': False}}
+                )
         preps.append(prep)
         base_vals.append(vals)
     ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)
