@@ -368,6 +368,8 @@ def _outliers(
         Drive angles [rad].
     start : float or None
         Known first knot speed [rad/s].
+    prior : tuple of FloatArray or None
+        Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
 
     Returns
     -------
@@ -457,6 +459,8 @@ def _place(
         Known first knot speed [rad/s].
     coarse_grid : bool
         Search the coarse grid (False for corners placed before).
+    prior : tuple of FloatArray, optional
+        Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
 
     Returns
     -------

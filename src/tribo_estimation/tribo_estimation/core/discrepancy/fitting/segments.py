@@ -16,7 +16,7 @@ from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
-from tribo_estimation.core.signal import chamber_speed
+from tribo_estimation.core.signal import chamber_speed, longest_run
 from tribo_estimation.core.sticks import detect_sticks
 from tribo_estimation.errors import EstimationError, TooShortError
 
@@ -313,14 +313,10 @@ def longest_free_stretch(s_start: IntArray, s_stop: IntArray, n: int) -> tuple[i
     tuple of int
         ``(first, stop)`` of the stretch (``(0, n)`` without stick phases).
     """
-    edges = sorted(zip(s_start.tolist(), s_stop.tolist(), strict=True))
-    best = (0, 0)
-    at = 0
-    for a, b in [*edges, (n, n)]:
-        if a - at > best[1] - best[0]:
-            best = (at, a)
-        at = max(at, b)
-    return best
+    free = np.ones(n, dtype=bool)
+    for a, b in zip(s_start.tolist(), s_stop.tolist(), strict=True):
+        free[a:b] = False
+    return longest_run(free)
 
 
 def sliding_segments(

@@ -298,8 +298,8 @@ def identify_shaft(
     The baseline is refitted with the factors of :data:`..fitting.SHAFT` on RIG.yaml's
     I2, K2, C2 free; their standard errors say how well the record pins them. The
     caller prepares the record again on the identified rig (the torsion lag, the
-    sensors' gains, the segments' states and the drive angles all read it); the null
-    law's replicas then refit without the factors (a conservative law).
+    sensors' gains, the segments' states and the drive angles all read it) and keeps
+    the factors free in every later model, the null law's replicas included.
 
     Parameters
     ----------
