@@ -83,7 +83,11 @@ def register(sub: Subparsers) -> None:
         '--rig',
         required=True,
         metavar='RIG.yaml',
-        help='rig parameters (SI); mu0/mu_inf are fitted, its effects are not used',
+        help=(
+            'rig parameters (SI); mu0/mu_inf/k are fitted, and for one record the shaft '
+            "(I2, K2, C2: reported in discrepancy.json's instrument.shaft); its effects "
+            'are not used'
+        ),
     )
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     p.add_argument(
