@@ -117,6 +117,17 @@ class RigParams:
         return math.sqrt(self.C1 / self.I1) / (2.0 * math.pi)
 
     @property
+    def fastest_mode_hz(self) -> float:
+        """Highest undamped frequency of the rig's motions [Hz] (Equ. 1, 2, 4).
+
+        The largest of the chamber alone sqrt(C1/I1), the shaft alone sqrt(C2/I2)
+        (the two while sliding) and the stuck discs on both springs
+        sqrt((C1 + C2)/(I1 + I2)), over 2 pi.
+        """
+        w2 = max(self.C1 / self.I1, self.C2 / self.I2, (self.C1 + self.C2) / (self.I1 + self.I2))
+        return math.sqrt(w2) / (2.0 * math.pi)
+
+    @property
     def damping_ratio(self) -> float:
         """Damping ratio of the chamber alone, K1/(2 sqrt(C1 I1)) [-] (Equ. 7)."""
         return self.K1 / (2.0 * math.sqrt(self.C1 * self.I1))

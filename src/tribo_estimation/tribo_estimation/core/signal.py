@@ -22,6 +22,10 @@ IntArray = npt.NDArray[np.int64]
 
 #: Half width of the local cubic that gives w1 = phi1' from the torsion moment [samples].
 CHAMBER_HALF = 7
+#: Longest span of a local fit to a rig's signal, in periods of its fastest mode [-]:
+#: a cubic over a quarter period of a sinusoid gives its slope within about 1 %
+#: (docs/physics.md, "Local fits at low sample rates").
+RIG_FIT_SPAN = 0.25
 
 
 def mad_sigma(x: FloatArray) -> float:
@@ -129,6 +133,24 @@ def _slope_weights(win: int, order: int) -> tuple[FloatArray, FloatArray]:
     centre.setflags(write=False)
     edge.setflags(write=False)
     return centre, edge
+
+
+def rig_half(half: int, fs: float, f_max: float, least: int = 2) -> int:
+    """Half width [samples] of a local fit to a rig's signal at sample rate ``fs``.
+
+    ``half`` (the width chosen for fast sampling), shortened so that the window
+    ``2*half + 1`` spans at most :data:`RIG_FIT_SPAN` periods of the rig's fastest
+    mode ``f_max`` [Hz] (:attr:`tribo_estimation.core.model.RigParams.fastest_mode_hz`),
+    and at least ``least``. At 10-20 kHz it is ``half`` for the rigs of Tab. 1; at
+    2 kHz a 15-sample window would span most of a stick-slip cycle.
+
+    Examples
+    --------
+    >>> rig_half(7, 20_000.0, 74.0), rig_half(7, 2_000.0, 94.0)
+    (7, 2)
+    """
+    cap = int(RIG_FIT_SPAN * fs / f_max / 2.0) if f_max > 0.0 else half
+    return max(least, min(half, cap))
 
 
 def chamber_speed(torsion: FloatArray, fs: float, c1: float, window: int = 0) -> FloatArray:
@@ -262,10 +284,12 @@ def moving_average(x: FloatArray, width: int) -> FloatArray:
 
 __all__ = [
     'CHAMBER_HALF',
+    'RIG_FIT_SPAN',
     'chamber_speed',
     'first_order_lag',
     'longest_run',
     'moving_average',
     'noise_level',
+    'rig_half',
     'runs',
 ]

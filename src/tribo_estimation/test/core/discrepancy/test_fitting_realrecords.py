@@ -140,6 +140,24 @@ def test_speed_sensor_lag_and_offset_identified_from_sticks() -> None:
     assert clean.tau < 0.0005
 
 
+def test_speed_sensor_lag_identified_at_2_khz() -> None:
+    # at 2 kHz a stick phase of the Tab. 1 rig holds ~10 samples: the sensor's
+    # windows and guards must fit inside it (a quarter period of the fastest mode)
+    tc, ac, sc = rig_channels(1.0)
+    spec = RecordSpec(
+        CFG.rig, CFG.friction, SpeedProfile.startup(W30, 0.2), torsion=tc, accel=ac,
+        speed=sc, seed=8, duration=2.0, start_offset=2.0, fs=2000.0,
+    )  # fmt: skip
+    r = make_record(spec)
+    dt = float(r.time[1] - r.time[0])
+    runs_ = stick_runs(_record(r), CFG.rig)[:2]
+    lagged = first_order_lag(r.speed, dt, 0.005) + 0.02
+    s = identify_speed_sensor(_record(r, lagged), CFG.rig, runs_)
+    assert s.n > 300  # stick samples used (none with 15-sample windows)
+    assert s.tau == pytest.approx(0.005, rel=0.15)
+    assert s.tau_se < 0.0005
+
+
 def test_same_sticks_in_block_fit_and_discrepancy_fit() -> None:
     r = _rec('midtest')
     res = _blocks(r, nominal=W30, block=2.0)

@@ -283,7 +283,9 @@ def test_estimate_torsion_lag(tau: float, noise: float) -> None:
         RecordSpec(RIG, LAW, SpeedProfile.startup(rpm(25)), torsion=tq, accel=ac, speed=sp,
                    seed=5, duration=0.5, start_offset=0.3)
     )  # fmt: skip
-    est = estimate_torsion_lag(rec.torsion_moment, rec.angular_acceleration, rec.spec.fs, RIG.C1)
+    est = estimate_torsion_lag(
+        rec.torsion_moment, rec.angular_acceleration, rec.spec.fs, RIG.C1, RIG.fastest_mode_hz
+    )
     # stated accuracy: 2 % + 20 us (the amplifier lag of the issue: up to 2 ms)
     assert est == pytest.approx(tau, abs=2e-5 + 0.02 * tau)
 

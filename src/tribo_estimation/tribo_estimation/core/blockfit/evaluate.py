@@ -243,7 +243,7 @@ def _torsion_lag(
     if cfg.torsion_lag is not None:
         return cfg.torsion_lag
     try:
-        tau = float(estimate_torsion_lag(torsion, accel, fs, rig.C1))
+        tau = float(estimate_torsion_lag(torsion, accel, fs, rig.C1, rig.fastest_mode_hz))
     except (EstimationError, ValueError, np.linalg.LinAlgError):
         return 0.0
     return tau if math.isfinite(tau) and 1e-4 <= tau <= 0.01 else 0.0

@@ -87,6 +87,8 @@ from .lag import (
     MAX_TORSION_LAG,
     chamber_speed_integral,
     estimate_torsion_lag,
+    kinematic_half,
+    kinematic_pair,
     torsion_lag_compensated,
 )
 from .report import (
@@ -108,6 +110,8 @@ __all__ = [
     'drive_speed_level',
     'estimate_torsion_lag',
     'find_sticks',
+    'kinematic_half',
+    'kinematic_pair',
     'slip_speed',
     'speed_mismatch',
     'stick_residual',

@@ -562,7 +562,8 @@ def _resolve_lag(
     t: np.ndarray, mt: np.ndarray, ac: np.ndarray, rig: RigParams, torsion_lag: float | None
 ) -> float:
     if torsion_lag is None:
-        return estimate_torsion_lag(mt, ac, 1.0 / float(np.median(np.diff(t))), rig.C1)
+        fs = 1.0 / float(np.median(np.diff(t)))
+        return estimate_torsion_lag(mt, ac, fs, rig.C1, rig.fastest_mode_hz)
     if not (math.isfinite(torsion_lag) and torsion_lag >= 0.0):
         raise InvalidParameterError(f'torsion_lag must be >= 0 s, got {torsion_lag!r}')
     return torsion_lag

@@ -18,12 +18,14 @@ import numpy.typing as npt
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import lag_segments
-from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, local_slope
+from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, local_slope, rig_half
 from tribo_estimation.core.sticks import (
     MAX_TORSION_LAG,
     chamber_speed_integral,
     drive_speed_level,
     estimate_torsion_lag,
+    kinematic_half,
+    kinematic_pair,
     speed_mismatch,
     torsion_lag_compensated,
 )
@@ -33,10 +35,12 @@ from .records import SPEED_LAG, Record, Segments
 from .segments import stick_runs
 
 
-def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
+def speed_slope(speed: FloatArray, dt: float, rig: RigParams) -> FloatArray:
     """Return the slope y' of the speed channel (local cubic over 4*7+1 samples).
 
-    With a first-order sensor lag tau the shaft speed is ``w = y + tau*y'``.
+    With a first-order sensor lag tau the shaft speed is ``w = y + tau*y'``. The
+    window is shortened to a quarter period of the rig's fastest mode
+    (:func:`tribo_estimation.core.signal.rig_half`).
 
     Parameters
     ----------
@@ -44,13 +48,60 @@ def speed_slope(speed: FloatArray, dt: float) -> FloatArray:
         Measured speed channel y [rad/s].
     dt : float
         Sample interval [s].
+    rig : RigParams
+        Rig parameters (its fastest mode bounds the window).
 
     Returns
     -------
     FloatArray
         y' [rad/s^2] (zeros for a channel shorter than the window).
     """
-    return local_slope(speed, dt, 4 * CHAMBER_HALF + 1, order=3)
+    half = rig_half(2 * CHAMBER_HALF, 1.0 / dt, rig.fastest_mode_hz)
+    return local_slope(speed, dt, 2 * half + 1, order=3)
+
+
+def rig_chamber_speed(record: Record, rig: RigParams) -> FloatArray:
+    """Return the chamber speed ``w1 = (dM_t/dt)/C1`` [rad/s] over a rig-bounded window.
+
+    :func:`tribo_estimation.core.signal.chamber_speed` over ``2*CHAMBER_HALF + 1``
+    samples, shortened to a quarter period of the rig's fastest mode
+    (:func:`tribo_estimation.core.signal.rig_half`).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record (torsion moment [N m]).
+    rig : RigParams
+        Rig parameters (C1; its fastest mode bounds the window).
+
+    Returns
+    -------
+    FloatArray
+        w1 [rad/s].
+    """
+    half = rig_half(CHAMBER_HALF, record.fs, rig.fastest_mode_hz)
+    return chamber_speed(record.torsion_moment, record.fs, rig.C1, 2 * half + 1)
+
+
+def stick_guard(record: Record, rig: RigParams) -> int:
+    """Return the samples left out at each end of a stick phase by the sensor checks [-].
+
+    ``CHAMBER_HALF + 3`` (the chamber speed's window stays inside the phase, with
+    a margin), shortened like the windows (:func:`tribo_estimation.core.signal.rig_half`).
+
+    Parameters
+    ----------
+    record : Record
+        The measured record (its sample rate).
+    rig : RigParams
+        Rig parameters (its fastest mode).
+
+    Returns
+    -------
+    int
+        The guard [samples].
+    """
+    return rig_half(CHAMBER_HALF + 3, record.fs, rig.fastest_mode_hz, least=1)
 
 
 #: Length of the record pieces the torsion lag is estimated on [s] (the spread of
@@ -138,6 +189,7 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
                     record.angular_acceleration[a:b],
                     fs,
                     rig.C1,
+                    rig.fastest_mode_hz,
                     min_lag=-MAX_ACCEL_LAG,
                 )
             )
@@ -198,12 +250,15 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     w = chamber_speed_integral(record.angular_acceleration, dt)
     corr = torsion_lag_compensated(y, w, dt, tau, rig.C1) - y
     n = y.size
-    h = max(1, min(n // 2, round(0.5 * _TQ_LAG_MEAN_WIN * fs)))
+    # the mean's window stays shorter than the stick and slip phases between the
+    # jumps: at most a quarter period of the rig's fastest mode
+    h = rig_half(round(0.5 * _TQ_LAG_MEAN_WIN * fs), fs, rig.fastest_mode_hz, least=1)
+    h = max(1, min(n // 2, h))
     i = np.arange(n)
     lo = np.maximum(0, i - h)
     hi = np.minimum(n - 1, i + h)
     mean_slope = (y[hi] - y[lo]) / ((hi - lo) * dt)  # local mean of y' [N m/s]
-    corr = corr - drive_speed_level(corr, fs, _TQ_LAG_MEAN_WIN) + tau * mean_slope
+    corr = corr - drive_speed_level(corr, fs, 2 * h / fs) + tau * mean_slope
     return replace(record, torsion_moment=np.asarray(y + corr, dtype=np.float64))
 
 
@@ -424,11 +479,11 @@ def identify_speed_sensor(
         a0, b0, _ = stick_runs(record, rig)
     else:
         a0, b0 = runs
-    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
+    w = rig_chamber_speed(record, rig)
     # y' from the speed channel itself (during a stick it follows w' through the lag,
     # and before it the shaft's own acceleration)
-    acc = speed_slope(record.speed, record.dt)
-    guard = CHAMBER_HALF + 3
+    acc = speed_slope(record.speed, record.dt, rig)
+    guard = stick_guard(record, rig)
     idx_l: list[IntArray] = []
     cl_l: list[IntArray] = []
     for k, (a, b) in enumerate(zip(a0, b0, strict=True)):
@@ -505,65 +560,57 @@ class AccelSensor:
         }
 
 
-#: Length of the windows of the accelerometer's regression [s] (several stick-slip
-#: cycles, so the chamber speed varies; short enough that the integrated noise stays
-#: below the signal).
+#: Length of the windows of the accelerometer's regression [s]: the clusters of its
+#: standard errors (each with its own offset term).
 ACCEL_WINDOW = 0.2
 
 
 def identify_accel_sensor(record: Record, rig: RigParams) -> AccelSensor:
     """Identify the accelerometer's gain and offset from the chamber kinematics.
 
-    Stick or slip, the chamber speed is ``w = (dM_t/dt)/C1`` (Equ. 1: ``M_t = C1*phi1``)
-    and the accelerometer shows ``a = g*w' + b``; integrated,
-    ``A(t) = g*w(t) + b*t + c``, with one constant per window of
-    :data:`ACCEL_WINDOW` (the integral's noise is a random walk): a linear regression
-    over the windows (each demeaned; standard errors cluster-robust over them). The
-    speed changes of stick-slip tell the gain, the time within a window the offset.
-    The gain is used where beyond 3 standard errors; the offset is reported, not used
-    (the kinks of M_t at the switching events bias it by a few tenths of a rad/s^2,
-    more than a real offset moves the chamber speed over one shooting segment).
+    Stick or slip, ``M_t'' = C1*a`` (Equ. 1: ``M_t = C1*phi1``) and the accelerometer
+    shows ``a_meas = g*a + b``. On the pair of :func:`..sticks.kinematic_pair`
+    (second difference of the torsion moment ``D``, triangle-weighted mean of the
+    measured acceleration ``K``, over a quarter period of the rig's fastest mode)
+    ``D = (K - b)/g``: a linear regression of ``D`` on ``K`` (the low-noise
+    side as regressor), standard errors cluster-robust over windows of
+    :data:`ACCEL_WINDOW`. No integral is carried across stick-slip cycles, so it
+    holds at 2 kHz as at 20 kHz. The gain is used where beyond 3 standard errors;
+    the offset is reported, not used.
 
     Parameters
     ----------
     record : Record
         The measured record (torsion lag compensated).
     rig : RigParams
-        Rig parameters (C1).
+        Rig parameters (C1; its fastest mode).
 
     Returns
     -------
     AccelSensor
         The gain and offset.
     """
-    w = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    acc = record.angular_acceleration
-    dt = record.dt
-    n = acc.size
-    m = max(16, round(ACCEL_WINDOW / dt))
-    guard = CHAMBER_HALF + 1
-    rows_a: list[FloatArray] = []
-    rows_w: list[FloatArray] = []
-    rows_t: list[FloatArray] = []
-    cl_l: list[IntArray] = []
-    for k, lo in enumerate(range(guard, n - guard - m // 2, m)):
-        hi = min(lo + m, n - guard)
-        x = acc[lo:hi]
-        big = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)))
-        tt = np.arange(hi - lo) * dt
-        for arr, dest in ((big, rows_a), (w[lo:hi], rows_w), (tt, rows_t)):
-            dest.append(np.asarray(arr - float(np.mean(arr)), dtype=np.float64))
-        cl_l.append(np.full(hi - lo, k, dtype=np.int64))
-    if len(cl_l) < 3:
+    fs = record.fs
+    d, k_a = kinematic_pair(
+        record.torsion_moment, record.angular_acceleration, fs, rig.C1,
+        kinematic_half(fs, rig.fastest_mode_hz),
+    )  # fmt: skip
+    m = max(16, round(ACCEL_WINDOW * fs))
+    cluster = (np.arange(d.size) // m).astype(np.int64)
+    if d.size < 3 * m:
         return AccelSensor()
-    X = np.column_stack((np.concatenate(rows_w), np.concatenate(rows_t)))
-    fit = _cluster_lstsq(X, np.concatenate(rows_a), np.concatenate(cl_l))
+    fit = _cluster_lstsq(np.column_stack((k_a, np.ones(d.size))), d, cluster)
     if fit is None:
         return AccelSensor()
-    (g_v, b_v), (g_sev, b_sev) = fit
-    g, g_se, b, b_se = float(g_v), float(g_sev), float(b_v), float(b_sev)
+    (slope, icpt), (slope_se, icpt_se) = fit
+    if not slope > 0.0:
+        return AccelSensor()
+    g = 1.0 / float(slope)
+    g_se = float(slope_se) * g * g
+    b = -float(icpt) * g
+    b_se = float(icpt_se) * g
     use_g = math.isfinite(g_se) and abs(g - 1.0) > 3.0 * g_se and g > 0.5
-    return AccelSensor(float(g) if use_g else 1.0, float(g_se), b, float(b_se))
+    return AccelSensor(g if use_g else 1.0, g_se, b, b_se)
 
 
 def stuck_speed_through_lag(
@@ -720,7 +767,8 @@ def false_stick_phases(
         return np.zeros(0)
     slope, w1, sensor = sensor_view(record, rig, a0, b0)
     spans = list(zip(a0.tolist(), b0.tolist(), strict=True))
-    mismatch = speed_mismatch(record.speed, slope, w1, spans, guard=CHAMBER_HALF + 3, sensor=sensor)
+    guard = stick_guard(record, rig)
+    mismatch = speed_mismatch(record.speed, slope, w1, spans, guard=guard, sensor=sensor)
     return np.asarray(mismatch, dtype=np.float64)
 
 
@@ -751,8 +799,7 @@ def sensor_view(
     sensor = identify_speed_sensor(record, rig, (a0, b0))
     tau = sensor.tau if math.isfinite(sensor.tau) else 0.0
     off = sensor.offset if math.isfinite(sensor.offset) else 0.0
-    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1)
-    return speed_slope(record.speed, record.dt), w1, (tau, off)
+    return speed_slope(record.speed, record.dt, rig), rig_chamber_speed(record, rig), (tau, off)
 
 
 #: Mains frequencies whose lines on a channel are instrument (hum), not physics [Hz].

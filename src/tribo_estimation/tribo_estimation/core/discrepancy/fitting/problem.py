@@ -247,7 +247,7 @@ class Problem:
         # for the drive angle (:meth:`_set_instrument`)
         width = 2 * CHAMBER_HALF + 1
         self._smooth_speed = moving_average(record.speed, width)
-        self._speed_slope = speed_slope(record.speed, record.dt)
+        self._speed_slope = speed_slope(record.speed, record.dt, rig)
         self._smooth_accel = moving_average(record.angular_acceleration, width)
         self._smooth_torque = moving_average(record.torsion_moment, width)
         guard = CHAMBER_HALF + 1

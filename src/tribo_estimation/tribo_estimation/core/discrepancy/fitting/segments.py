@@ -65,16 +65,16 @@ def stuck_before_onset(
     FloatArray
         Time before each phase's first sample in which the discs already stuck [s].
     """
-    from tribo_estimation.core.signal import CHAMBER_HALF, mad_sigma
+    from tribo_estimation.core.signal import mad_sigma
 
-    from .instrument import FALSE_STICK_MIN, sensor_view
+    from .instrument import FALSE_STICK_MIN, sensor_view, stick_guard
 
     out = np.zeros(s_start.size)
     if s_start.size == 0:
         return out
     slope, w1, (tau, off) = sensor_view(record, rig, s_start, s_stop)
     slip = record.speed + tau * slope - off - w1
-    guard = CHAMBER_HALF + 3
+    guard = stick_guard(record, rig)
     inner = [slip[a + guard : b - guard] for a, b in zip(s_start, s_stop, strict=True)]
     inner = [x for x in inner if x.size]
     sd = mad_sigma(np.concatenate(inner)) if inner else 0.0
