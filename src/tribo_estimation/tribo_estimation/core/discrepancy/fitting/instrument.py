@@ -929,7 +929,10 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
             continue
         level = float(np.median(p[near]))
         peak = float(np.max(p[k0 - 1 : k0 + 2]))
-        if level > 0.0 and peak / level > limit:
+        # a mains line peaks at the mains frequency: a line beside it (a stick-slip
+        # harmonic within the main lobe, 1/T) has its maximum elsewhere
+        lobe = p[max(0, k0 - round(per_t)) : k0 + round(per_t) + 1]
+        if level > 0.0 and peak / level > limit and peak >= float(np.max(lobe)):
             amp, phase = _line(time[ok], r[ok] - float(np.mean(r[ok])), f)
             lines.append((c, f, amp, phase))
     return Hum(tuple(lines))

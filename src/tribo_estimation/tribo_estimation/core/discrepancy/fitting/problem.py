@@ -44,7 +44,7 @@ from tribo_estimation.core.shooting import (
     stuck_states,
     window_mean,
 )
-from tribo_estimation.core.signal import CHAMBER_HALF, moving_average
+from tribo_estimation.core.signal import CHAMBER_HALF, moving_average, rig_half
 from tribo_estimation.errors import InvalidParameterError
 
 from .. import candidates as cand_lib
@@ -244,13 +244,15 @@ class Problem:
             self._m_stuck = np.where(ok, m_k, self._m_val)
             self._speed_stuck = np.where(ok, w_k, self._speed_stuck)
         # stick samples (every 4th, away from the phase ends) and smoothed channels
-        # for the drive angle (:meth:`_set_instrument`)
-        width = 2 * CHAMBER_HALF + 1
+        # for the drive angle (:meth:`_set_instrument`); the window and the guard
+        # span at most a quarter period of the rig's fastest mode
+        half = rig_half(CHAMBER_HALF, record.fs, rig.fastest_mode_hz)
+        width = 2 * half + 1
         self._smooth_speed = moving_average(record.speed, width)
         self._speed_slope = speed_slope(record.speed, record.dt, rig)
         self._smooth_accel = moving_average(record.angular_acceleration, width)
         self._smooth_torque = moving_average(record.torsion_moment, width)
-        guard = CHAMBER_HALF + 1
+        guard = half + 1
         phases = seg.stick_phases()
         ra, rb = phases if phases is not None else (seg.start, seg.start + 1)
         idx = [
