@@ -154,7 +154,7 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
 
     :func:`sticks.estimate_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
     ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s; the median is the lag, the
-    pieces' spread its standard error. Used (compensated) when at least
+    pieces' robust spread (MAD) its standard error. Used (compensated) when at least
     :data:`MIN_TORSION_LAG`, beyond 3 standard errors and inside the estimator's
     range (an estimate at the range's end, 3 ms, is left to the workflow's
     ``torque_sensor_lag`` candidate).
@@ -201,7 +201,10 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
         return TorsionLag(math.nan, math.nan, 0, 0.0)
     arr = np.asarray(est)
     tau = float(np.median(arr))
-    se = float(1.2533 * np.std(arr, ddof=1) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    # the median's standard error from the pieces' robust spread (a piece at rest
+    # carries no kinematics: its estimate is arbitrary and must not inflate it)
+    spread = 1.4826 * float(np.median(np.abs(arr - tau)))
+    se = float(1.2533 * spread / math.sqrt(arr.size)) if arr.size > 1 else math.nan
     ok = (
         abs(tau) >= MIN_TORSION_LAG
         and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
