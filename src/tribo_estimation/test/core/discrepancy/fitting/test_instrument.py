@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from tribo_estimation.core.discrepancy.fitting.instrument import identify_hum
+from tribo_estimation.core.discrepancy.fitting import Record
+from tribo_estimation.core.discrepancy.fitting.instrument import (
+    identify_hum,
+    identify_torsion_lag,
+)
+from tribo_estimation.core.model import FrictionLaw, RigParams
+from tribo_estimation.core.reference import SpeedProfile
+from tribo_estimation.core.reference_records import RecordSpec, make_record, rig_channels, rpm
 
 FS = 2500.0  # [Hz]
 SPAN = 6.0  # [s]
@@ -47,3 +54,18 @@ def test_hum_false_alarm_rate_is_alpha() -> None:
         t = res.pop('t')
         with_line += bool(identify_hum(t, res, 0.01).lines)
     assert with_line <= 3
+
+
+def test_torsion_lag_used_through_a_stop() -> None:
+    # four ~1 s pieces, one at rest (no kinematics: an arbitrary estimate); the lag
+    # of the three moving pieces is used, within 2 % + 20 us (the estimator's accuracy)
+    w = rpm(25)
+    drive = SpeedProfile(((0.0, 0.0), (0.2, w), (1.15, w), (1.2, 0.0), (2.8, 0.0), (2.85, w)))
+    tq, ac, sp = rig_channels(1.0, torsion_lag=5e-4)
+    r = make_record(
+        RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), drive, torsion=tq, accel=ac,
+                   speed=sp, seed=5, duration=4.0, start_offset=0.6)
+    )  # fmt: skip
+    lag = identify_torsion_lag(Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed),
+                               RigParams.tab1())  # fmt: skip
+    assert lag.used == pytest.approx(5e-4, abs=2e-5 + 0.02 * 5e-4)
