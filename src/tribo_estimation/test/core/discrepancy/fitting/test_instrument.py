@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,8 +10,10 @@ import pytest
 
 from tribo_estimation.core.discrepancy.fitting import Record
 from tribo_estimation.core.discrepancy.fitting.instrument import (
+    identify_accel_sensor,
     identify_hum,
     identify_torsion_lag,
+    torsion_compensated_record,
 )
 from tribo_estimation.core.model import FrictionLaw, RigParams
 from tribo_estimation.core.reference import SpeedProfile
@@ -69,3 +72,21 @@ def test_torsion_lag_used_through_a_stop() -> None:
     lag = identify_torsion_lag(Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed),
                                RigParams.tab1())  # fmt: skip
     assert lag.used == pytest.approx(5e-4, abs=2e-5 + 0.02 * 5e-4)
+
+
+@pytest.mark.parametrize('fs', [2000.0, 10000.0])
+def test_torsion_lag_and_accelerometer_gain_at_low_and_high_rates(fs: float) -> None:
+    # Tab. 1 rig (fastest mode ~100 Hz), 1.5 ms torsion lag, accelerometer 5 % high.
+    # At 2 kHz integrals of the acceleration over cycles gave 1.41 ms and 1.075.
+    tq, ac, sp = rig_channels(1.0, torsion_lag=1.5e-3)
+    ac = dataclasses.replace(ac, gain_error=0.05)
+    r = make_record(
+        RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), SpeedProfile.startup(rpm(25), 0.2),
+                   torsion=tq, accel=ac, speed=sp, seed=3, duration=3.0, start_offset=1.0, fs=fs)
+    )  # fmt: skip
+    rec = Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+    lag = identify_torsion_lag(rec, RigParams.tab1())
+    assert lag.used == pytest.approx(1.5e-3, abs=2e-5 + 0.02 * 1.5e-3)  # stated accuracy
+    acc = identify_accel_sensor(torsion_compensated_record(rec, RigParams.tab1(), lag.used),
+                                RigParams.tab1())  # fmt: skip
+    assert acc.gain == pytest.approx(1.05, rel=0.015)  # within 1.5 %
