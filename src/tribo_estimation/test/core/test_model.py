@@ -31,6 +31,19 @@ def test_tab1_natural_frequency_is_73_7_hz() -> None:
     assert RIG.natural_frequency_hz == pytest.approx(73.7, abs=0.05)
 
 
+@pytest.mark.parametrize(
+    ('c2_hz', 'fastest'),
+    # unit inertias, chamber spring at 10 Hz: the shaft alone sets the fastest mode
+    # when stiffer; equal springs give 10 Hz for all three motions
+    [(10.0, 10.0), (30.0, 30.0), (5.0, 10.0)],
+)
+def test_fastest_mode_is_the_highest_of_the_three_motions(c2_hz: float, fastest: float) -> None:
+    # stiffness [N m/rad] giving a unit inertia the frequency f [Hz]: (2 pi f)^2
+    c1, c2 = (2.0 * math.pi * 10.0) ** 2, (2.0 * math.pi * c2_hz) ** 2
+    rig = RigParams(1.0, 0.0, c1, 1.0, 0.0, c2, 0.0, 0.08)
+    assert rig.fastest_mode_hz == pytest.approx(fastest, rel=1e-12)
+
+
 @pytest.mark.parametrize('name', ['I1', 'C1', 'I2', 'C2', 'R'])
 def test_non_positive_parameters_rejected(name: str) -> None:
     kwargs = {**RIG.__dict__, name: 0.0}

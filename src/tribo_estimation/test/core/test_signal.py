@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribo_estimation.core.signal import chamber_speed, first_order_lag, local_slope
+from tribo_estimation.core.signal import chamber_speed, first_order_lag, local_slope, rig_half
 from tribo_estimation.core.sticks import speed_mismatch
 
 DT = 1e-4
@@ -86,3 +86,19 @@ def test_speed_mismatch_skips_a_channel_that_never_agrees() -> None:
     y = 10.0 * y  # a wrong unit: disagrees in every phase
     out = speed_mismatch(y, local_slope(y, DT, 9), w1, spans)
     assert out == [0.0] * len(spans)
+
+
+@pytest.mark.parametrize(
+    ('half', 'fs', 'f_max', 'least', 'expected'),
+    [
+        (7, 20_000.0, 74.0, 2, 7),  # 20 kHz: a quarter period is 34 samples each side
+        (7, 2_000.0, 94.0, 2, 2),  # 2 kHz: 0.25*2000/94/2 = 2.66 samples
+        (14, 10_000.0, 108.0, 2, 11),  # 0.25*10000/108/2 = 11.6
+        (7, 2_000.0, 400.0, 2, 2),  # never below ``least``
+        (7, 2_000.0, 400.0, 1, 1),
+    ],
+)
+def test_rig_half_spans_at_most_a_quarter_period(
+    half: int, fs: float, f_max: float, least: int, expected: int
+) -> None:
+    assert rig_half(half, fs, f_max, least) == expected
