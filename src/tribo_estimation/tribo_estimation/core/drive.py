@@ -181,7 +181,7 @@ def _fit_knots(tk: FloatArray, tb: FloatArray, yb: FloatArray) -> FloatArray:
 
 
 def estimate_drive(
-    time: FloatArray, speed: FloatArray, nominal: float | None = None
+    time: FloatArray, speed: FloatArray, nominal: float | None = None, cycle: float = 0.0
 ) -> DriveEstimate:
     """Drive speed profile of a record from its shaft speed channel (module doc).
 
@@ -189,6 +189,11 @@ def estimate_drive(
         time: sample times [s], uniform.
         speed: shaft speed w2 [rad/s].
         nominal: RIG.yaml nominal drive speed [rad/s] (default and check only).
+        cycle: the stick-slip period [s] when known (0: not): the shaft speed is
+            then averaged over the whole number of cycles nearest above
+            :data:`SMOOTH_TIME`, which cancels a periodic stick-slip exactly (a
+            slow drive's cycles of 0.05-0.2 s otherwise leave ripples the knot
+            search takes for speed changes).
     """
     t = np.asarray(time, dtype=np.float64)
     w = np.asarray(speed, dtype=np.float64)
@@ -202,8 +207,16 @@ def estimate_drive(
         w = np.interp(t, t[ok], w[ok])
     dt = float((t[-1] - t[0]) / (t.size - 1))
     span = float(t[-1] - t[0])
-    width = max(1, round(min(SMOOTH_TIME, 0.5 * span) / dt))
+    whole = cycle > 0.0 and math.isfinite(cycle)
+    smooth = math.ceil(SMOOTH_TIME / cycle - 1e-9) * cycle if whole else SMOOTH_TIME
+    width = max(1, round(min(smooth, 0.5 * span) / dt))
     ws = moving_average(w, width)
+    if whole and t.size > width:
+        # near the ends the centred window would shrink to part of a cycle: the
+        # first and last full windows' means are held there
+        h = width // 2
+        ws[:h] = ws[h]
+        ws[t.size - h :] = ws[t.size - h - 1]
     # decimate to bins (the knot search and the least squares work on the bins)
     nb = max(1, round(_BIN_TIME / dt))
     m = (t.size // nb) * nb
@@ -487,10 +500,13 @@ def _place(
     # the stick-slip cycles of the transition: a last grid of 0.1 ms
     finest = np.linspace(-1.0, 1.0, 21) * float(fine[1] - fine[0])
     for _ in range(_CORNER_SWEEPS):
+        before = tk
         for ks, dirs in moves:
             for grid in (coarse, fine, finest) if coarse_grid else (fine, finest):
                 base = tk.copy()
                 for d in grid.tolist():
+                    if d == 0.0:  # the current knots: their cost is ``best``
+                        continue
                     trial = base.copy()
                     trial[ks] += d * dirs
                     if not np.all(np.diff(trial) > _MIN_PIECE):
@@ -498,6 +514,8 @@ def _place(
                     _, sse = _solve_speeds(trial, tt, ph, start, prior)
                     if sse < best:
                         best, tk = sse, trial
+        if tk is before:  # a sweep without a move: the next would repeat it exactly
+            break
     return tk
 
 

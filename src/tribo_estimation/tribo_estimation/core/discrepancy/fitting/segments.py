@@ -172,6 +172,24 @@ def stick_runs(
     return np.array(ma, np.int64), np.array(mb, np.int64), np.array(mo, np.float64)
 
 
+def stick_cycle(onsets: FloatArray | None) -> float:
+    """Return the stick-slip period [s]: the median interval between stick onsets.
+
+    Parameters
+    ----------
+    onsets : FloatArray or None
+        Start times of the stick phases [s] (:func:`stick_runs`).
+
+    Returns
+    -------
+    float
+        The period [s]; 0 for fewer than three phases (no period known).
+    """
+    if onsets is None or onsets.size < 3:
+        return 0.0
+    return float(np.median(np.diff(np.sort(onsets))))
+
+
 def make_segments(
     record: Record,
     rig: RigParams,
