@@ -120,21 +120,3 @@ def test_a_fit_that_only_crosses_the_bound_is_no_name() -> None:
     far = _model(BOUND * math.exp(3.0 * tol), 1.0)
     d = decide(fits[:1], far, [LAW], single_speed=True)
     assert d.kind == NAMED and d.named is not None and d.named.family == 'bearing_friction'
-
-
-def test_the_speed_channel_alone_names_nothing() -> None:
-    # the torsion moment within its bound, only the speed statistic beyond it: a family
-    # that brings the speed far inside is still no name (the tachometer's coloured
-    # noise is not in the speed statistic's null law)
-    speed_off = Adequacy({'torsion_moment': 1.04, 'speed': 3.0, 'blocks': 1.04}, NOISE)
-    current = Model((), Fit({}, 9.0, 1, True, {}), (speed_off,))
-    assert LAW.failing(speed_off) == ('speed',)
-    fit = _fit('drive_speed_ripple', 'drive_speed_ripple', 1.04)
-    assert fit.adequate
-    d = decide([fit], current, [LAW], single_speed=True)
-    assert d.kind == UNEXPLAINED and d.named is None and d.alternatives == ()
-    assert 'speed channel' in d.reason
-    # with the torsion moment failing too, the same fit is a name
-    both = Adequacy({'torsion_moment': 5.0, 'speed': 3.0, 'blocks': 1.04}, NOISE)
-    d = decide([fit], Model((), Fit({}, 25.0, 1, True, {}), (both,)), [LAW], single_speed=True)
-    assert d.kind == NAMED

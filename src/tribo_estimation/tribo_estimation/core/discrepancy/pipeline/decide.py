@@ -20,11 +20,6 @@ this record (:mod:`.null`); no threshold is tuned:
   explanations are never names; those whose statistics lie within the null law's
   tolerance of the best are one set ("explains the same part").
 - **Unexplained**: the current model is inadequate and no family is adequate.
-- **Speed channel alone**: a model that fails only the speed channel's statistic is
-  unexplained, never a name or a set: the torsion moment (the physics' channel) is
-  explained to the noise, and the speed statistic's null law knows only the
-  channel's white noise (coloured sensor noise is not measured: :mod:`.noise`), so
-  a tachometer's coloured noise or the form of its lag fails it as well.
 """
 
 from __future__ import annotations
@@ -40,9 +35,6 @@ from .. import candidates as cand_lib
 from ..candidates import SUGGEST_LONGER, SUGGEST_MORE, SUGGEST_SPEED
 from .null import NullLaw
 from .screen import FormFit, Model
-
-#: The statistic of the speed channel (:mod:`.null`), which alone names nothing.
-SPEED_ONLY = 'speed'
 
 #: Kinds of decision.
 NOTHING_MISSING = 'nothing_missing'
@@ -241,17 +233,6 @@ def decide(
         The round's decision.
     """
     per_family = best_per_family(fits)
-    failing = {n for a, law in zip(current.adequacy, laws, strict=True) for n in law.failing(a)}
-    if failing == {SPEED_ONLY}:
-        return Decision(
-            UNEXPLAINED,
-            None,
-            (),
-            (),
-            'only the speed channel misfits (the torsion moment is explained to the noise): '
-            "the tachometer's chain (coloured noise, the form of its lag) is not told apart "
-            'from physics by it',
-        )
     within = [f for f in per_family if f.adequate]
     adequate = [f for f in within if resolves(f.model, current, laws)]
     if len(adequate) == 1:
