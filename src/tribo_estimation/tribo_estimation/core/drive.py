@@ -181,7 +181,7 @@ def _fit_knots(tk: FloatArray, tb: FloatArray, yb: FloatArray) -> FloatArray:
 
 
 def estimate_drive(
-    time: FloatArray, speed: FloatArray, nominal: float | None = None, cycle: float = 0.0
+    time: FloatArray, speed: FloatArray, nominal: float | None = None
 ) -> DriveEstimate:
     """Drive speed profile of a record from its shaft speed channel (module doc).
 
@@ -189,11 +189,6 @@ def estimate_drive(
         time: sample times [s], uniform.
         speed: shaft speed w2 [rad/s].
         nominal: RIG.yaml nominal drive speed [rad/s] (default and check only).
-        cycle: the stick-slip period [s] when known (0: not): the shaft speed is
-            then averaged over the whole number of cycles nearest above
-            :data:`SMOOTH_TIME`, which cancels a periodic stick-slip exactly (a
-            slow drive's cycles of 0.05-0.2 s otherwise leave ripples the knot
-            search takes for speed changes).
     """
     t = np.asarray(time, dtype=np.float64)
     w = np.asarray(speed, dtype=np.float64)
@@ -207,16 +202,8 @@ def estimate_drive(
         w = np.interp(t, t[ok], w[ok])
     dt = float((t[-1] - t[0]) / (t.size - 1))
     span = float(t[-1] - t[0])
-    whole = cycle > 0.0 and math.isfinite(cycle)
-    smooth = math.ceil(SMOOTH_TIME / cycle - 1e-9) * cycle if whole else SMOOTH_TIME
-    width = max(1, round(min(smooth, 0.5 * span) / dt))
+    width = max(1, round(min(SMOOTH_TIME, 0.5 * span) / dt))
     ws = moving_average(w, width)
-    if whole and t.size > width:
-        # near the ends the centred window would shrink to part of a cycle: the
-        # first and last full windows' means are held there
-        h = width // 2
-        ws[:h] = ws[h]
-        ws[t.size - h :] = ws[t.size - h - 1]
     # decimate to bins (the knot search and the least squares work on the bins)
     nb = max(1, round(_BIN_TIME / dt))
     m = (t.size // nb) * nb

@@ -8,7 +8,6 @@ import pytest
 from tribo_estimation.core.discrepancy.fitting.segments import (
     longest_free_stretch,
     sliding_segments,
-    stick_cycle,
 )
 from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import TooShortError
@@ -53,13 +52,3 @@ def test_too_short_names_the_longest_stretch_without_a_stick() -> None:
     rec = _record(3.0)
     with pytest.raises(TooShortError, match=r'longest stretch without a stick 0\.3 s'):
         sliding_segments(rec, 0.25, first=round(2.7 * FS))
-
-
-def test_stick_cycle_only_for_a_regular_stick_slip() -> None:
-    rng = np.random.default_rng(5)
-    regular = np.cumsum(0.0625 + rng.normal(0.0, 0.0005, 40))  # 16 Hz, 0.8 % jitter
-    assert stick_cycle(regular) == pytest.approx(0.0625, rel=0.01)
-    # a drive speeding up: the period falls from 0.07 s to 0.05 s (spread 33 %)
-    sweeping = np.cumsum(np.linspace(0.07, 0.05, 40))
-    assert stick_cycle(sweeping) == 0.0
-    assert stick_cycle(regular[:2]) == 0.0  # fewer than three phases

@@ -63,13 +63,7 @@ from .records import (
     Segments,
     SimulatedRecord,
 )
-from .segments import (
-    begins_at_drive_start,
-    make_segments,
-    sliding_start_states,
-    stick_cycle,
-    stick_runs,
-)
+from .segments import begins_at_drive_start, make_segments, sliding_start_states
 
 #: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
 #: profile's corners (:meth:`Problem._set_instrument`).
@@ -186,11 +180,9 @@ class Problem:
         self.rig = rig
         self.drive = drive
         self.k = float(k)
-        # the stick phases first: their period sets the drive speed's averaging
-        runs = stick_runs(record, rig) if segments is None else None
         #: drive speed measured from the record (the nominal speed only a check)
         self.drive_estimate: DriveEstimate = estimate_drive(
-            record.time, record.speed, drive.nominal_speed, stick_cycle(runs[2] if runs else None)
+            record.time, record.speed, drive.nominal_speed
         )
         self.segments = (
             segments
@@ -199,7 +191,6 @@ class Problem:
                 record,
                 rig,
                 block_time=self.block_time,
-                runs=runs,
                 dwell_from_start=begins_at_drive_start(
                     record, drive.ramp_time, self.drive_estimate.level
                 ),

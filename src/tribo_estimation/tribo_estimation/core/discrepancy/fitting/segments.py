@@ -172,38 +172,6 @@ def stick_runs(
     return np.array(ma, np.int64), np.array(mb, np.int64), np.array(mo, np.float64)
 
 
-#: Largest spread of the intervals between stick onsets (10th to 90th percentile, over
-#: their median) for which the stick-slip has one period [-]: an average over N = 2
-#: cycles then cancels it to about N times the spread, 10 % (a drive changing speed
-#: changes the period; a missed stick doubles an interval).
-CYCLE_SPREAD = 0.05
-
-
-def stick_cycle(onsets: FloatArray | None) -> float:
-    """Return the stick-slip period [s]: the median interval between stick onsets.
-
-    Only for a regular stick-slip: the intervals' spread (10th to 90th percentile)
-    within :data:`CYCLE_SPREAD` of their median.
-
-    Parameters
-    ----------
-    onsets : FloatArray or None
-        Start times of the stick phases [s] (:func:`stick_runs`).
-
-    Returns
-    -------
-    float
-        The period [s]; 0 for fewer than three phases or irregular intervals (no
-        period).
-    """
-    if onsets is None or onsets.size < 3:
-        return 0.0
-    gaps = np.diff(np.sort(onsets))
-    mid = float(np.median(gaps))
-    lo, hi = np.percentile(gaps, (10.0, 90.0))
-    return mid if mid > 0.0 and (hi - lo) <= CYCLE_SPREAD * mid else 0.0
-
-
 def make_segments(
     record: Record,
     rig: RigParams,
