@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import functools
 import os
-from collections.abc import Callable
+import signal
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -80,3 +82,18 @@ def sim_record() -> Callable[..., SimResult]:
         return _simulated(rig, float(duration), float(fs), bool(noise), int(seed))
 
     return make
+
+
+@pytest.fixture(autouse=True)
+def _sigint_restored() -> Iterator[None]:
+    """Give SIGINT its handler back after each test (main thread).
+
+    The graph runner ignores a second Ctrl-C while it shuts down, for good; a test
+    that runs it in the worker process would otherwise leave SIGINT ignored, and every
+    process the worker starts later inherits that (a test's Ctrl-C then stops nothing).
+    """
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGINT) if main else None
+    yield
+    if main and signal.getsignal(signal.SIGINT) is not before and before is not None:
+        signal.signal(signal.SIGINT, before)
