@@ -66,3 +66,6 @@ _.zeta_se  # DecayResult.to_dict
 _.git_commit
 _.git_dirty
 _.created
+
+# pytest autouse fixtures (conftest.py): pytest calls them by itself
+_sigint_restored
