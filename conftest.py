@@ -86,13 +86,16 @@ def sim_record() -> Callable[..., SimResult]:
 
 @pytest.fixture(autouse=True)
 def _sigint_restored() -> Iterator[None]:
-    """Give SIGINT its handler back after each test (main thread).
+    """Give SIGINT a handler before and its handler back after each test (main thread).
 
     The graph runner ignores a second Ctrl-C while it shuts down, for good; a test
     that runs it in the worker process would otherwise leave SIGINT ignored, and every
     process the worker starts later inherits that (a test's Ctrl-C then stops nothing).
     """
     main = threading.current_thread() is threading.main_thread()
+    if main and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        # left ignored before this test (outside any test): Python's own handler
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     before = signal.getsignal(signal.SIGINT) if main else None
     yield
     if main and signal.getsignal(signal.SIGINT) is not before and before is not None:
