@@ -18,7 +18,13 @@ import numpy.typing as npt
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import lag_segments
-from tribo_estimation.core.signal import CHAMBER_HALF, chamber_speed, local_slope, rig_half
+from tribo_estimation.core.signal import (
+    CHAMBER_HALF,
+    chamber_speed,
+    local_slope,
+    mad_sigma,
+    rig_half,
+)
 from tribo_estimation.core.sticks import (
     MAX_TORSION_LAG,
     chamber_speed_integral,
@@ -203,7 +209,7 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     tau = float(np.median(arr))
     # the median's standard error from the pieces' robust spread (a piece at rest
     # carries no kinematics: its estimate is arbitrary and must not inflate it)
-    spread = 1.4826 * float(np.median(np.abs(arr - tau)))
+    spread = mad_sigma(arr)
     se = float(1.2533 * spread / math.sqrt(arr.size)) if arr.size > 1 else math.nan
     ok = (
         abs(tau) >= MIN_TORSION_LAG
