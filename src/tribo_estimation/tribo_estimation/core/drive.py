@@ -284,6 +284,35 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
     return out
 
 
+def _pull_weights(tk: FloatArray, tt: FloatArray) -> FloatArray:
+    """Return the weight of each knot's pull toward the prior profile [s].
+
+    A knot with angles on its hat function's support is pinned by them: a weak pull
+    (:data:`_KNOT_SMOOTH`). A knot without (sliding, or stick phases too short to
+    sample, before, between or after the stick phases that give angles) has only
+    the prior: its pull weighs the half width of its support, the angle error [rad]
+    one rad/s of speed error makes over it, so it keeps the speed channel's value
+    unless the angles around its gap say otherwise.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    tt : FloatArray
+        Times of the angles [s], sorted or not.
+
+    Returns
+    -------
+    FloatArray
+        One weight per knot [s].
+    """
+    ts = np.sort(tt)
+    lo = np.concatenate((tk[:1], tk[:-1]))
+    hi = np.concatenate((tk[1:], tk[-1:]))
+    n_in = np.searchsorted(ts, hi, side='right') - np.searchsorted(ts, lo, side='left')
+    return np.where(n_in > 0, _KNOT_SMOOTH, np.maximum(0.5 * (hi - lo), _KNOT_SMOOTH))
+
+
 def _solve_speeds(
     tk: FloatArray,
     tt: FloatArray,
@@ -334,11 +363,11 @@ def _solve_speeds(
         rhs = np.concatenate((rhs, np.zeros(k - 2)))
     if prior is not None:
         pull = np.zeros((k, k + 1))
-        pull[:, 1:] = _KNOT_SMOOTH * np.eye(k)
+        pull[:, 1:] = np.diag(_pull_weights(tk, tt))
         if start is not None:
             pull[0, 1] = 0.0
         basis = np.vstack((basis, pull))
-        rhs = np.concatenate((rhs, _KNOT_SMOOTH * np.interp(tk, *prior)))
+        rhs = np.concatenate((rhs, np.diag(pull[:, 1:]) * np.interp(tk, *prior)))
     sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
     r = basis[: tt.size] @ sol - rhs[: tt.size]
     if start is not None:
@@ -585,9 +614,21 @@ def refine_with_angles(
             moved = np.zeros(0)
         corners = inner.copy() if keep_corners else _corners(inner)
         corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
+        # a corner without angles near it has nothing to place it by: its transition
+        # keeps the smoothed speed's knots
+        near = np.asarray(
+            [np.count_nonzero(np.abs(tt - c) < 2.0 * SMOOTH_TIME) >= 3 for c in corners.tolist()],
+            dtype=bool,
+        )
+        if not near.all():
+            far = corners[~near]
+            kept = inner[(np.abs(inner[:, None] - far[None, :]) <= SMOOTH_TIME).any(axis=1)]
+            kept = kept[(kept > t_lo + _MIN_PIECE) & (kept < t_hi - _MIN_PIECE)]
+            corners = np.concatenate((corners[near], kept))
+            near = np.concatenate((np.ones(int(near.sum()), bool), np.zeros(kept.size, bool)))
         tk = np.concatenate(([t_lo, t_hi], moved, corners))
         n_fixed = 2 + moved.size
-        free = np.concatenate((np.zeros(n_fixed, bool), np.ones(corners.size, bool)))
+        free = np.concatenate((np.zeros(n_fixed, bool), near))
         order = np.argsort(tk, kind='stable')
         tk, free = tk[order], free[order]
         keep = np.concatenate(([True], np.diff(tk) > _MIN_PIECE))
