@@ -59,9 +59,10 @@ class MonitorConfig:
     the whole library); ``time_budget`` wall time per window after which no further
     form is screened or refined [s] (keep it below ``hop``); ``alpha`` the
     adequacy decisions' false-alarm rate [-]; ``replicas`` bootstrap replicas of
-    the window's null law; ``null_reuse`` windows that reuse a null law before it is
-    measured again (the windows overlap: the same process, the same noise; 0: every
-    window measures its own).
+    the window's null law (5: the prediction bound's Student t factor at alpha = 1 %
+    over three statistics is 5.7, against 14 with 3 replicas); ``null_reuse`` windows
+    that reuse a null law before it is measured again (the windows overlap: the same
+    process, the same noise; 0: every window measures its own).
     """
 
     window: float = 6.0
@@ -69,7 +70,7 @@ class MonitorConfig:
     candidates: tuple[str, ...] = ()
     time_budget: float = 1.5
     alpha: float = 0.01
-    replicas: int = 3
+    replicas: int = 5
     null_reuse: int = 2
 
     def __post_init__(self) -> None:
