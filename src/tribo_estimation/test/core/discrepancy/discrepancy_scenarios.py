@@ -82,6 +82,7 @@ def record(
     effect: EffectSpec | None = None,
     instrument: InstrumentSpec | None = None,
     fs: float = 10_000.0,
+    rig: RigTruth = TAB1,
 ) -> tuple[RigRecord, RigParams, DriveProfile]:
     """Simulate one controlled record (Tab. 1 rig) and return it with the user's config.
 
@@ -99,13 +100,15 @@ def record(
         The instrument chain (None: :func:`clean_instrument`).
     fs : float
         Sample rate [Hz].
+    rig : RigTruth
+        The rig and its friction (default: Tab. 1); the user's config is exact.
 
     Returns
     -------
     tuple
         The record, the rig and the drive a user would configure.
     """
-    r = TAB1
+    r = rig
     spec = ScenarioSpec(
         seed=seed,
         duration=duration,

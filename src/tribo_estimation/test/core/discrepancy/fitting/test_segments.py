@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tribo_estimation.core.discrepancy.fitting.segments import (
-    longest_free_stretch,
+    free_stretches,
     sliding_segments,
 )
 from tribo_estimation.core.record import RigRecord
@@ -24,18 +24,31 @@ def _record(seconds: float) -> RigRecord:
 @pytest.mark.parametrize(
     ('starts', 'stops', 'n', 'expected'),
     [
-        ((), (), 100, (0, 100)),
-        ((0,), (30,), 100, (30, 100)),  # at rest, then sliding
-        ((90,), (100,), 100, (0, 90)),  # sliding into a stop at the end
-        ((0, 70), (20, 80), 100, (20, 70)),
-        ((0, 10), (50, 40), 100, (50, 100)),  # overlapping phases
+        ((), (), 100, [(0, 100)]),
+        ((0,), (30,), 100, [(30, 100)]),  # at rest, then sliding
+        ((90,), (100,), 100, [(0, 90)]),  # sliding into a stop at the end
+        ((0, 70), (20, 80), 100, [(20, 70), (80, 100)]),
+        ((0, 10), (50, 40), 100, [(50, 100)]),  # overlapping phases
+        ((40,), (45,), 100, [(0, 40), (45, 100)]),  # a brief stick inside
     ],
 )
-def test_longest_free_stretch(
-    starts: tuple[int, ...], stops: tuple[int, ...], n: int, expected: tuple[int, int]
+def test_free_stretches(
+    starts: tuple[int, ...], stops: tuple[int, ...], n: int, expected: list[tuple[int, int]]
 ) -> None:
-    got = longest_free_stretch(np.asarray(starts, np.int64), np.asarray(stops, np.int64), n)
+    got = free_stretches(np.asarray(starts, np.int64), np.asarray(stops, np.int64), n)
     assert got == expected
+
+
+def test_sliding_segments_fill_every_stretch_between_stick_phases() -> None:
+    # sliding at one speed, a stick through a speed step at 2.0-2.1 s, sliding again
+    rec = _record(4.0)
+    a, b = round(2.0 * FS), round(2.1 * FS)
+    seg = sliding_segments(rec, 0.25, stretches=[(0, a), (b, rec.time.size)])
+    # no segment reaches into the stick phase, and both stretches hold segments
+    assert not np.any((seg.start < b) & (seg.stop > a))
+    assert np.count_nonzero(seg.stop <= a) >= 7 and np.count_nonzero(seg.start >= b) >= 7
+    # the stick phase is listed as not fitted, at its start
+    assert [r[0] for r in seg.rejected] == [pytest.approx(2.0)]
 
 
 def test_sliding_segments_stop_before_a_stick_at_the_end() -> None:

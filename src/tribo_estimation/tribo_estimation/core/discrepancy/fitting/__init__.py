@@ -44,6 +44,7 @@ from .instrument import (
 )
 from .problem import Problem
 from .records import (
+    CHAMBER_I1,
     CHANNEL_UNITS,
     CHANNELS,
     EXT_FIELDS,
@@ -53,6 +54,8 @@ from .records import (
     MEASUREMENT_FIELDS,
     MU0,
     MU_INF,
+    RIG_FACTOR_FIELDS,
+    RIG_FACTORS,
     SHAFT,
     SHAFT_FIELDS,
     SPEED_LAG,
@@ -68,6 +71,7 @@ from .segments import (
     UNKNOWN_DWELL,
     begins_at_drive_start,
     make_segments,
+    sliding_chamber_speed,
     sliding_segments,
     sliding_start_states,
     stick_runs,
@@ -75,6 +79,7 @@ from .segments import (
 )
 
 __all__ = [
+    'CHAMBER_I1',
     'CHANNELS',
     'CHANNEL_UNITS',
     'CUT_STICK',
@@ -89,6 +94,8 @@ __all__ = [
     'MIN_TORSION_LAG',
     'MU0',
     'MU_INF',
+    'RIG_FACTORS',
+    'RIG_FACTOR_FIELDS',
     'SHAFT',
     'SHAFT_FIELDS',
     'SLIDE_WIN',
@@ -111,6 +118,7 @@ __all__ = [
     'identify_speed_sensor',
     'identify_torsion_lag',
     'make_segments',
+    'sliding_chamber_speed',
     'sliding_segments',
     'sliding_start_states',
     'speed_sensor_output',

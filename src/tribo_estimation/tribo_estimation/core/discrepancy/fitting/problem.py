@@ -57,13 +57,19 @@ from .records import (
     INSTRUMENT_FIELDS,
     MU0,
     MU_INF,
-    SHAFT_FIELDS,
+    RIG_FACTOR_FIELDS,
+    RIG_FACTORS,
     FitOutcome,
     Record,
     Segments,
     SimulatedRecord,
 )
-from .segments import begins_at_drive_start, make_segments, sliding_start_states
+from .segments import (
+    begins_at_drive_start,
+    make_segments,
+    sliding_chamber_speed,
+    sliding_start_states,
+)
 
 #: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
 #: profile's corners (:meth:`Problem._set_instrument`).
@@ -220,11 +226,16 @@ class Problem:
         # state at the segment starts: the torsion moment (local cubic) and the
         # acceleration; the common speed of the stuck discs from the speed channel
         # with its sensor model inverted (:meth:`_set_instrument`)
-        self._m_val, slope = local_cubic(record.torsion_moment, i, seg.run_start, seg.run_stop)
+        # (the local fits stay inside a stuck start's stick phase; a sliding start has none)
+        lo, hi = seg.run_start, seg.run_stop
+        if lo is not None and hi is not None and seg.sliding_starts.any():
+            lo = np.where(seg.sliding_starts, 0, lo)
+            hi = np.where(seg.sliding_starts, record.time.size, hi)
+        self._m_val, slope = local_cubic(record.torsion_moment, i, lo, hi)
         self._m_slope = np.where(np.isfinite(slope), slope * fs, 0.0)
-        self._a0 = window_mean(record.angular_acceleration, i, 2, seg.run_start, seg.run_stop)
+        self._a0 = window_mean(record.angular_acceleration, i, 2, lo, hi)
         #: measured speed channel at the starts (the speed sensor's state there)
-        self._speed_start = window_mean(record.speed, i, 5, seg.run_start, seg.run_stop)
+        self._speed_start = window_mean(record.speed, i, 5, lo, hi)
         #: common speed of the stuck discs at the starts from the speed channel
         #: without a sensor lag [rad/s]
         self._speed_stuck = self._speed_start.copy()
@@ -269,6 +280,10 @@ class Problem:
             'speed': record.speed,
         }
         self._w_start = self._speed_stuck.copy()
+        #: chamber speed at sliding segment starts (from the torsion moment) [rad/s]
+        self._w1_slide = (
+            sliding_chamber_speed(record, i, rig) if seg.sliding_starts.any() else np.zeros(i.size)
+        )
         self._instrument: tuple[float, ...] = (math.nan,) * 9
         #: the drive profile's corners have been placed once, for this sensor model
         self._placed = False
@@ -336,25 +351,27 @@ class Problem:
             self.weights[c] = 1.0 / s if s > 0 else 0.0
 
     # --------------------------------------------------------------- simulation
-    def shaft_rig(self, values: Mapping[str, float]) -> RigParams:
-        """Return the rig with the shaft factors of ``values`` applied (I2, K2, C2).
+    def rig_of(self, values: Mapping[str, float]) -> RigParams:
+        """Return the rig with the factors of ``values`` applied (:data:`.RIG_FACTORS`).
 
         Parameters
         ----------
         values : mapping of str to float
             Model values; ``shaft_I2``, ``shaft_K2``, ``shaft_C2`` [-] scale the
-            problem's I2, K2, C2 (Equ. 2; missing: 1).
+            problem's I2, K2, C2 (Equ. 2), ``chamber_I1`` [-] its I1 (Equ. 1); a
+            missing factor is 1.
 
         Returns
         -------
         RigParams
             The rig (the problem's own when no factor is given).
         """
-        f = [float(values.get(n, 1.0)) for n in ('shaft_I2', 'shaft_K2', 'shaft_C2')]
-        if f == [1.0, 1.0, 1.0]:
-            return self.rig
-        r = self.rig
-        return replace(r, I2=r.I2 * f[0], K2=r.K2 * f[1], C2=r.C2 * f[2])
+        scaled = {
+            field: getattr(self.rig, field) * float(values[name])
+            for name, field in RIG_FACTORS.items()
+            if name in values and float(values[name]) != 1.0
+        }
+        return replace(self.rig, **scaled) if scaled else self.rig
 
     def model_objects(self, values: Mapping[str, float]) -> tuple[FrictionLaw, Extensions]:
         """Return the FrictionLaw and Extensions of a value mapping.
@@ -382,7 +399,7 @@ class Problem:
             for k, v in values.items()
             if k not in ('mu0', 'mu_inf', 'k')
             and k not in INSTRUMENT_FIELDS
-            and k not in SHAFT_FIELDS
+            and k not in RIG_FACTOR_FIELDS
             and k not in level_names
         }
         unknown = set(ext_vals) - EXT_FIELDS
@@ -424,7 +441,7 @@ class Problem:
             seg_mask = np.zeros(self.segments.n, dtype=bool)
             seg_mask[0] = True
         fr, ext = self.model_objects(values)
-        p = pack_params(self.shaft_rig(values), fr, self.drive, ext)
+        p = pack_params(self.rig_of(values), fr, self.drive, ext)
         rec = self.record
         seg = self.segments
         sel = np.ones(seg.n, dtype=bool) if seg_mask is None else seg_mask
@@ -440,16 +457,20 @@ class Problem:
             (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
-        if seg.sliding:
-            dk = self._knots
-            states = sliding_start_states(
-                p, rec, seg.start[sel], m_true, self._w_start[sel],
-                self._speed_slope[seg.start[sel]], dk,
+        # sliding starts from the measured sliding state, the others from the stuck one
+        slides = seg.sliding_starts[sel]
+        states = np.empty((int(np.count_nonzero(sel)), kn.NS))
+        if slides.any():
+            ss = seg.start[sel][slides]
+            states[slides] = sliding_start_states(
+                p, rec, ss, m_true[slides], self._w1_slide[sel][slides],
+                self._w_start[sel][slides], self._speed_slope[ss], dk,
             )  # fmt: skip
-        else:
-            states = stuck_states(
-                p, t0, m_true, self._w_start[sel], self._a0[sel], seg.stick_time[sel], dk.time,
-                dk.speed,
+        if not slides.all():
+            st = ~slides
+            states[st] = stuck_states(
+                p, t0[st], m_true[st], self._w_start[sel][st], self._a0[sel][st],
+                seg.stick_time[sel][st], dk.time, dk.speed,
             )  # fmt: skip
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
@@ -481,7 +502,7 @@ class Problem:
         self.n_evals += 1
         used = (
             replace(seg, start=seg.start[:1], stop=stops, stick_time=seg.stick_time[:1],
-                    block=seg.block[:1])
+                    block=seg.block[:1], slides=seg.sliding_starts[:1])
             if continuous
             else seg
         )  # fmt: skip
@@ -516,7 +537,8 @@ class Problem:
         While stuck the discs share one speed w with w' = the measured
         acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
         ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
-        chamber speed channel is ``w(start) + integral of a`` per segment. The
+        chamber speed channel is ``w1(start) + integral of a`` per segment (a sliding
+        start's w1 from the torsion moment, :func:`.segments.sliding_chamber_speed`). The
         drive profile is then re-fitted (:meth:`_fit_drive`).
 
         Parameters
@@ -551,10 +573,13 @@ class Problem:
             self._w_start = self._speed_stuck - offset
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
+        # a stuck start's chamber speed is the shaft's; a sliding one's is the model's
+        # start state (the torsion moment's slope)
+        w1_start = np.where(self.segments.sliding_starts, self._w1_slide, self._w_start)
         for k, (a, b) in enumerate(zip(self.segments.start, self.segments.stop, strict=True)):
             inc = 0.5 * (acc[a + 1 : b] + acc[a : b - 1]) * rec.dt
-            w1[a] = self._w_start[k]
-            w1[a + 1 : b] = self._w_start[k] + np.cumsum(inc)
+            w1[a] = w1_start[k]
+            w1[a + 1 : b] = w1_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
         # a sensor change moves the drive's corners by about the change of the lag
         # (its time shift): below the placement's grid (0.1 ms) and a speed offset
@@ -600,7 +625,7 @@ class Problem:
         """
         rec = self.record
         if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
-            self.drive_estimate = self._sliding_drive()
+            self.drive_estimate = self._sliding_drive(offset)
             self._knots = DriveKnots.from_estimate(self.drive_estimate)
             return
         # drive angle while stuck = shaft angle (integral of the speed channel, less
@@ -644,20 +669,34 @@ class Problem:
         self.drive_estimate = drive
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
 
-    def _sliding_drive(self) -> DriveEstimate:
+    def _sliding_drive(self, offset: float) -> DriveEstimate:
         """Return the drive profile of a record without stick-slip.
 
         The smoothed shaft speed (:func:`~tribo_estimation.core.drive.estimate_drive`)
-        blurs the start-up ramp over :data:`~tribo_estimation.core.drive.SMOOTH_TIME`;
-        a record that begins at the drive's start from rest gets RIG.yaml's ramp
-        (0 at the start, the measured speed at the ramp's end) instead.
+        less the speed sensor's offset; it blurs the start-up ramp over
+        :data:`~tribo_estimation.core.drive.SMOOTH_TIME`, so a record that begins at
+        the drive's start from rest gets RIG.yaml's ramp (0 at the start, the measured
+        speed at the ramp's end) instead.
+
+        Parameters
+        ----------
+        offset : float
+            Speed-sensor offset [rad/s].
 
         Returns
         -------
         DriveEstimate
             The profile.
         """
-        d = self._drive_speed0
+        d0 = self._drive_speed0
+        level = d0.level - offset
+        nom = d0.nominal
+        d = replace(
+            d0,
+            knot_speed=d0.knot_speed - offset,
+            level=level,
+            mismatch=(level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan,
+        )
         ramp = self.drive.ramp_time
         if self._start_speed is None or ramp <= 0.0:
             return d

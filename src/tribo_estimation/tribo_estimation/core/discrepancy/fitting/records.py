@@ -67,6 +67,23 @@ SHAFT_K2 = ParamSpec('shaft_K2', '-', 0.4, 2.5, 0.1, 1.0)
 SHAFT_C2 = ParamSpec('shaft_C2', '-', 0.6, 1.6, 0.1, 1.0)
 SHAFT: tuple[ParamSpec, ...] = (SHAFT_I2, SHAFT_K2, SHAFT_C2)
 SHAFT_FIELDS: frozenset[str] = frozenset(p.name for p in SHAFT)
+#: The chamber's inertia I1 (Equ. 1) as a factor on RIG.yaml's, fitted with the
+#: baseline of every record: the chamber's lightly damped mode sqrt(C1/I1) runs through
+#: each slip phase and a whole sliding segment, so the ~1 % a free-decay identification
+#: leaves on C1 and I1 shows as a phase error over ten cycles. The torsion moment is the
+#: measured M_t = C1*phi1 and the accelerometer's gain is referred to C1
+#: (:func:`.instrument.identify_accel_sensor`), so the factor carries the error of the
+#: ratio C1/I1 in RIG.yaml's C1. Within 0.9-1.1: a free-decay identification's error
+#: (docs/physics.md).
+CHAMBER_I1 = ParamSpec('chamber_I1', '-', 0.9, 1.1, 0.01, 1.0)
+#: Factors on RIG.yaml's rig parameters, by value name: the rig field each scales.
+RIG_FACTORS: dict[str, str] = {
+    'shaft_I2': 'I2',
+    'shaft_K2': 'K2',
+    'shaft_C2': 'C2',
+    'chamber_I1': 'I1',
+}
+RIG_FACTOR_FIELDS: frozenset[str] = frozenset(RIG_FACTORS)
 
 
 #: The measured record: the package's one record type
@@ -98,6 +115,10 @@ class Segments:
         their dwell is unknown (cut by the record start, or begun well before the
         detected onset): the discs stick there all the same, so they inform the
         instrument model and the drive profile (:meth:`stick_phases`).
+    slides : numpy.ndarray of bool or None
+        Per segment, True where it starts while sliding (a stretch without stick
+        phases in a record with stick-slip; its run is empty); None: all as
+        ``sliding`` says.
     """
 
     start: IntArray
@@ -109,6 +130,14 @@ class Segments:
     sliding: bool = False
     rejected: tuple[tuple[float, str], ...] = ()
     unknown_dwell: tuple[tuple[int, int], ...] = ()
+    slides: npt.NDArray[np.bool_] | None = None
+
+    @property
+    def sliding_starts(self) -> npt.NDArray[np.bool_]:
+        """Per segment, True where it starts while sliding."""
+        if self.slides is not None:
+            return self.slides
+        return np.full(self.n, self.sliding, dtype=bool)
 
     def stick_phases(self) -> tuple[IntArray, IntArray] | None:
         """Return the stick phases that show the stuck discs, in time order.
@@ -123,7 +152,9 @@ class Segments:
         """
         if self.run_start is None or self.run_stop is None:
             return None
-        pairs = {(int(a), int(b)) for a, b in zip(self.run_start, self.run_stop, strict=True)}
+        pairs = {
+            (int(a), int(b)) for a, b in zip(self.run_start, self.run_stop, strict=True) if b > a
+        }
         pairs |= set(self.unknown_dwell)
         ordered = sorted(pairs)
         return (

@@ -3,12 +3,16 @@
 Each segment starts a few ms into a measured stick phase (the state is known
 there from the measurements, Equ. 4, 6), runs to the next segment start, and
 belongs to a time block (the unit of the cross validation). A record without
-stick-slip gets sliding segments of fixed length instead.
+stick-slip gets sliding segments of fixed length instead, starting from the measured
+sliding state, in every stretch between stick phases that holds two of them; a record
+with stick-slip gets them too in such stretches (sliding after a start-up or a speed
+step, before the first stick).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -16,14 +20,17 @@ from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
-from tribo_estimation.core.signal import chamber_speed, longest_run
+from tribo_estimation.core.signal import chamber_speed, rig_half
 from tribo_estimation.core.sticks import detect_sticks
 from tribo_estimation.errors import EstimationError, TooShortError
 
 from ..stats import FloatArray, IntArray
 from .records import Record, Segments
 
-#: Local-fit window at sliding segment starts [samples] (odd).
+#: Local-fit window of the chamber speed at sliding segment starts [samples] (odd):
+#: the chamber speed sets the amplitude of the contact's lightly damped oscillation
+#: for the whole segment, and 5 ms at 10 kHz (not 1.5 ms) keep its noise at
+#: ~4e-3 rad/s (config/rig.yaml noise).
 SLIDE_WIN = 51
 #: A stick phase that begins within this time of the record's first sample began
 #: before the record (the record cuts it) [s].
@@ -261,9 +268,10 @@ def make_segments(
     ]
     if len(cand) < 3:
         # a stick phase (at rest before a start-up, through a stop) has no sliding
-        # state: sliding segments fill the longest stretch between stick phases
-        first, last = longest_free_stretch(s_start, s_stop, record.time.size)
-        return sliding_segments(record, block_time, first=first, last=last)
+        # state: sliding segments fill the stretches between stick phases
+        return sliding_segments(
+            record, block_time, stretches=free_stretches(s_start, s_stop, record.time.size)
+        )
     min_len = round(min_length * fs)
     chosen = [cand[0]]
     for c in cand[1:]:
@@ -273,10 +281,25 @@ def make_segments(
     stops = [*starts[1:], record.time.size]
     if stops[-1] - starts[-1] < min_len:
         chosen, starts, stops = chosen[:-1], starts[:-1], stops[:-1]
-    start_arr = np.asarray(starts, dtype=np.int64)
-    stop_arr = np.asarray(stops, dtype=np.int64)
     run_k = np.asarray([c[1] for c in chosen], dtype=np.int64)
-    stick_time = np.maximum(record.time[start_arr] - onset[run_k], 0.0)
+    run_a = np.asarray(s_start, dtype=np.int64)[run_k]
+    run_b = np.asarray(s_stop, dtype=np.int64)[run_k]
+    stuck = np.asarray(starts, dtype=np.int64)
+    stick_time = np.maximum(record.time[stuck] - onset[run_k], 0.0)
+    # a stretch without stick phases longer than two blocks (sliding after a start-up
+    # or a speed step, or before the first stick) is cut into sliding segments: a
+    # segment from a stuck start does not run on through it
+    length = max(round(block_time * fs), 100)
+    slide = _sliding_starts(free_stretches(s_start, s_stop, record.time.size), length, stuck)
+    order = np.argsort(np.concatenate((stuck, slide)), kind='stable')
+    start_arr = np.concatenate((stuck, slide))[order]
+    slides = np.concatenate((np.zeros(stuck.size, bool), np.ones(slide.size, bool)))[order]
+    # each segment runs to the next start (the last as before, or to the end when sliding)
+    last_stop = record.time.size if slides[-1] else int(stops[-1])
+    stop_arr = np.append(start_arr[1:], last_stop).astype(np.int64)
+    stick_time = np.concatenate((stick_time, np.zeros(slide.size)))[order]
+    run_a = np.concatenate((run_a, slide))[order]
+    run_b = np.concatenate((run_b, slide))[order]
     t_rel = (start_arr - start_arr[0]) / fs
     n_blocks = max(2, round((stop_arr[-1] - start_arr[0]) / fs / block_time))
     block = np.minimum((t_rel / block_time).astype(np.int64), n_blocks - 1)
@@ -287,19 +310,52 @@ def make_segments(
         stop_arr,
         stick_time.astype(np.float64),
         block.astype(np.int64),
-        np.asarray(s_start, dtype=np.int64)[run_k],
-        np.asarray(s_stop, dtype=np.int64)[run_k],
+        run_a,
+        run_b,
         rejected=tuple(sorted(rejected)),
         unknown_dwell=tuple(
             (int(a), int(b))
             for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
             if cut[k] and slip[k] <= limit
         ),
+        slides=slides if slide.size else None,
     )
 
 
-def longest_free_stretch(s_start: IntArray, s_stop: IntArray, n: int) -> tuple[int, int]:
-    """Return the first and stop sample of the longest stretch without a stick phase.
+def _sliding_starts(stretches: Sequence[tuple[int, int]], length: int, stuck: IntArray) -> IntArray:
+    """Return the sliding segment starts in the long stretches without stick phases.
+
+    A stretch of at least two segment lengths gets a start every ``length`` samples:
+    from one length after its first sample when a stuck segment starts before it (that
+    segment keeps the breakaway and the first slip), else from :data:`SLIDE_WIN`
+    samples in (the local fits at a start need samples on both sides); none within
+    half a length of its end.
+
+    Parameters
+    ----------
+    stretches : sequence of (int, int)
+        First and stop sample of each stretch without a stick phase.
+    length : int
+        Segment length [samples].
+    stuck : IntArray
+        The stuck segment starts [samples].
+
+    Returns
+    -------
+    IntArray
+        The sliding starts [samples], sorted.
+    """
+    out: list[IntArray] = []
+    for a, b in stretches:
+        if b - a < 2 * length:
+            continue
+        first = a + length if np.any(stuck < a) else a + SLIDE_WIN
+        out.append(np.arange(first, b - length // 2, length, dtype=np.int64))
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def free_stretches(s_start: IntArray, s_stop: IntArray, n: int) -> list[tuple[int, int]]:
+    """Return the stretches without a stick phase, in time order.
 
     Parameters
     ----------
@@ -310,22 +366,29 @@ def longest_free_stretch(s_start: IntArray, s_stop: IntArray, n: int) -> tuple[i
 
     Returns
     -------
-    tuple of int
-        ``(first, stop)`` of the stretch (``(0, n)`` without stick phases).
+    list of tuple of int
+        ``(first, stop)`` of each stretch (``[(0, n)]`` without stick phases).
     """
     free = np.ones(n, dtype=bool)
     for a, b in zip(s_start.tolist(), s_stop.tolist(), strict=True):
         free[a:b] = False
-    return longest_run(free)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], free.astype(np.int8), [0]))))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def sliding_segments(
-    record: Record, block_time: float, *, first: int = 0, last: int | None = None
+    record: Record,
+    block_time: float,
+    *,
+    first: int = 0,
+    last: int | None = None,
+    stretches: Sequence[tuple[int, int]] | None = None,
 ) -> Segments:
     """Cut a record without stick-slip (slip-slip, steady sliding) into segments.
 
     One segment per ``block_time``, each starting from the measured sliding
-    state (see :meth:`~.problem.Problem.simulate`).
+    state (see :meth:`~.problem.Problem.simulate`), in every stretch between stick
+    phases that holds one.
 
     Parameters
     ----------
@@ -339,6 +402,9 @@ def sliding_segments(
     last : int or None
         Stop sample of the last segment (before a stick phase: the samples from it
         on are not fitted and are listed in ``Segments.rejected``); default: the end.
+    stretches : sequence of (int, int) or None
+        The stretches without a stick phase (``(first, stop)`` samples, in time order,
+        :func:`free_stretches`) instead of ``first`` and ``last``.
 
     Returns
     -------
@@ -352,31 +418,43 @@ def sliding_segments(
     """
     fs = record.fs
     n = record.time.size
-    stop = n if last is None else min(n, last)
+    runs = list(stretches) if stretches is not None else [(first, n if last is None else last)]
+    runs = [(max(0, a), min(n, b)) for a, b in runs if min(n, b) > max(0, a)]
     length = max(round(block_time * fs), 100)
     edge = SLIDE_WIN  # the local fits at a start need samples on both sides
-    starts = np.arange(max(edge, first + edge), stop - length // 2, length, dtype=np.int64)
+    starts_l: list[IntArray] = []
+    stops_l: list[IntArray] = []
     rejected: list[tuple[float, str]] = []
-    if first > 0:
-        rejected.append(
-            (
-                float(record.time[0]),
-                f'not fitted: {float(record.time[min(first, n - 1)] - record.time[0]):.3g} s '
-                'with a stick phase (no sliding state) before the first sliding segment',
+    covered_to = 0
+    for a, b in runs:
+        st = np.arange(max(edge, a + edge), b - length // 2, length, dtype=np.int64)
+        if st.size == 0:
+            continue
+        if a > covered_to:
+            rejected.append(
+                (
+                    float(record.time[covered_to]),
+                    f'not fitted: {float(record.time[min(a, n - 1)] - record.time[covered_to]):.3g}'
+                    ' s with a stick phase (no sliding state) before a sliding segment',
+                )
             )
-        )
-    if stop < n:
+        starts_l.append(st)
+        stops_l.append(np.append(st[1:], b).astype(np.int64))
+        covered_to = b
+    if covered_to < n and starts_l:
         rejected.append(
             (
-                float(record.time[stop]),
-                f'not fitted: {float(record.time[-1] - record.time[stop]):.3g} s with a '
+                float(record.time[covered_to]),
+                f'not fitted: {float(record.time[-1] - record.time[covered_to]):.3g} s with a '
                 'stick phase (no sliding state) after the last sliding segment',
             )
         )
+    starts = np.concatenate(starts_l) if starts_l else np.zeros(0, dtype=np.int64)
     if starts.size < 2:
+        long_a, long_b = max(runs, key=lambda r: r[1] - r[0], default=(0, 0))
         free = (
-            f', its longest stretch without a stick {(stop - first) / fs:.3g} s,'
-            if (first > 0 or stop < n)
+            f', its longest stretch without a stick {(long_b - long_a) / fs:.3g} s,'
+            if (long_a > 0 or long_b < n)
             else ''
         )
         raise TooShortError(
@@ -384,7 +462,7 @@ def sliding_segments(
             f'discrepancy workflow needs stick-slip cycles or at least {2 * block_time:.3g} s '
             'of sliding'
         )
-    stops = np.append(starts[1:], stop).astype(np.int64)
+    stops = np.concatenate(stops_l)
     return Segments(
         starts,
         stops,
@@ -397,18 +475,46 @@ def sliding_segments(
     )
 
 
+def sliding_chamber_speed(record: Record, starts: IntArray, rig: RigParams) -> FloatArray:
+    """Return the chamber speed at sliding segment starts from the torsion moment.
+
+    ``w1 = (dM_t/dt)/C1`` (Equ. 4) by a local cubic over :data:`SLIDE_WIN` samples,
+    at most a quarter period of the rig's fastest mode wide
+    (:func:`~tribo_estimation.core.signal.rig_half`). The speed channel measures the
+    shaft, not the chamber: while the discs slide it says nothing of w1.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    starts : IntArray
+        Start samples of the segments.
+    rig : RigParams
+        Rig parameters (C1 [N m/rad], the fastest mode).
+
+    Returns
+    -------
+    FloatArray
+        w1 at the starts [rad/s].
+    """
+    half = rig_half(SLIDE_WIN // 2, record.fs, rig.fastest_mode_hz)
+    w1 = chamber_speed(record.torsion_moment, record.fs, rig.C1, 2 * half + 1)
+    return np.asarray(w1[np.asarray(starts, dtype=np.int64)], dtype=np.float64)
+
+
 def sliding_start_states(
     p: FloatArray,
     record: Record,
     starts: IntArray,
     m_true: FloatArray,
+    w1: FloatArray,
     w2: FloatArray,
     w2_dot: FloatArray,
     knots: DriveKnots,
 ) -> FloatArray:
     """Return the kernel states at sliding segment starts from the measured channels.
 
-    ``phi1 = M_t/C1``, the chamber speed ``w1 = (dM_t/dt)/C1`` (Equ. 4), the
+    ``phi1 = M_t/C1``, the chamber speed ``w1`` (:func:`sliding_chamber_speed`), the
     shaft speed w2 (speed channel, sensor inverted) and its slope, and the
     friction moment from the chamber's balance ``M = I1*w1' - Q1`` (Equ. 1, the
     measured acceleration); the belt deflection then follows from the shaft's
@@ -424,6 +530,8 @@ def sliding_start_states(
         Start samples of the segments.
     m_true : FloatArray
         True torsion moment C1*phi1 at the starts [N m].
+    w1 : FloatArray
+        Chamber speed at the starts (:func:`sliding_chamber_speed`) [rad/s].
     w2 : FloatArray
         Shaft speed at the starts (speed sensor inverted) [rad/s].
     w2_dot : FloatArray
@@ -439,10 +547,6 @@ def sliding_start_states(
     rig_c1 = float(p[kn.P_C1])
     rec = record
     i0 = starts
-    # a sliding state's chamber speed sets the amplitude of the contact's lightly
-    # damped oscillation for the whole segment: a local cubic over 5 ms (not
-    # 1.5 ms) keeps its noise at ~4e-3 rad/s (config/rig.yaml noise)
-    w1 = chamber_speed(rec.torsion_moment, 1.0 / rec.dt, rig_c1, SLIDE_WIN)[i0]
     a1 = window_mean(rec.angular_acceleration, i0, SLIDE_WIN // 2)
     moment = np.empty(w1.size)
     for k in range(w1.size):

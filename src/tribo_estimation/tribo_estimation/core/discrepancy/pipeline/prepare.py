@@ -10,8 +10,9 @@ identified from the stick phases (:func:`..fitting.identify_speed_sensor`).
 
 ``fit_baseline`` fits the paper's model (Equ. 1-8: ``mu0``, ``mu_inf``, ``k``) with the
 speed sensor held, sets the channel weights from its residuals (never above one
-over the channel's noise level), and refits with the speed sensor's lag and offset
-free when the lag is significant; they then stay free in every model of the record
+over the channel's noise level), and refits with the chamber's inertia I1 free
+(:data:`..fitting.CHAMBER_I1`) and the speed sensor's lag and offset when the lag is
+significant; they then stay free in every model of the record
 (:attr:`..fitting.Problem.free_instrument`).
 
 ``identify_shaft`` identifies the shaft side of the rig (I2, K2, C2 of Equ. 2: design
@@ -31,6 +32,7 @@ import numpy as np
 from tribo_estimation.core.model import DriveProfile, RigParams
 
 from ..fitting import (
+    CHAMBER_I1,
     CHANNELS,
     HUM_CHANNELS,
     MU0,
@@ -49,7 +51,7 @@ from ..fitting import (
     torsion_compensated_record,
 )
 from ..stats import noise_floor
-from .ensemble import Ensemble, Fit
+from .ensemble import Ensemble, Fit, own
 from .policy import Policy, Progress
 
 
@@ -266,17 +268,28 @@ def fit_record_baseline(
     values = one.split(fo.values)[0]
     sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
-    if sensor['speed_lag_tau'] > 0.0:
-        pb.free_instrument = (SPEED_LAG, SPEED_OFFSET)
-        one = Ensemble([pb])
-        fo = one.fit(one.specs(), one.join([values]), max_nfev=policy.fit_nfev)
-        values = one.split(fo.values)[0]
-        inst = prep.instrument
+    # the chamber's inertia is free from here on, with the speed sensor's lag and offset
+    # when the lag is significant
+    lagged = sensor['speed_lag_tau'] > 0.0
+    pb.free_instrument = (*((SPEED_LAG, SPEED_OFFSET) if lagged else ()), CHAMBER_I1)
+    one = Ensemble([pb])
+    fo = one.fit(
+        one.specs(), one.join([{**values, CHAMBER_I1.name: CHAMBER_I1.initial}]),
+        max_nfev=policy.fit_nfev,
+    )  # fmt: skip
+    values = one.split(fo.values)[0]
+    inst = prep.instrument
+    inst['chamber_I1'] = {
+        'factor': values[CHAMBER_I1.name],
+        'se': fo.se.get(own(CHAMBER_I1.name, 0), math.nan),
+        'unit': '-',
+    }
+    if lagged:
         for name in ('speed_lag_tau', 'speed_offset'):
             entry = inst[name]
             if isinstance(entry, dict):
                 entry['used'] = values[name]
-                entry['se_joint'] = fo.se.get(f'{name}@0', math.nan)
+                entry['se_joint'] = fo.se.get(own(name, 0), math.nan)
     say(
         f'baseline: mu0 = {values["mu0"]:.4f}, mu_inf = {values["mu_inf"]:.4f}, '
         f'k = {values["k"]:.3g} s/rad, '
@@ -337,7 +350,7 @@ def identify_shaft(
         pb.free_instrument = held
         pb.weights.update(weights)
     got = one.split(fo.values)[0]
-    rig = pb.shaft_rig(got)
+    rig = pb.rig_of(got)
     report: dict[str, dict[str, float | bool]] = {}
     for spec, name in zip(SHAFT, ('I2', 'K2', 'C2'), strict=True):
         f = got[spec.name]

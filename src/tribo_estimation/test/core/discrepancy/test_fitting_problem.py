@@ -1,0 +1,52 @@
+"""The fit problem: segment states and the compared channels of sliding records, rig factors."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from discrepancy_scenarios import TAB1, constant, record, rpm
+
+from tribo_estimation.core.discrepancy.fitting import Problem
+from tribo_estimation.core.discrepancy.pipeline import Policy
+from tribo_estimation.core.discrepancy.pipeline.prepare import fit_record_baseline, prepare
+
+#: Tab. 1 friction of the generated records (Equ. 8).
+TRUTH = {'mu0': 0.13, 'mu_inf': 0.10, 'k': 2.0}
+
+
+def test_sliding_segments_start_from_the_chamber_state_not_the_shaft_speed() -> None:
+    # 150 rpm from the drive's start: stick-slip on the ramp, then sliding with the
+    # chamber's decaying oscillation (Equ. 8 flat at 16 rad/s; the chamber's damping
+    # K1 raised from Tab. 1's 0.04 to 0.15 N m s/rad so that it decays)
+    rig_truth = dataclasses.replace(TAB1, K1=0.15)
+    rec, rig, drv = record(1, constant(rpm(150), start=0.0), duration=2.0, rig=rig_truth)
+    pb = Problem(rec, rig, drv, k=TRUTH['k'])
+    seg = pb.segments
+    # the stick phases of the ramp start segments; the sliding after them is cut into
+    # sliding segments of one block each (0.25 s), to the record's end
+    slides = seg.sliding_starts
+    assert slides.any() and not slides.all()
+    assert int(seg.stop[-1]) == rec.time.size
+    assert np.all(np.diff(seg.start[slides]) == round(0.25 * rec.fs))
+    # the measured chamber speed of a sliding segment starts at the chamber's speed (from
+    # the torsion moment), not at the shaft's: the true model's chamber speed follows it
+    # to the integrated acceleration noise (2 rad/s^2 white over 0.25 s: ~0.01 rad/s)
+    sim = pb.simulate(TRUTH)
+    on = seg.sample_mask(rec.time.size, slides)
+    r = pb.measured('chamber_speed')[on] - sim.chamber_speed[on]
+    assert float(np.sqrt(np.mean(r * r))) < 0.05
+    # and the true model from those states follows the record to its noise
+    # (0.05 N m white): within 1.3x
+    assert pb.torque_rms(sim) < 1.3 * 0.05
+
+
+def test_the_chamber_inertia_is_identified_with_the_baseline() -> None:
+    rec, rig, drv = record(2, constant(rpm(25)), duration=2.0)
+    off = dataclasses.replace(rig, I1=rig.I1 * 1.01)  # RIG.yaml's I1 1 % high
+    prep = prepare(rec, off, drv, k=TRUTH['k'], policy=Policy())
+    vals = fit_record_baseline(prep, Policy(), lambda _m: None)
+    # the factor brings I1 back to the truth within 0.3 %
+    assert vals['chamber_I1'] * 1.01 == pytest.approx(1.0, abs=3e-3)
+    assert prep.instrument['chamber_I1']['factor'] == vals['chamber_I1']
