@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from discrepancy_scenarios import TAB1, constant, record, rpm
+from discrepancy_scenarios import TAB1, constant, record, rpm, step
 
 from tribo_estimation.core.discrepancy.fitting import Problem
 from tribo_estimation.core.discrepancy.pipeline import Policy
@@ -50,3 +50,17 @@ def test_the_chamber_inertia_is_identified_with_the_baseline() -> None:
     # the factor brings I1 back to the truth within 0.3 %
     assert vals['chamber_I1'] * 1.01 == pytest.approx(1.0, abs=3e-3)
     assert prep.instrument['chamber_I1']['factor'] == vals['chamber_I1']
+
+
+def test_a_simulation_does_not_depend_on_the_simulations_before() -> None:
+    # a speed step: the drive profile has corners, placed from the drive angles
+    rec, rig, drv = record(3, step(rpm(12), rpm(30), 1.0), duration=2.0)
+    pb = Problem(rec, rig, drv, k=TRUTH['k'])
+    a = {**TRUTH, 'speed_lag_tau': 0.0, 'speed_offset': 0.0}
+    b = {**TRUTH, 'speed_lag_tau': 0.004, 'speed_offset': 0.05}
+    first = pb.simulate(a)
+    pb.simulate(b)  # another speed sensor: its own corners
+    again = pb.simulate(a)
+    # the same values give the same simulation, to the last bit
+    assert np.array_equal(first.torsion_moment, again.torsion_moment, equal_nan=True)
+    assert np.array_equal(first.speed, again.speed, equal_nan=True)

@@ -71,10 +71,12 @@ from .segments import (
     sliding_start_states,
 )
 
-#: Change of the speed-sensor lag [s] and offset [rad/s] that re-places the drive
-#: profile's corners (:meth:`Problem._set_instrument`).
+#: Cell of the speed-sensor lag [s] and offset [rad/s] within which the drive profile
+#: keeps one placement of its corners (:meth:`Problem._fit_drive`).
 _REPLACE_LAG = 1e-4
 _REPLACE_OFFSET = 1e-2
+#: No drive ripple (amplitude, frequency, phase, second harmonic's amplitude, phase).
+_NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 def scaled_fit(
@@ -285,9 +287,8 @@ class Problem:
             sliding_chamber_speed(record, i, rig) if seg.sliding_starts.any() else np.zeros(i.size)
         )
         self._instrument: tuple[float, ...] = (math.nan,) * 9
-        #: the drive profile's corners have been placed once, for this sensor model
-        self._placed = False
-        self._placed_sensor = (0.0, 0.0)
+        #: the drive profile placed once per speed-sensor cell (:meth:`_fit_drive`)
+        self._placed: dict[tuple[int, int], DriveEstimate] = {}
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -559,7 +560,7 @@ class Problem:
         same_sensor = self._instrument[:2] == (tau, offset)
         self._instrument = key
         if same_sensor:  # only the model's drive ripple or torque offset changed
-            self._fit_drive(tau, offset, ripple, torque, place=False)
+            self._fit_drive(tau, offset, ripple, torque)
             return
         rec = self.record
         if tau > 0.0:
@@ -581,18 +582,7 @@ class Problem:
             w1[a] = w1_start[k]
             w1[a + 1 : b] = w1_start[k] + np.cumsum(inc)
         self._meas['chamber_speed'] = w1
-        # a sensor change moves the drive's corners by about the change of the lag
-        # (its time shift): below the placement's grid (0.1 ms) and a speed offset
-        # change below 0.01 rad/s (the optimiser's difference steps) only the knot
-        # speeds are re-fitted
-        moved = (
-            not self._placed
-            or abs(tau - self._placed_sensor[0]) > _REPLACE_LAG
-            or abs(offset - self._placed_sensor[1]) > _REPLACE_OFFSET
-        )
-        if moved:
-            self._placed_sensor = (tau, offset)
-        self._fit_drive(tau, offset, ripple, torque, place=moved)
+        self._fit_drive(tau, offset, ripple, torque)
 
     def _fit_drive(
         self,
@@ -600,10 +590,56 @@ class Problem:
         offset: float,
         ripple: tuple[float, ...],
         torque: tuple[float, float],
-        *,
-        place: bool = True,
     ) -> None:
         """Fit the drive profile to the drive angles at the stick samples.
+
+        The profile is a function of the arguments alone, whatever was simulated
+        before: its corners are those placed for the speed sensor's cell (lag in steps
+        of :data:`_REPLACE_LAG`, offset in steps of :data:`_REPLACE_OFFSET`: a sensor
+        change moves the corners by about the change of the lag, below the
+        placement's 0.1 ms grid within a cell), placed once per cell from the smoothed
+        speed's profile; the knot speeds are then solved for these arguments
+        (:meth:`_angle_drive`).
+
+        Parameters
+        ----------
+        tau : float
+            Speed-sensor lag [s].
+        offset : float
+            Speed-sensor offset [rad/s].
+        ripple : tuple of float
+            Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad], second
+            harmonic's amplitude [rad/s] and phase [rad]).
+        torque : tuple of float
+            Torque offset [N m] and drift [N m/s].
+        """
+        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
+            self.drive_estimate = self._sliding_drive(offset)
+        else:
+            cell = (round(tau / _REPLACE_LAG), round(offset / _REPLACE_OFFSET))
+            placed = self._placed.get(cell)
+            if placed is None:
+                placed = self._angle_drive(
+                    cell[0] * _REPLACE_LAG, cell[1] * _REPLACE_OFFSET, _NO_RIPPLE, (0.0, 0.0),
+                    self._drive_speed0, place=True,
+                )  # fmt: skip
+                self._placed[cell] = placed
+            self.drive_estimate = self._angle_drive(
+                tau, offset, ripple, torque, placed, place=False
+            )
+        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+
+    def _angle_drive(
+        self,
+        tau: float,
+        offset: float,
+        ripple: tuple[float, ...],
+        torque: tuple[float, float],
+        drive: DriveEstimate,
+        *,
+        place: bool,
+    ) -> DriveEstimate:
+        """Return the drive profile fitted to the drive angles at the stick samples.
 
         The speed sensor is inverted, the model's torque offset and drift taken
         off the torsion moment and the model's drive-speed ripple (its angle)
@@ -620,14 +656,17 @@ class Problem:
             harmonic's amplitude [rad/s] and phase [rad]).
         torque : tuple of float
             Torque offset [N m] and drift [N m/s].
+        drive : DriveEstimate
+            The profile to start from (its corners kept unless ``place``).
         place : bool
-            Search the profile's corner times (else keep the last ones).
+            Search the corner times.
+
+        Returns
+        -------
+        DriveEstimate
+            The profile.
         """
         rec = self.record
-        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
-            self.drive_estimate = self._sliding_drive(offset)
-            self._knots = DriveKnots.from_estimate(self.drive_estimate)
-            return
         # drive angle while stuck = shaft angle (integral of the speed channel, less
         # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
         # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
@@ -652,22 +691,18 @@ class Problem:
             om = 2.0 * math.pi * freq
             ripple_angle = ripple_angle + amp / om * (math.cos(phase) - np.cos(om * t + phase))
         hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
-        # the damping term K2*(w - w0) needs w0: the smoothed speed first, then once
+        # the damping term K2*(w - w0) needs w0: the starting profile first, then once
         # more with the profile from the angles; the smoothed speed blurs a speed
         # step over 150 ms, so its angles bias the corners: they are placed again
-        # with the angles of the first placement
-        # (a later sensor model only moves placed corners locally: no coarse search)
-        drive = self._drive_speed0 if place and not self._placed else self.drive_estimate
+        # (locally) with the angles of the first placement
         for it in range(2):
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle, hints, place=place,
-                start_speed=self._start_speed, keep_corners=it > 0 or self._placed,
+                start_speed=self._start_speed, keep_corners=it > 0,
                 prior=self._drive_speed0,
             )  # fmt: skip
-        self._placed = self._placed or place
-        self.drive_estimate = drive
-        self._knots = DriveKnots.from_estimate(self.drive_estimate)
+        return drive
 
     def _sliding_drive(self, offset: float) -> DriveEstimate:
         """Return the drive profile of a record without stick-slip.

@@ -333,10 +333,13 @@ def identify_shaft(
     """
     pb = prep.problem
     held, weights = pb.free_instrument, dict(pb.weights)
-    pb.free_instrument = (*held, *SHAFT)
+    # the chamber's inertia held at RIG.yaml's: with the stuck discs' (I1 + I2) it trades
+    # against I2; the record prepared on the identified shaft fits its own factor
+    pb.free_instrument = (*(h for h in held if h is not CHAMBER_I1), *SHAFT)
     try:
         one = Ensemble([pb])
-        start = one.join([{**values, **{p.name: p.initial for p in SHAFT}}])
+        fixed = {CHAMBER_I1.name: CHAMBER_I1.initial, **{p.name: p.initial for p in SHAFT}}
+        start = one.join([{**values, **fixed}])
         before = one.cost(start)
         fo = one.fit(one.specs(), start, max_nfev=_SHAFT_NFEV * policy.fit_nfev)
         if not fo.cost < before:
