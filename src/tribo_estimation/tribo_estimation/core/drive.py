@@ -24,7 +24,7 @@ Units: time s, speed rad/s, rate rad/s^2.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +46,11 @@ _BIN_TIME = 0.005
 
 #: Most knots of one profile [-].
 _MAX_KNOTS = 64
+
+
+def _mismatch(level: float, nominal: float) -> float:
+    """Return ``(level - nominal)/nominal`` [-] (NaN without a nominal speed)."""
+    return (level - nominal) / nominal if math.isfinite(nominal) and nominal != 0.0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,16 @@ class DriveEstimate:
             return float(self.speed(t0))
         tt = np.linspace(t0, t1, 65)
         return float(np.mean(self.speed(tt)))
+
+    def shifted(self, by: float) -> DriveEstimate:
+        """Return the profile with every speed moved by ``by`` [rad/s] (an offset taken out)."""
+        level = self.level + by
+        return replace(
+            self,
+            knot_speed=self.knot_speed + by,
+            level=level,
+            mismatch=_mismatch(level, self.nominal),
+        )
 
     def warning(self) -> str | None:
         """One line for the user when the record disagrees with the nominal speed."""
@@ -227,7 +242,7 @@ def estimate_drive(
     # time-weighted median of the profile
     grid = np.linspace(tk[0], tk[-1], 512)
     level = float(np.median(np.interp(grid, tk, vk)))
-    mismatch = (level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan
+    mismatch = _mismatch(level, nom)
     return DriveEstimate(tk, vk, nom, level, mismatch, True)
 
 
@@ -362,12 +377,13 @@ def _solve_speeds(
         basis = np.vstack((basis, d2))
         rhs = np.concatenate((rhs, np.zeros(k - 2)))
     if prior is not None:
-        pull = np.zeros((k, k + 1))
-        pull[:, 1:] = np.diag(_pull_weights(tk, tt))
+        weight = _pull_weights(tk, tt)
         if start is not None:
-            pull[0, 1] = 0.0
+            weight[0] = 0.0
+        pull = np.zeros((k, k + 1))
+        pull[:, 1:] = np.diag(weight)
         basis = np.vstack((basis, pull))
-        rhs = np.concatenate((rhs, np.diag(pull[:, 1:]) * np.interp(tk, *prior)))
+        rhs = np.concatenate((rhs, weight * np.interp(tk, *prior)))
     sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
     r = basis[: tt.size] @ sol - rhs[: tt.size]
     if start is not None:
@@ -660,5 +676,5 @@ def refine_with_angles(
     grid2 = np.linspace(tk[0], tk[-1], 512)
     level = float(np.median(np.interp(grid2, tk, vk)))
     nom = drive.nominal
-    mismatch = (level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan
+    mismatch = _mismatch(level, nom)
     return DriveEstimate(tk.copy(), vk, nom, level, mismatch, drive.from_record)

@@ -599,19 +599,8 @@ class Problem:
         change moves the corners by about the change of the lag, below the
         placement's 0.1 ms grid within a cell), placed once per cell from the smoothed
         speed's profile; the knot speeds are then solved for these arguments
-        (:meth:`_angle_drive`).
-
-        Parameters
-        ----------
-        tau : float
-            Speed-sensor lag [s].
-        offset : float
-            Speed-sensor offset [rad/s].
-        ripple : tuple of float
-            Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad], second
-            harmonic's amplitude [rad/s] and phase [rad]).
-        torque : tuple of float
-            Torque offset [N m] and drift [N m/s].
+        (:meth:`_angle_drive`, whose parameters ``tau``, ``offset``, ``ripple`` and
+        ``torque`` these are).
         """
         if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
             self.drive_estimate = self._sliding_drive(offset)
@@ -723,15 +712,7 @@ class Problem:
         DriveEstimate
             The profile.
         """
-        d0 = self._drive_speed0
-        level = d0.level - offset
-        nom = d0.nominal
-        d = replace(
-            d0,
-            knot_speed=d0.knot_speed - offset,
-            level=level,
-            mismatch=(level - nom) / nom if math.isfinite(nom) and nom != 0.0 else math.nan,
-        )
+        d = self._drive_speed0.shifted(-offset)
         ramp = self.drive.ramp_time
         if self._start_speed is None or ramp <= 0.0:
             return d

@@ -20,7 +20,7 @@ from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
-from tribo_estimation.core.signal import chamber_speed, rig_half
+from tribo_estimation.core.signal import chamber_speed, rig_half, runs
 from tribo_estimation.core.sticks import detect_sticks
 from tribo_estimation.errors import EstimationError, TooShortError
 
@@ -372,8 +372,8 @@ def free_stretches(s_start: IntArray, s_stop: IntArray, n: int) -> list[tuple[in
     free = np.ones(n, dtype=bool)
     for a, b in zip(s_start.tolist(), s_stop.tolist(), strict=True):
         free[a:b] = False
-    edges = np.flatnonzero(np.diff(np.concatenate(([0], free.astype(np.int8), [0]))))
-    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    first, stop = runs(free)
+    return [(int(a), int(b)) for a, b in zip(first, stop, strict=True)]
 
 
 def sliding_segments(
@@ -418,15 +418,15 @@ def sliding_segments(
     """
     fs = record.fs
     n = record.time.size
-    runs = list(stretches) if stretches is not None else [(first, n if last is None else last)]
-    runs = [(max(0, a), min(n, b)) for a, b in runs if min(n, b) > max(0, a)]
+    spans = list(stretches) if stretches is not None else [(first, n if last is None else last)]
+    spans = [(max(0, a), min(n, b)) for a, b in spans if min(n, b) > max(0, a)]
     length = max(round(block_time * fs), 100)
     edge = SLIDE_WIN  # the local fits at a start need samples on both sides
     starts_l: list[IntArray] = []
     stops_l: list[IntArray] = []
     rejected: list[tuple[float, str]] = []
     covered_to = 0
-    for a, b in runs:
+    for a, b in spans:
         st = np.arange(max(edge, a + edge), b - length // 2, length, dtype=np.int64)
         if st.size == 0:
             continue
@@ -451,7 +451,7 @@ def sliding_segments(
         )
     starts = np.concatenate(starts_l) if starts_l else np.zeros(0, dtype=np.int64)
     if starts.size < 2:
-        long_a, long_b = max(runs, key=lambda r: r[1] - r[0], default=(0, 0))
+        long_a, long_b = max(spans, key=lambda r: r[1] - r[0], default=(0, 0))
         free = (
             f', its longest stretch without a stick {(long_b - long_a) / fs:.3g} s,'
             if (long_a > 0 or long_b < n)
