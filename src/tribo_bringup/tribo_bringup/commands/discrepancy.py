@@ -84,9 +84,9 @@ def register(sub: Subparsers) -> None:
         required=True,
         metavar='RIG.yaml',
         help=(
-            'rig parameters (SI); mu0/mu_inf/k are fitted, and for one record the shaft '
-            "(I2, K2, C2: reported in discrepancy.json's instrument.shaft); its effects "
-            'are not used'
+            'rig parameters (SI); mu0/mu_inf/k are fitted, a factor on the chamber '
+            "inertia I1 (0.9-1.1, discrepancy.json's instrument.chamber_I1), and for one "
+            'record the shaft (I2, K2, C2: instrument.shaft); its effects are not used'
         ),
     )
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
