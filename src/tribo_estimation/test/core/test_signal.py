@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribo_estimation.core.signal import chamber_speed, first_order_lag, local_slope, rig_half
+from tribo_estimation.core.signal import (
+    chamber_speed,
+    first_order_lag,
+    grouped_medians,
+    local_slope,
+    rig_half,
+    span_medians,
+)
 from tribo_estimation.core.sticks import speed_mismatch
 
 DT = 1e-4
@@ -102,3 +109,22 @@ def test_rig_half_spans_at_most_a_quarter_period(
     half: int, fs: float, f_max: float, least: int, expected: int
 ) -> None:
     assert rig_half(half, fs, f_max, least) == expected
+
+
+def test_span_medians_are_numpys_medians() -> None:
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=3000)
+    x[1234] = np.nan
+    starts = rng.integers(0, 2900, 400)
+    stops = starts + rng.integers(-3, 90, 400)  # empty and reversed spans too
+    got = span_medians(x, starts, stops)
+    expected = [np.median(x[a:b]) if b > a else np.nan for a, b in zip(starts, stops, strict=True)]
+    # the same values to the last bit (odd and even lengths; NaN where np.median gives NaN
+    # and for an empty span)
+    np.testing.assert_array_equal(got, expected)
+    assert np.isnan(got).sum() >= 2
+
+
+def test_grouped_medians_refuse_lengths_that_do_not_add_up() -> None:
+    with pytest.raises(ValueError, match='do not add up'):
+        grouped_medians([1.0, 2.0, 3.0], [1, 1])

@@ -67,6 +67,63 @@ def runs(mask: npt.ArrayLike) -> tuple[IntArray, IntArray]:
     return np.flatnonzero(d == 1).astype(np.int64), np.flatnonzero(d == -1).astype(np.int64)
 
 
+def grouped_medians(values: npt.ArrayLike, counts: npt.ArrayLike) -> FloatArray:
+    """Return the median of each consecutive group of ``values`` (``np.median``'s values).
+
+    One sort for all the groups instead of one call per group.
+
+    Parameters
+    ----------
+    values : array_like
+        The groups' values, one group after the other.
+    counts : array_like of int
+        The groups' lengths (sum: ``len(values)``).
+
+    Returns
+    -------
+    numpy.ndarray
+        Per group its median (the mean of the two middle values of an even group);
+        NaN for an empty group or one holding a NaN.
+
+    Examples
+    --------
+    >>> grouped_medians([3.0, 1.0, 2.0, 5.0, 4.0], [3, 0, 2]).tolist()
+    [2.0, nan, 4.5]
+    """
+    v = np.asarray(values, dtype=np.float64).ravel()
+    n = np.asarray(counts, dtype=np.int64).ravel()
+    if n.size and (n.min() < 0 or int(n.sum()) != v.size):
+        raise ValueError(f'group lengths {n.tolist()} do not add up to {v.size} values')
+    out = np.full(n.size, np.nan)
+    if v.size == 0:
+        return out
+    group = np.repeat(np.arange(n.size), n)
+    sv = v[np.lexsort((v, group))]
+    first = np.cumsum(n) - n
+    ok = (n > 0) & (np.bincount(group, weights=np.isnan(v), minlength=n.size) == 0)
+    lo = (first + (n - 1) // 2)[ok]
+    hi = (first + n // 2)[ok]
+    out[ok] = (sv[lo] + sv[hi]) / 2.0
+    return out
+
+
+def span_medians(x: npt.ArrayLike, starts: npt.ArrayLike, stops: npt.ArrayLike) -> FloatArray:
+    """Return the median of ``x[a:b]`` for every span ``(a, b)`` (:func:`grouped_medians`).
+
+    Examples
+    --------
+    >>> span_medians([1.0, 5.0, 2.0, 8.0], [0, 1], [3, 4]).tolist()
+    [2.0, 5.0]
+    """
+    xa = np.asarray(x, dtype=np.float64).ravel()
+    a = np.asarray(starts, dtype=np.int64).ravel()
+    n = np.maximum(np.asarray(stops, dtype=np.int64).ravel() - a, 0)
+    if n.size == 0:
+        return np.zeros(0)
+    idx = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n - a, n)
+    return grouped_medians(xa[idx], n)
+
+
 def longest_run(mask: npt.ArrayLike) -> tuple[int, int]:
     """``(start, stop)`` of the longest run of True (``(0, 0)`` if none)."""
     st, en = runs(mask)

@@ -19,6 +19,7 @@ from tribo_estimation.core.signal import (
     noise_level,
     running_max,
     runs,
+    span_medians,
 )
 from tribo_estimation.errors import (
     InvalidDataError,
@@ -235,9 +236,12 @@ def _detect_all(
                     hi = i0 + rest_hi + (half if rest_hi < i1 - i0 else 0)
                     i0, i1 = max(i0, lo), min(i1, hi)
                     a, b = max(a, float(t[i0]) - 0.5 * dt), min(b, float(t[i1 - 1]) + 0.5 * dt)
-                if float(np.median(u[i0:i1])) > max(_U_MIN, _U_FRAC * float(u_loc[i0])):
-                    continue
                 kept.append((a, b, sl, i0, i1))
+            if kept:
+                i0s = np.asarray([k[3] for k in kept], dtype=np.int64)
+                u_med = span_medians(u, i0s, [k[4] for k in kept])
+                near = ~(u_med > np.maximum(_U_MIN, _U_FRAC * u_loc[i0s]))
+                kept = [k for k, ok in zip(kept, near.tolist(), strict=True) if ok]
             mismatch = speed_mismatch(w2, w2_slope, w1, [(k[3], k[4]) for k in kept])
             phases = [
                 StickPhase(float(a), float(b), sl / rig.C2 if i1 - i0 >= 6 else math.nan)
@@ -469,8 +473,12 @@ def speed_mismatch(
         inner.append((i0 + g, i1 - g))
     shortest = 2 if guard is None else 3
 
+    lo = np.asarray([a for a, _ in inner], dtype=np.int64)
+    hi = np.asarray([b for _, b in inner], dtype=np.int64)
+    short = hi - lo < shortest
+
     def medians(e: FloatArray) -> list[float]:
-        return [float(np.median(e[a:b])) if b - a >= shortest else 0.0 for a, b in inner]
+        return np.where(short, 0.0, span_medians(e, lo, hi)).tolist()  # type: ignore[no-any-return]
 
     if sensor is not None:
         tau, off = sensor

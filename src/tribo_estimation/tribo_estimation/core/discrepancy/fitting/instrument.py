@@ -21,6 +21,7 @@ from tribo_estimation.core.shooting import lag_segments
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
+    grouped_medians,
     local_slope,
     mad_sigma,
     rig_half,
@@ -442,7 +443,7 @@ def _agreeing_phases(
     """
     if len(idx_l) < 3:
         return idx_l, cl_l
-    med = np.asarray([float(np.median(d[ii])) for ii in idx_l])
+    med = grouped_medians(np.concatenate([d[ii] for ii in idx_l]), [ii.size for ii in idx_l])
     centre = float(np.median(med))
     spread = 1.4826 * float(np.median(np.abs(med - centre)))
     keep = np.abs(med - centre) <= OUTLIER_PHASE_SIGMA * spread
