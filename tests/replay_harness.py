@@ -84,6 +84,11 @@ def start_replay(
 def replay(
     procs: list[Proc], log_dir: Path, bag: Path, rate: float, wait_subscribers: float = 60.0
 ) -> None:
-    """Replay a bag to its end (:func:`start_replay`, then a clean exit within 120 s)."""
+    """Replay a bag to its end (:func:`start_replay`, then a clean exit within 120 s).
+
+    The replay must have found its subscribers before it published (else the test
+    would wait for data that went nowhere: DDS discovery failed).
+    """
     rep = start_replay(procs, log_dir, bag, rate, wait_subscribers)
     assert rep.wait(120) == 0, rep.output()
+    assert 'publishing anyway' not in rep.output(), rep.output()

@@ -1,15 +1,17 @@
-"""The model_monitor node on a replayed bag publishes its windows in time.
+"""The model_monitor node on a replayed bag publishes the core's windows.
 
 A 10 s bag of the simulated rig (config/rig.yaml, seeded noise) is replayed in
 real time with `tribo replay` into the ``model_monitor`` executable on this
 test's ROS_DOMAIN_ID; `tribo record` records its /model/discrepancy windows
-together with the torsion stream. Checked: a 6 s window every 2 s (3 windows:
-ending at 6, 8 and 10 s of stream), each published within two hops of wall
-time after the recorder received its last sample (the node processes each
-window in less than a hop on an idle machine; the bound leaves room for a
-loaded one), with the same numbers as the core
+together with the torsion stream. A 6 s window is due every 2 s of stream (ending
+at 6, 8 and 10 s). Checked: the node publishes the first and the last window, and
+the middle one unless the first evaluation overran a hop (the node evaluates the
+newest due window and skips the ones an overrun missed: on a loaded machine it
+may); each window is published after the recorder received its last sample, and
+carries the same numbers as the core
 :class:`~tribo_estimation.core.discrepancy.monitor.WindowMonitor` on the same
-samples offline.
+samples offline (the third window reuses the first one's null law either way).
+How fast a window is evaluated is the benchmark's (bench/bench_model_monitor.py).
 """
 
 from __future__ import annotations
@@ -57,31 +59,39 @@ def test_monitor_node_on_replayed_bag(tmp_path: Path, procs: list[Proc]) -> None
         matched=('/model/discrepancy',),
     )  # fmt: skip
     replay(procs, tmp_path, bag, 1.0, wait_subscribers=30.0)
+    last_end = 1.0 + SECONDS - 1 / FS  # stream time of the bag: 1 s + index/fs
     assert wait_for(
-        lambda: sum(1 for m in bag_so_far(out_bag) if hasattr(m, 'ratio')) >= 3, 60, 0.5
+        lambda: any(
+            abs(m.t_end - last_end) < 1e-6 for m in bag_so_far(out_bag) if hasattr(m, 'ratio')
+        ),
+        60,
+        0.5,
     ), (rec.output(), node.output())
     assert rec.stop() == 0, rec.output()
     windows = list(bagio.iter_messages(out_bag, ['/model/discrepancy']))
     torsion = list(bagio.iter_messages(out_bag, ['/rig/torsion_moment']))
-    assert len(windows) == 3, node.output()
     # receive time of the block holding each sample index
     first = np.array([int(m.msg.first_index) for m in torsion])
     recv = np.array([m.timestamp_ns for m in torsion]) * 1e-9
     hop = 2.0
     offline = _offline(bag)
     assert len(offline) == 3
-    for k, (w, off) in enumerate(zip(windows, offline, strict=True)):
+    ends = [round(w.msg.t_end - 1.0, 3) for w in windows]
+    assert ends in ([6.0, 8.0, 10.0], [6.0, 10.0]), (ends, node.output())
+    if len(windows) == 2:  # the middle window is skipped only after an overrun
+        assert windows[0].msg.processing_time > hop, windows[0].msg
+    for w in windows:
         x = w.msg
+        k = round((x.t_end - 1.0 - 6.0) / hop)
+        off = offline[k]
         assert x.n_samples == 60_000 and x.quality in ('ok', 'over_budget'), x
-        # stream time of the bag: 1 s + index/fs; windows end 6, 8, 10 s after the start
         assert x.t_end - 1.0 == pytest.approx(6.0 + hop * k - 1 / FS, abs=1e-6)
         assert x.t_end - x.t_start == pytest.approx(6.0 - 1 / FS, abs=1e-6)
         last_index = round((x.t_end - 1.0) * FS)
         j = int(np.searchsorted(first, last_index, side='right')) - 1
         latency = w.timestamp_ns * 1e-9 - recv[j]
         # published after its last block arrived, and its processing time is in the
-        # latency; how fast is the benchmark's (bench/bench_model_monitor.py), not a test's
-        # on a loaded machine
+        # latency
         assert latency > 0.0 and x.processing_time < latency + 0.5, (k, latency, x)
         # the node computes what the core computes on the same samples
         assert x.residual_rms == pytest.approx(off.residual_rms, rel=1e-9)

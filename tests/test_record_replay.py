@@ -103,6 +103,17 @@ def test_replay_republishes_every_message(tmp_path: Path, procs: list[Proc]) -> 
     assert all(float(m.data[0]) == k for k, m in enumerate(got))
 
 
+def test_replay_without_subscribers_says_so(tmp_path: Path, procs: list[Proc]) -> None:
+    src = tmp_path / 'src_bag'
+    _speed_bag(src)
+    rep = start_replay(procs, tmp_path, src, 0.0, wait_subscribers=0.5)
+    assert rep.wait(60) == 0, rep.output()
+    # nobody subscribes on this test's domain: the wait ends, the replay says which
+    # topic lacked subscribers and publishes all the same
+    assert 'fewer than 1 subscriber(s) after 0.5 s on /rig/speed (0)' in rep.output()
+    assert 'published 200 messages' in rep.output(), rep.output()
+
+
 def test_record_rejects_existing_output(tmp_path: Path) -> None:
     import subprocess
 

@@ -280,8 +280,22 @@ class Replayer(Node):
                 break
         for topic, msgtype in counts.items():
             self.publisher_for(topic, msgtype)
-        if wait_subscribers > 0:
-            self.wait_for_subscribers(counts.keys(), wait_subscribers, min_subscribers, stop)
+        if (
+            wait_subscribers > 0
+            and not self.wait_for_subscribers(
+                counts.keys(), wait_subscribers, min_subscribers, stop
+            )
+            and (stop is None or not stop.is_set())
+        ):
+            short = [
+                f'{t} ({p.get_subscription_count()})'
+                for t, p in self._pubs.items()
+                if t in counts and p.get_subscription_count() < min_subscribers
+            ]
+            self.get_logger().warning(
+                f'fewer than {min_subscribers} subscriber(s) after {wait_subscribers:g} s on '
+                f'{", ".join(short) or "no topic (matched late)"}: publishing anyway'
+            )
         wait = (stop or threading.Event()).wait
         t_wall0 = time.monotonic()
         t_bag0: int | None = None

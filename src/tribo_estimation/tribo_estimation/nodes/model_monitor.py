@@ -14,9 +14,10 @@ Thin shell: the work is
 :class:`tribo_estimation.core.discrepancy.monitor.WindowMonitor`. The
 subscriptions only align and buffer; the windows are evaluated on a worker
 thread (always the newest due window: if one evaluation overruns the hop, the
-windows it missed are skipped, never queued). Parameters: the RIG.yaml names
-(SI units, as the friction estimator) plus the monitor settings, declared from
-their specs (:data:`PARAMS`); read-only after start.
+windows it missed are skipped, never queued); the worker first evaluates one short
+simulated window (``WindowMonitor.warm_up``). Parameters: the RIG.yaml names (SI
+units, as the friction estimator) plus the monitor settings, declared from their
+specs (:data:`PARAMS`); read-only after start.
 """
 
 from __future__ import annotations
@@ -72,6 +73,7 @@ class ModelMonitorNode(Node):
         try:
             rig = RigParams.from_mapping(v.numbers(RigParams.field_names()))
             drive = DriveProfile(v.number('nominal_speed'), v.number('ramp_time'))
+            self._friction = FrictionLaw(v.number('mu0'), v.number('mu_inf'), v.number('k'))
             cfg = MonitorConfig(
                 window=v.number('window'),
                 hop=v.number('hop'),
@@ -85,8 +87,7 @@ class ModelMonitorNode(Node):
         self._monitor = WindowMonitor(rig, drive, k=v.number('k'), config=cfg)
         scales = None
         if v.flag('check_input'):
-            law = FrictionLaw(v.number('mu0'), v.number('mu_inf'), v.number('k'))
-            scales = Scales.of(rig, law, v.number('nominal_speed'))
+            scales = Scales.of(rig, self._friction, v.number('nominal_speed'))
         self._input = CheckedStream(scales, 'rig topics')
         self._idle_timer = self.create_timer(0.5 * IDLE_RELEASE_S, self._on_idle)
         self._lock = threading.Lock()
@@ -155,6 +156,10 @@ class ModelMonitorNode(Node):
 
     # ----------------------------------------------------------------- worker
     def _work(self) -> None:
+        try:  # load the compiled kernels and the pipeline before the first window is due
+            self._monitor.warm_up(self._friction)
+        except EstimationError as exc:
+            self.get_logger().warning(f'warm-up failed: {exc}')
         while True:
             with self._cond:
                 while self._pending is None and not self._closing:
