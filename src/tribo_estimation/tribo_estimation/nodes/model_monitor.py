@@ -15,15 +15,20 @@ Thin shell: the work is
 subscriptions only align and buffer; the windows are evaluated on a worker
 thread (always the newest due window: if one evaluation overruns the hop, the
 windows it missed are skipped, never queued); the worker first evaluates one short
-simulated window (``WindowMonitor.warm_up``). Parameters: the RIG.yaml names (SI
-units, as the friction estimator) plus the monitor settings, declared from their
-specs (:data:`PARAMS`); read-only after start.
+simulated window (``WindowMonitor.warm_up``). A window whose time budget ended before
+every family was screened (``complete`` False: flag ``incomplete``) is investigated
+on a second thread with every family screened (``WindowMonitor.investigate``, several
+hops), one at a time (a window arriving while one runs is not investigated); its
+verdict is published as one more message for that window (flag ``investigation``).
+Parameters: the RIG.yaml names (SI units, as the friction estimator) plus the monitor
+settings, declared from their specs (:data:`PARAMS`); read-only after start.
 """
 
 from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Sequence
 from typing import Unpack
 
@@ -58,8 +63,8 @@ TOPICS: dict[str, str] = RIG_INPUTS
 #: Declared parameters (the rig's from the one rig table): :mod:`tribo_estimation.nodes.specs`.
 PARAMS = MODEL_MONITOR_PARAMS
 
-#: Longest wait of :meth:`ModelMonitorNode.close` for the window being evaluated [s]
-#: (``ros2 launch`` escalates to SIGTERM 5 s after its SIGINT).
+#: Longest wait of :meth:`ModelMonitorNode.close` for the window and the investigation
+#: being evaluated [s] (``ros2 launch`` escalates to SIGTERM 5 s after its SIGINT).
 CLOSE_WAIT_S = 2.0
 
 
@@ -93,6 +98,8 @@ class ModelMonitorNode(Node):
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)
         self._pending: tuple[WindowData, float] | None = None
+        self._inquiry: tuple[WindowData, float, WindowResult] | None = None
+        self._inquiring = False
         self._closing = False
         self.published = 0
         self._pub = self.create_publisher(ModelDiscrepancy, OUTPUT_TOPIC, history_qos())
@@ -100,6 +107,10 @@ class ModelMonitorNode(Node):
         self._subs = subscribe_rig_streams(self, self._on_block)
         self._worker = threading.Thread(target=self._work, name='model_monitor', daemon=True)
         self._worker.start()
+        self._investigator = threading.Thread(
+            target=self._investigate, name='model_monitor_investigation', daemon=True
+        )
+        self._investigator.start()
         self.get_logger().info(
             f'model monitor: {cfg.window:g} s window every {cfg.hop:g} s, '
             f'{len(cfg.candidates) or "all"} effect families, alpha {cfg.alpha:g}, '
@@ -152,7 +163,7 @@ class ModelMonitorNode(Node):
             for w in due:
                 with self._cond:
                     self._pending = (w, offset)  # a window not yet taken is skipped
-                    self._cond.notify()
+                    self._cond.notify_all()
 
     # ----------------------------------------------------------------- worker
     def _work(self) -> None:
@@ -182,18 +193,54 @@ class ModelMonitorNode(Node):
             if not self._gate.publish(self._pub, to_msg(res, offset)):
                 return
             self.published += 1
+            if not res.complete:
+                with self._cond:
+                    if not self._inquiring and self._inquiry is None:
+                        self._inquiry = (w, offset, res)
+                        self._cond.notify_all()
+
+    def _investigate(self) -> None:
+        """Screen every family on the windows the worker hands over (one at a time)."""
+        while True:
+            with self._cond:
+                while self._inquiry is None and not self._closing:
+                    self._cond.wait(timeout=0.5)
+                if self._closing:
+                    return
+                item = self._inquiry
+                self._inquiry = None
+                self._inquiring = True
+            try:
+                if item is None:
+                    continue
+                w, offset, first = item
+                try:
+                    res = self._monitor.investigate(w, first.null)
+                except Exception as exc:  # the windows go on; this investigation is lost
+                    self.get_logger().error(
+                        f'investigation of the window ending {w.time[-1]:.2f} s: {exc!r}'
+                    )
+                    continue
+                if not self._gate.publish(self._pub, to_msg(res, offset)):
+                    return
+                self.published += 1
+            finally:
+                with self._cond:
+                    self._inquiring = False
 
     def close(self) -> None:
-        """Stop the worker: the window being evaluated is published if it ends in time.
+        """Stop both threads: a window or investigation that ends in time is published.
 
-        Nothing is published after this returns (the worker publishes through a
+        Nothing is published after this returns (both threads publish through a
         :class:`~tribo_common.node_main.PublishGate`), so the context may be shut down
-        next even while an evaluation still runs.
+        next even while an evaluation still runs (its thread is a daemon).
         """
         with self._cond:
             self._closing = True
-            self._cond.notify()
-        self._worker.join(timeout=CLOSE_WAIT_S)
+            self._cond.notify_all()
+        deadline = time.monotonic() + CLOSE_WAIT_S
+        for thread in (self._worker, self._investigator):
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
         self._gate.close()
 
 

@@ -62,7 +62,8 @@ MODEL_MONITOR_PARAMS: tuple[ParamSpec, ...] = (
         _MONITOR.time_budget,
         0.001,
         3600.0,
-        'wall time per window after which no further candidate form is fitted',
+        'wall time per window after which no further candidate form is fitted (a window cut '
+        'short is investigated with every family on a second thread, one at a time)',
     ),
     ParamSpec(
         'alpha',

@@ -64,3 +64,5 @@ def test_warm_up_leaves_the_monitor_as_it_was(
     # (fit, noise floor, null law and verdict)
     assert (ra.residual_rms, ra.mu0, ra.noise_floor) == (rb.residual_rms, rb.mu0, rb.noise_floor)
     assert ra.identifiable_reason == rb.identifiable_reason
+    # nothing missing is a final verdict: no investigation asked for
+    assert ra.verdict == 'nothing_missing' and ra.complete and 'incomplete' not in ra.quality

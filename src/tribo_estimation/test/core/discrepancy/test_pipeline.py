@@ -105,10 +105,17 @@ def test_frictional_lag_is_named_and_single_joint_and_live_agree() -> None:
     joint = find_missing_physics(parts, rig, [drv, drv])
     assert joint.verdict == NAMED and joint.added == ('frictional_lag',), joint.finding()
     assert joint.named[0].params['lag_tau'] == pytest.approx(0.002, rel=0.2)
-    # the live monitor on the same record (one window, the live budget)
-    mon = WindowMonitor(rig, drv, config=MonitorConfig(window=3.0, hop=3.0, time_budget=60.0))
-    (win,) = mon.push(rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
-    assert win.verdict == NAMED and win.candidate == 'frictional_lag', win.identifiable_reason
+    # the live monitor on the same record (one window): a budget spent before the
+    # screening starts names nothing and asks for an investigation, which screens every
+    # family against the window's null law and names the lag as the single record did
+    mon = WindowMonitor(rig, drv, config=MonitorConfig(window=3.0, hop=3.0, time_budget=1e-3))
+    (w,) = mon.add(rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
+    win = mon.evaluate(w)
+    assert not win.complete and 'incomplete' in win.quality and win.verdict != NAMED, win
+    inv = mon.investigate(w, win.null)
+    assert inv.complete and inv.quality.startswith('investigation'), inv
+    assert inv.verdict == NAMED and inv.candidate == 'frictional_lag', inv.identifiable_reason
+    assert inv.params['lag_tau'] == pytest.approx(0.002, rel=0.2)
 
 
 def test_a_spent_time_budget_never_buys_a_name_and_says_what_was_not_fitted() -> None:

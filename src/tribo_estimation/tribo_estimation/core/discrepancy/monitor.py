@@ -30,7 +30,7 @@ from tribo_estimation.errors import EstimationError, InvalidDataError, InvalidPa
 from . import candidates as cand_lib
 from .localise import torque_residual
 from .pipeline import Policy, find_missing_physics
-from .pipeline.decide import NAMED
+from .pipeline.decide import NAMED, NOTHING_MISSING
 from .pipeline.null import NullLaw
 from .stats import (
     SLIP_ACCEL,
@@ -123,7 +123,12 @@ class WindowResult:
     one of :data:`.pipeline.KINDS`; ``quality`` 'ok' or ';'-separated flags
     (``no_sticks``: no stick phase in the window: fitted from sliding states, ``mu0``
     NaN, ``over_budget``: the window took longer than the hop, ``fit_failed``,
-    ``partial``: the candidate explains part of the mismatch, not all).
+    ``partial``: the candidate explains part of the mismatch, not all,
+    ``incomplete``: the time budget ended before every family was screened,
+    ``investigation``: the result of :meth:`WindowMonitor.investigate`);
+    ``complete`` False when the verdict may change with every family screened (the
+    window is then worth an investigation); ``null`` the null law the window was
+    judged against (one per record: the window).
     """
 
     t_start: float
@@ -148,6 +153,8 @@ class WindowResult:
     processing_time: float
     quality: str = 'ok'
     verdict: str = field(default='')
+    complete: bool = True
+    null: tuple[NullLaw, ...] = field(default=(), repr=False, compare=False)
 
 
 #: The samples of one window, ready to evaluate (a copy; see :meth:`WindowMonitor.add`).
@@ -381,26 +388,67 @@ class WindowMonitor:
         )
 
     def evaluate(self, w: WindowData) -> WindowResult:
-        """Run the pipeline on one window (live budget) and summarise its verdict."""
+        """Run the pipeline on one window (live budget) and summarise its verdict.
+
+        The window's null law is measured afresh every ``null_reuse + 1`` windows and
+        reused in between (:class:`MonitorConfig`).
+        """
+        cfg = self.config
+        fresh = self._null is None or self._null_age >= cfg.null_reuse
+        r = self._run(w, cfg.policy(), None if fresh else self._null, ())
+        if r.quality == 'fit_failed':
+            return r
+        if fresh:
+            self._null = r.null
+            self._null_age = 0
+        else:
+            self._null_age += 1
+        return r
+
+    def investigate(self, w: WindowData, null: tuple[NullLaw, ...] = ()) -> WindowResult:
+        """Run the pipeline on one window with every family screened (no time budget).
+
+        The same steps and decision rules as :meth:`evaluate`; only the wall-time
+        budget is lifted, so a window whose evaluation ran out of time before every
+        family was screened (``complete`` False) gets its final verdict. A full
+        screening takes several hops (about 10 s for a 6 s window at 10 kHz):
+        the ``model_monitor`` node runs it beside the windows, one at a time. The
+        monitor's state is not changed.
+
+        Parameters
+        ----------
+        w : WindowData
+            The window.
+        null : tuple of NullLaw
+            The null law its evaluation used (:attr:`WindowResult.null`; empty:
+            measured here).
+
+        Returns
+        -------
+        WindowResult
+            The verdict, with the quality flag ``investigation``.
+        """
+        pol = replace(self.config.policy(), time_budget=math.inf)
+        return self._run(w, pol, null or None, ('investigation',))
+
+    def _run(
+        self,
+        w: WindowData,
+        policy: Policy,
+        null: tuple[NullLaw, ...] | None,
+        flags_in: tuple[str, ...],
+    ) -> WindowResult:
+        """Run the pipeline on one window under ``policy`` and summarise the verdict."""
         cfg = self.config
         t0 = _time.perf_counter()
         w0 = self.drive.nominal_speed
         if w0 <= 0.0:
             w0 = float(np.mean(w.speed))
         drive = DriveProfile(w0, self.drive.ramp_time)
-        fresh = self._null is None or self._null_age >= cfg.null_reuse
         try:
-            res = find_missing_physics(
-                [w], self.rig, [drive], k=self.k, policy=cfg.policy(),
-                null=None if fresh else self._null,
-            )  # fmt: skip
+            res = find_missing_physics([w], self.rig, [drive], k=self.k, policy=policy, null=null)
         except EstimationError:
             return self._empty(w, t0, 'fit_failed', w0)
-        if fresh:
-            self._null = tuple(r.null for r in res.records)
-            self._null_age = 0
-        else:
-            self._null_age += 1
         rep = res.records[0]
         tr = res.traces[0]
         pb = tr.problem
@@ -413,12 +461,16 @@ class WindowMonitor:
         best = res.named[-1] if res.named else (res.partial[0] if res.partial else None)
         tried = tuple(dict.fromkeys(e.family for rnd in res.rounds for e in rnd))
         elapsed = _time.perf_counter() - t0
-        flags = []
+        wanted = set(cfg.candidates or cand_lib.families())
+        complete = res.verdict == NOTHING_MISSING or wanted <= set(tried)
+        flags = list(flags_in)
         if pb.segments.sliding:
             flags.append('no_sticks')
         if best is not None and res.verdict != NAMED:
             flags.append('partial')
-        if elapsed > cfg.hop:
+        if not complete:
+            flags.append('incomplete')
+        if elapsed > cfg.hop and not flags_in:
             flags.append('over_budget')
         mu0 = float(rep.baseline.get('mu0', math.nan))
         return WindowResult(
@@ -446,6 +498,8 @@ class WindowMonitor:
             processing_time=elapsed,
             quality=';'.join(flags) or 'ok',
             verdict=res.verdict,
+            complete=complete,
+            null=tuple(r.null for r in res.records),
         )
 
 
