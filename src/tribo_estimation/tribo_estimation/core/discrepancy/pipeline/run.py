@@ -287,7 +287,11 @@ def find_missing_physics(
                 ens, current, laws, pol, say,
                 exclude=[f.family for f in added], deadline=deadline,
             )  # fmt: skip
-            decision = decide(fits, current, laws, single_speed=_single_speed(ens))
+            decision = (
+                decide(fits, current, laws, single_speed=_single_speed(ens))
+                if fits
+                else Decision(UNEXPLAINED, None, (), (), 'no family was fitted')
+            )
             screened = {f.family for f in fits}
             wanted = set(pol.families or cand_lib.families()) - {f.family for f in added}
             if decision.kind == NAMED and not wanted <= screened and decision.named is not None:

@@ -309,7 +309,8 @@ def screen(
     exclude : sequence of str
         Families not screened (those already in the model).
     deadline : float
-        ``time.perf_counter()`` after which no further form is screened or refined.
+        ``time.perf_counter()`` after which no further form is screened or refined
+        (none at all when it has passed before the screening).
 
     Returns
     -------
@@ -323,7 +324,7 @@ def screen(
         if fam in exclude:
             continue
         for form in cand_lib.forms(fam):
-            if screened and _time.perf_counter() > deadline:
+            if _time.perf_counter() > deadline:
                 say(f'time budget spent: {form.name} and later forms not screened')
                 break
             fo = screen_form(ens, current, form, ctx, policy)
@@ -343,7 +344,7 @@ def screen(
             count[fam] = count.get(fam, 0) + 1
     out: list[FormFit] = []
     for whole, form, fo in chosen:
-        if _time.perf_counter() > deadline and out:
+        if _time.perf_counter() > deadline:
             say(f'time budget spent: {form.name} and later forms not refined')
             break
         specs = ens.specs([*current.params(), *form.params])
