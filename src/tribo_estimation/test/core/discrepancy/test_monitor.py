@@ -66,3 +66,23 @@ def test_warm_up_leaves_the_monitor_as_it_was(
     assert ra.identifiable_reason == rb.identifiable_reason
     # nothing missing is a final verdict: no investigation asked for
     assert ra.verdict == 'nothing_missing' and ra.complete and 'incomplete' not in ra.quality
+
+
+def test_later_windows_pool_their_fresh_replicas_with_the_newest_earlier_ones(
+    sim_record: Callable[..., SimResult],
+) -> None:
+    rec = sim_record(2.0, FS, seed=3)
+    mon = _monitor(1.5, 0.5)
+    chans = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
+    n = round(1.5 * FS)
+    (first,) = mon.push(*(c[:n] for c in chans))
+    (second,) = mon.push(*(c[n:] for c in chans))
+    cfg = mon.config
+    fresh = cfg.fresh_replicas
+    for name, before in first.null[0].samples.items():
+        after = second.null[0].samples[name]
+        # the first window measured all its replicas; the second its own few, then the
+        # newest of the first's
+        assert len(before) == len(after) == cfg.replicas, name
+        assert after[fresh:] == before[: cfg.replicas - fresh], name
+        assert after[:fresh] != before[:fresh], name

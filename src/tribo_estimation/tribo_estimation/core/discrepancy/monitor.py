@@ -60,9 +60,11 @@ class MonitorConfig:
     form is screened or refined [s] (keep it below ``hop``); ``alpha`` the
     adequacy decisions' false-alarm rate [-]; ``replicas`` bootstrap replicas of
     the window's null law (5: the prediction bound's Student t factor at alpha = 1 %
-    over three statistics is 5.7, against 14 with 3 replicas); ``null_reuse`` windows
-    that reuse a null law before it is measured again (the windows overlap: the same
-    process, the same noise; 0: every window measures its own).
+    over three statistics is 5.7, against 14 with 3 replicas); ``fresh_replicas``
+    replicas each later window measures on its own baseline, pooled with the newest
+    replicas of the windows before (the windows overlap: the same process, the same
+    noise; the first window after a start or a gap measures all ``replicas``;
+    ``fresh_replicas`` = ``replicas``: every window measures its own).
     """
 
     window: float = 6.0
@@ -71,7 +73,7 @@ class MonitorConfig:
     time_budget: float = 1.5
     alpha: float = 0.01
     replicas: int = 5
-    null_reuse: int = 2
+    fresh_replicas: int = 2
 
     def __post_init__(self) -> None:
         """Refuse non-positive or non-finite times and a hop longer than the window."""
@@ -83,8 +85,10 @@ class MonitorConfig:
             raise InvalidParameterError(
                 f'monitor hop ({self.hop} s) must not exceed the window ({self.window} s)'
             )
-        if self.null_reuse < 0:
-            raise InvalidParameterError(f'monitor null_reuse must be >= 0, got {self.null_reuse}')
+        if not 2 <= self.fresh_replicas <= self.replicas:
+            raise InvalidParameterError(
+                f'monitor fresh_replicas must be in [2, replicas], got {self.fresh_replicas}'
+            )
         if self.replicas < 3:
             # two replicas give a Student t bound with one degree of freedom: so wide
             # that no window would ever be called inadequate
@@ -233,14 +237,14 @@ class WindowMonitor:
         self._fs: float | None = None
         self._next_end: float | None = None
         self._null: tuple[NullLaw, ...] | None = None
-        self._null_age = 0
 
     # ------------------------------------------------------------------ input
     def reset(self) -> None:
-        """Forget the buffered samples (after a gap or a restart of the stream)."""
+        """Forget the buffered samples and the null law's replicas (a gap, a restart)."""
         self._chunks.clear()
         self._n = 0
         self._next_end = None
+        self._null = None
 
     def add(
         self,
@@ -390,19 +394,22 @@ class WindowMonitor:
     def evaluate(self, w: WindowData) -> WindowResult:
         """Run the pipeline on one window (live budget) and summarise its verdict.
 
-        The window's null law is measured afresh every ``null_reuse + 1`` windows and
-        reused in between (:class:`MonitorConfig`).
+        The window's null law: ``replicas`` bootstrap replicas of its baseline in the
+        first window, then ``fresh_replicas`` of each window's own pooled with the
+        newest of the windows before (:class:`MonitorConfig`). The replicas' noise is
+        seeded by the window's last sample index, so a skipped window changes no
+        other window's replicas.
         """
         cfg = self.config
-        fresh = self._null is None or self._null_age >= cfg.null_reuse
-        r = self._run(w, cfg.policy(), None if fresh else self._null, ())
-        if r.quality == 'fit_failed':
-            return r
-        if fresh:
-            self._null = r.null
-            self._null_age = 0
+        seed = round(float(w.time[-1]) * (self._fs or 1.0))
+        if self._null is None:
+            pol = replace(cfg.policy(), seed=seed)
+            r = self._run(w, pol, None, (), ())
         else:
-            self._null_age += 1
+            pol = replace(cfg.policy(), replicas=cfg.fresh_replicas, seed=seed)
+            r = self._run(w, pol, None, self._null, ())
+        if r.quality != 'fit_failed':
+            self._null = r.null
         return r
 
     def investigate(self, w: WindowData, null: tuple[NullLaw, ...] = ()) -> WindowResult:
@@ -429,13 +436,14 @@ class WindowMonitor:
             The verdict, with the quality flag ``investigation``.
         """
         pol = replace(self.config.policy(), time_budget=math.inf)
-        return self._run(w, pol, null or None, ('investigation',))
+        return self._run(w, pol, null or None, (), ('investigation',))
 
     def _run(
         self,
         w: WindowData,
         policy: Policy,
         null: tuple[NullLaw, ...] | None,
+        earlier: tuple[NullLaw, ...],
         flags_in: tuple[str, ...],
     ) -> WindowResult:
         """Run the pipeline on one window under ``policy`` and summarise the verdict."""
@@ -446,7 +454,10 @@ class WindowMonitor:
             w0 = float(np.mean(w.speed))
         drive = DriveProfile(w0, self.drive.ramp_time)
         try:
-            res = find_missing_physics([w], self.rig, [drive], k=self.k, policy=policy, null=null)
+            res = find_missing_physics(
+                [w], self.rig, [drive], k=self.k, policy=policy, null=null,
+                earlier=earlier, pool=self.config.replicas,
+            )  # fmt: skip
         except EstimationError:
             return self._empty(w, t0, 'fit_failed', w0)
         rep = res.records[0]

@@ -56,3 +56,19 @@ def test_without_two_replicas_there_is_no_law_and_nothing_is_adequate() -> None:
     assert math.isnan(law.bound('torsion_moment'))
     fit = Adequacy({'torsion_moment': 1.0}, NOISE)
     assert law.failing(fit) == ('torsion_moment',)
+
+
+def test_a_pooled_law_keeps_its_own_replicas_and_the_newest_earlier_ones() -> None:
+    new = NullLaw({'torsion_moment': (1.1, 1.2), 'speed': (2.1, 2.2)}, 0.01, (0.1, 0.2))
+    old = NullLaw(
+        {'torsion_moment': (1.3, 1.4, 1.5, 1.6), 'speed': (2.3, 2.4, 2.5, 2.6)}, 0.05, (0.3,) * 4
+    )
+    law = new.pooled(old, 5)
+    # this window's two first, then the three newest of the earlier windows; this alpha
+    assert law.samples == {
+        'torsion_moment': (1.1, 1.2, 1.3, 1.4, 1.5),
+        'speed': (2.1, 2.2, 2.3, 2.4, 2.5),
+    }
+    assert law.drifts == (0.1, 0.2, 0.3, 0.3, 0.3) and law.alpha == 0.01
+    # never fewer than its own replicas
+    assert new.pooled(old, 1).samples == new.samples

@@ -266,6 +266,31 @@ class NullLaw:
         """
         return tuple(n for n in self.samples if not stats.values[n] <= self.bound(n))
 
+    def pooled(self, earlier: NullLaw, keep: int) -> NullLaw:
+        """Return this law's replicas followed by the newest of ``earlier``, ``keep`` in all.
+
+        For a stream whose windows overlap (the live monitor): the same process, the
+        same noise, so the replicas of recent windows are samples of the same law.
+
+        Parameters
+        ----------
+        earlier : NullLaw
+            The law of the earlier windows (its replicas newest first).
+        keep : int
+            Replicas of the pooled law (at least this law's own).
+
+        Returns
+        -------
+        NullLaw
+            The pooled law, newest replicas first, at this law's ``alpha``.
+        """
+        n = max(keep - self.replicas, 0)
+        return NullLaw(
+            {k: (*v, *earlier.samples.get(k, ())[:n]) for k, v in self.samples.items()},
+            self.alpha,
+            (*self.drifts, *earlier.drifts[:n]),
+        )
+
     def as_dict(self) -> dict[str, object]:
         """Return the JSON-ready form (per statistic: replicas' centre and bound)."""
         return {

@@ -165,6 +165,8 @@ def find_missing_physics(
     progress: Progress | None = None,
     shared_friction: bool = False,
     null: Sequence[NullLaw] | None = None,
+    earlier: Sequence[NullLaw] = (),
+    pool: int = 0,
 ) -> MissingPhysics:
     """Find what the rig model misses in one record or several (module docstring).
 
@@ -187,9 +189,16 @@ def find_missing_physics(
     shared_friction : bool
         Several records of one contact at several drive speeds: one friction law.
     null : sequence of NullLaw or None
-        Per record, a null law measured before on the same process (the live monitor's
-        previous window of an overlapping stream) instead of bootstrapping it again
-        (None: bootstrapped here).
+        Per record, the null law to judge by, measured before on the same window
+        (the live monitor's investigation) instead of bootstrapping it again (None:
+        bootstrapped here).
+    earlier : sequence of NullLaw
+        Per record, replicas of the same process measured on earlier windows of an
+        overlapping stream (the live monitor): this call's ``policy.replicas`` fresh
+        replicas are pooled with the newest of them (:meth:`.null.NullLaw.pooled`),
+        ``pool`` in all. Empty: only the fresh ones.
+    pool : int
+        Replicas of a pooled law (with ``earlier``).
 
     Returns
     -------
@@ -250,11 +259,12 @@ def find_missing_physics(
     else:
         fit0 = Fit(start, ens.cost(start), 0, True, {})
     baseline = judge(ens, (), fit0)
-    laws = (
-        list(null)
-        if null is not None and len(null) == ens.n
-        else _null_laws(ens, baseline, pol, pol.replicas, pol.seed)
-    )
+    if null is not None and len(null) == ens.n:
+        laws = list(null)
+    else:
+        laws = _null_laws(ens, baseline, pol, pol.replicas, pol.seed)
+        if len(earlier) == ens.n:
+            laws = [law.pooled(old, pool) for law, old in zip(laws, earlier, strict=True)]
     drift = [law.drift_outlier(p.sensor.drift) for law, p in zip(laws, preps, strict=True)]
     fails = failing(baseline, laws)
     say(
