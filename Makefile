@@ -23,8 +23,9 @@ PKG_FILES := $(wildcard src/*/package.xml src/*/setup.py src/*/setup.cfg src/*/C
 COLCON_ENV := AMENT_PREFIX_PATH=$(VENV) CMAKE_PREFIX_PATH=$(VENV) PATH=$(VENV)/bin:$$PATH
 IN_ENV := source $(ROOT)/env.sh &&
 PYTEST_ARGS ?=
-# test processes (pytest-xdist): the suite waits much on subprocesses and DDS
-PYTEST_JOBS ?= 2
+# test processes (pytest-xdist): the suite waits much on subprocesses and DDS, so
+# three workers on two cores finish sooner (pytest alone: 203 s against 215-248 s)
+PYTEST_JOBS ?= 3
 
 .PHONY: help setup build test fuzz lint bench demo clean distclean
 
