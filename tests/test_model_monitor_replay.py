@@ -66,7 +66,7 @@ def test_monitor_node_on_replayed_bag(tmp_path: Path, procs: list[Proc]) -> None
         ),
         60,
         0.5,
-    ), (rec.output(), node.output())
+    ), (rec.output(), node.output(), (tmp_path / 'replay.log').read_text())
     assert rec.stop() == 0, rec.output()
     windows = list(bagio.iter_messages(out_bag, ['/model/discrepancy']))
     torsion = list(bagio.iter_messages(out_bag, ['/rig/torsion_moment']))

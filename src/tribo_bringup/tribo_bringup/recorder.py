@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
@@ -64,6 +65,11 @@ _STOP = object()
 
 #: Wait after the subscriptions have matched, before the first message [s].
 SUBSCRIBER_SETTLE_S = 0.3
+
+#: Longest wait of a replay, after its last message, for every subscriber to acknowledge
+#: the reliable data [s]: a process that exits earlier takes its unacknowledged messages
+#: with it (a busy subscriber misses the end of the bag).
+ACK_WAIT_S = 10.0
 
 
 def _in_namespace(topic: str, namespace: str) -> str:
@@ -316,4 +322,28 @@ class Replayer(Node):
             if progress is not None and now - last_report >= 2.0:
                 progress(self.published, (m.timestamp_ns - t_bag0) * 1e-9)
                 last_report = now
+        if stop is None or not stop.is_set():
+            late = self.wait_for_acks(ACK_WAIT_S, stop)
+            if late:
+                self.get_logger().warning(
+                    f'not acknowledged by every subscriber within {ACK_WAIT_S:g} s: '
+                    f'{", ".join(late)} (a subscriber may miss the last messages)'
+                )
         return self.published
+
+    def wait_for_acks(self, timeout: float, stop: threading.Event | None = None) -> list[str]:
+        """Wait until every subscriber acknowledged every message published so far.
+
+        At most ``timeout`` [s] (or until ``stop`` is set); returns the topics whose
+        data is not acknowledged yet (empty: all delivered).
+        """
+        deadline = time.monotonic() + timeout
+        pending = dict(self._pubs)
+        while pending:
+            pending = {
+                t: p for t, p in pending.items() if not p.wait_for_all_acked(Duration(seconds=0))
+            }
+            if not pending or time.monotonic() >= deadline or (stop is not None and stop.is_set()):
+                break
+            time.sleep(0.05)
+        return sorted(pending)
