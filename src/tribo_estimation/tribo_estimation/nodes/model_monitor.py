@@ -192,7 +192,8 @@ class ModelMonitorNode(Node):
                 continue
             if not self._gate.publish(self._pub, to_msg(res, offset)):
                 return
-            self.published += 1
+            with self._cond:
+                self.published += 1
             if not res.complete:
                 with self._cond:
                     if not self._inquiring and self._inquiry is None:
@@ -223,7 +224,8 @@ class ModelMonitorNode(Node):
                     continue
                 if not self._gate.publish(self._pub, to_msg(res, offset)):
                     return
-                self.published += 1
+                with self._cond:
+                    self.published += 1
             finally:
                 with self._cond:
                     self._inquiring = False

@@ -339,9 +339,9 @@ class WindowMonitor:
         """Evaluate one short simulated window; return its wall time [s].
 
         The first window of a process otherwise also pays for loading the
-        compiled kernels and the pipeline's modules (about as long as a window
-        itself): a live monitor calls this before it subscribes, so its first
-        window meets the hop. The window is 1.5 s of this rig under
+        compiled kernels and the pipeline's modules (a few tenths of a second): a
+        live monitor calls this before its first window is due. The window is 1.5 s
+        of this rig under
         ``friction`` (Equ. 1-3, 6, 8, simulated at 10 kHz with white noise of 1 %
         of each channel's spread); the result is discarded and this monitor's
         buffer and null law are untouched.
