@@ -21,7 +21,7 @@ from tribo_bringup.report.sections import monitor_section
 T0 = 1_700_000_000_000_000_000
 
 
-def _write(path: Path, n: int) -> list[dict[str, object]]:
+def _write(path: Path, n: int, investigated: int | None = None) -> list[dict[str, object]]:
     store = bagio.typestore()
     MD = store.types['tribo_msgs/msg/ModelDiscrepancy']
     Header = store.types['std_msgs/msg/Header']
@@ -29,8 +29,10 @@ def _write(path: Path, n: int) -> list[dict[str, object]]:
     written = []
     with bagio.BagWriter(path) as w:
         w.add_topic('/model/discrepancy', bagio.TOPIC_TYPES['/model/discrepancy'])
-        for i in range(n):
-            stamp = T0 + (6 + 2 * i) * 1_000_000_000
+        order = list(range(n)) + ([investigated] if investigated is not None else [])
+        for k, i in enumerate(order):
+            inquiry = k >= n  # the investigation of window i, published after the windows
+            stamp = T0 + (6 + 2 * i + (10 if inquiry else 0)) * 1_000_000_000
             # window 0: nothing missing; 1: viscous friction explains part; 2: it is named
             named = i > 0
             verdicts = (
@@ -59,7 +61,7 @@ def _write(path: Path, n: int) -> list[dict[str, object]]:
                 identifiable=i == 2,
                 identifiable_reason=verdicts[i % 3] + '; torque residual RMS 0.31 -> 0.31 N m',
                 processing_time=0.8 + 0.1 * i,
-                quality='partial' if i == 1 else 'ok',
+                quality='investigation' if inquiry else ('partial' if i == 1 else 'ok'),
             )
             msg = MD(
                 header=Header(stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id='m'),
@@ -83,17 +85,34 @@ def test_monitor_windows_in_scan_section_and_results(tmp_path: Path) -> None:
     sec = monitor_section(scan, results, out)
     assert isinstance(sec, Section) and sec.key == 'monitor'
     assert 'id="monitor-windows"' in sec.body and sec.body.count('<tr>') == 4  # header + 3
+    assert '3 windows' in sec.body and 'Investigations (0)' in sec.body
     assert 'viscous = 0.501 N m s/rad' in sec.body and 'slip_end (0.62)' in sec.body
     assert 'not explained: {viscous_friction}' in sec.body  # the verdict column
     mon = results['monitor']
     assert isinstance(mon, dict)
     # per family the windows that name it and those where it explains only a part
-    assert mon['windows'] == 3 and mon['named'] == {'viscous_friction': 1}
+    assert mon['windows'] == 3 and mon['investigations'] == 0
+    assert mon['named'] == {'viscous_friction': 1}
     assert mon['partial'] == {'viscous_friction': 1}
     assert mon['processing_time_max_s'] == pytest.approx(1.0)
     assert mon['processing_time_median_s'] == pytest.approx(0.9)
     csv = (out / 'monitor_windows.csv').read_text().splitlines()
     assert len(csv) == 4 and csv[0].startswith('t_start,t_end,n_samples,')
+
+
+def test_an_investigation_is_counted_apart_from_the_windows(tmp_path: Path) -> None:
+    _write(tmp_path / 'bag', 2, investigated=2)  # windows 0, 1, then window 2's investigation
+    scan = scan_bag(tmp_path / 'bag')
+    results: dict[str, object] = {}
+    sec = monitor_section(scan, results, tmp_path)
+    assert sec is not None and sec.body.count('<tr>') == 4  # header + 2 windows + 1
+    assert '2 windows' in sec.body and 'Investigations (1)' in sec.body
+    mon = results['monitor']
+    assert isinstance(mon, dict)
+    assert mon['windows'] == 2 and mon['investigations'] == 1
+    # the investigation's name counts; the window times are the windows' only (0.8, 0.9 s)
+    assert mon['named'] == {'viscous_friction': 1} and mon['partial'] == {'viscous_friction': 1}
+    assert mon['processing_time_max_s'] == pytest.approx(0.9)
 
 
 def test_no_monitor_topic_no_section(tmp_path: Path) -> None:

@@ -393,11 +393,15 @@ def wear_section(
 def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Section | None:
     """Render the live model monitor's windows (/model/discrepancy); None if the bag has none.
 
-    One row per window: end time from the first window [s], baseline mu0/mu_inf
+    One row per message: end time from the first window [s], baseline mu0/mu_inf
     (Equ. 8), torsion residual rms and noise floor [N m] and their ratio, where the
     residual concentrates, the named family or the best partial explanation with its
     fitted values, the rms with it [N m], whether the window names it (it alone explains
-    the window down to the noise), the verdict in one line, and the processing time [s].
+    the window down to the noise), the verdict in one line, the processing time [s] and
+    the quality flags. A window whose time budget ended before every family was
+    screened (``incomplete``) has a second message, its investigation (flag
+    ``investigation``, every family screened): results.json counts windows and
+    investigations apart; the names and partial explanations count both.
     """
     ws = scan.monitor
     if not ws:
@@ -416,9 +420,12 @@ def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Sec
         if w['candidate']:
             counts = named if w['identifiable'] else partial
             counts[w['candidate']] = counts.get(w['candidate'], 0) + 1
-    times = [w['processing_time'] for w in ws if w['processing_time'] is not None]
+    inquiries = [w for w in ws if 'investigation' in str(w['quality'] or '')]
+    windows = [w for w in ws if 'investigation' not in str(w['quality'] or '')]
+    times = [w['processing_time'] for w in windows if w['processing_time'] is not None]
     results['monitor'] = {
-        'windows': len(ws),
+        'windows': len(windows),
+        'investigations': len(inquiries),
         'named': named,
         'partial': partial,
         'processing_time_max_s': max(times) if times else None,
@@ -440,19 +447,23 @@ def monitor_section(scan: BagScan, results: dict[str, object], out: Path) -> Sec
             w['identifiable'],
             w['identifiable_reason'],
             w['processing_time'],
+            w['quality'] or '-',
         )
         for w in ws
     ]
     header = (
         'window end - first [s]', 'mu0 [-]', 'mu_inf [-]', 'residual rms [N m]',
         'noise floor [N m]', 'ratio [-]', 'concentrates in (share)', 'best candidate',
-        'fitted', 'rms with it [N m]', 'named', 'verdict', 'processing [s]',
+        'fitted', 'rms with it [N m]', 'named', 'verdict', 'processing [s]', 'quality',
     )  # fmt: skip
     body = (
-        f"<p>{len(ws)} windows of the live model monitor: the paper's model (Equ. 1-8) "
+        f"<p>{len(windows)} windows of the live model monitor: the paper's model (Equ. 1-8) "
         'fitted over a rolling window of the rig streams, its residual against the noise '
         'floor, where the residual concentrates and the verdict of the missing-physics '
         'pipeline (live budget): the family it names or the best partial explanation. '
+        f'Investigations ({len(inquiries)}): windows whose budget ended before every effect '
+        'family was screened (quality <code>incomplete</code>), screened again with every '
+        'family (quality <code>investigation</code>, published when done). '
         'Windows as CSV: <code>monitor_windows.csv</code>.</p>'
     )
     body += table(rows, header, 'monitor-windows')
