@@ -29,6 +29,7 @@ from rclpy.qos import QoSProfile
 from tribo_bringup import bagio
 from tribo_bringup.errors import BagError, ConfigError
 from tribo_common import topics as topic_table
+from tribo_common.node_main import wait_for_subscribers
 from tribo_common.qos import data_qos, qos_for_topic, status_qos
 
 
@@ -62,9 +63,6 @@ class RecordingError(BagError):
 
 
 _STOP = object()
-
-#: Wait after the subscriptions have matched, before the first message [s].
-SUBSCRIBER_SETTLE_S = 0.3
 
 #: Longest wait of a replay, after its last message, for every subscriber to acknowledge
 #: the reliable data [s]: a process that exits earlier takes its unacknowledged messages
@@ -240,36 +238,6 @@ class Replayer(Node):
             self._pubs[topic] = pub
         return pub
 
-    def wait_for_subscribers(
-        self,
-        topics: Iterable[str],
-        timeout: float,
-        min_count: int = 1,
-        stop: threading.Event | None = None,
-    ) -> bool:
-        """Wait until every listed topic's publisher has ``min_count`` subscribers.
-
-        At most ``timeout`` [s] (or until ``stop`` is set), then a settle time: the
-        publisher sees a subscription before the subscriber has matched the
-        publisher, and a volatile subscriber drops the messages of that interval
-        (the first block of a replay into the estimator). Returns whether all were
-        matched.
-        """
-        wanted = set(topics)
-        wait = (stop or threading.Event()).wait
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if all(
-                p.get_subscription_count() >= min_count
-                for t, p in self._pubs.items()
-                if t in wanted
-            ):
-                wait(SUBSCRIBER_SETTLE_S)
-                return True
-            if wait(0.05):
-                return False
-        return False
-
     def play(
         self,
         wait_subscribers: float = 0.0,
@@ -286,21 +254,17 @@ class Replayer(Node):
                 break
         for topic, msgtype in counts.items():
             self.publisher_for(topic, msgtype)
-        if (
-            wait_subscribers > 0
-            and not self.wait_for_subscribers(
-                counts.keys(), wait_subscribers, min_subscribers, stop
+        short = (
+            wait_for_subscribers(
+                {t: self._pubs[t] for t in counts}, wait_subscribers, min_subscribers, stop
             )
-            and (stop is None or not stop.is_set())
-        ):
-            short = [
-                f'{t} ({p.get_subscription_count()})'
-                for t, p in self._pubs.items()
-                if t in counts and p.get_subscription_count() < min_subscribers
-            ]
+            if wait_subscribers > 0
+            else {}
+        )
+        if short and (stop is None or not stop.is_set()):
             self.get_logger().warning(
                 f'fewer than {min_subscribers} subscriber(s) after {wait_subscribers:g} s on '
-                f'{", ".join(short) or "no topic (matched late)"}: publishing anyway'
+                f'{", ".join(f"{t} ({n})" for t, n in short.items())}: publishing anyway'
             )
         wait = (stop or threading.Event()).wait
         t_wall0 = time.monotonic()

@@ -12,7 +12,8 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator, Sequence
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Protocol, TypedDict
@@ -59,6 +60,56 @@ class Publishes(Protocol):
 
     def publish(self, msg: object) -> None:
         """Publish one message."""
+
+
+class Subscribed(Protocol):
+    """An rclpy publisher as :func:`wait_for_subscribers` uses it."""
+
+    def get_subscription_count(self) -> int:
+        """Return the number of matched subscriptions."""
+
+
+#: Wait after the subscriptions have matched, before the first message [s]: discovery is
+#: two-sided, the subscriber may match the publisher a little after the publisher did,
+#: and a volatile subscriber drops what arrives in between.
+SUBSCRIBER_SETTLE_S = 0.3
+
+
+def wait_for_subscribers(
+    pubs: Mapping[str, Subscribed],
+    timeout: float,
+    min_count: int = 1,
+    stop: threading.Event | None = None,
+) -> dict[str, int]:
+    """Wait until every publisher of ``pubs`` has ``min_count`` subscriptions.
+
+    At most ``timeout`` [s] (or until ``stop`` is set), then :data:`SUBSCRIBER_SETTLE_S`.
+
+    Parameters
+    ----------
+    pubs : mapping of str to publisher
+        Topic -> its publisher.
+    timeout : float
+        Longest wait [s].
+    min_count : int
+        Subscriptions each publisher needs.
+    stop : threading.Event, optional
+        Ends the wait when set.
+
+    Returns
+    -------
+    dict of str to int
+        The topics still short of subscriptions, with their counts (empty: all matched).
+    """
+    wait = (stop or threading.Event()).wait
+    deadline = time.monotonic() + timeout
+    while True:
+        short = {t: n for t, p in pubs.items() if (n := p.get_subscription_count()) < min_count}
+        if not short:
+            wait(SUBSCRIBER_SETTLE_S)
+            return short
+        if time.monotonic() >= deadline or wait(0.05):
+            return short
 
 
 class PublishGate:

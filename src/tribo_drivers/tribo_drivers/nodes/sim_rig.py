@@ -32,7 +32,7 @@ from rclpy.node import Node
 
 from tribo_common import topics
 from tribo_common.msgconv import make_sample_block
-from tribo_common.node_main import NodeOptions, PublishGate, run_node
+from tribo_common.node_main import NodeOptions, PublishGate, run_node, wait_for_subscribers
 from tribo_common.params import ParameterError, declare, declare_specs
 from tribo_common.qos import data_qos
 from tribo_drivers.nodes.specs import SIM_RIG_PARAMS
@@ -54,10 +54,6 @@ PARAMS = {p.name: p for p in SIM_RIG_PARAMS}
 #: Default sample rate [Hz] and samples per published block.
 RIG_SAMPLE_RATE = float(PARAMS['sample_rate'].default)  # type: ignore[arg-type]
 RIG_BLOCK_SIZE = int(PARAMS['block_size'].default)  # type: ignore[arg-type]
-
-#: Wait after the subscriptions have matched, before the first sample [s] (discovery is
-#: two-sided: the subscriber may match the publisher a little after the publisher did).
-SUBSCRIBER_SETTLE_S = 0.3
 
 
 class SimRigNode(Node):
@@ -155,25 +151,19 @@ class SimRigNode(Node):
     def _wait_for_subscribers(self) -> None:
         """Hold the stream until every rig topic has ``min_subscribers`` subscriptions.
 
-        The wait lasts at most ``wait_subscribers`` [s], then a short settle time: a
-        publisher sees a subscription before the subscriber has matched the
-        publisher, and a volatile subscriber drops what arrives in between.
+        The wait lasts at most ``wait_subscribers`` [s], then a short settle time
+        (:func:`tribo_common.node_main.wait_for_subscribers`).
         """
         if self.min_subscribers <= 0:
             return
-        deadline = time.monotonic() + self.wait_subscribers
-        while not self._stop.is_set():
+        pubs = {t: p for p, (t, *_) in zip(self.pubs, CHANNELS, strict=True)}
+        short = wait_for_subscribers(pubs, self.wait_subscribers, self.min_subscribers, self._stop)
+        if short and not self._stop.is_set():
             counts = [p.get_subscription_count() for p in self.pubs]
-            if min(counts) >= self.min_subscribers:
-                self._stop.wait(SUBSCRIBER_SETTLE_S)
-                return
-            if time.monotonic() >= deadline:
-                self.get_logger().warning(
-                    f'streaming with {counts} subscriptions (wanted {self.min_subscribers} '
-                    f'after {self.wait_subscribers:g} s)'
-                )
-                return
-            self._stop.wait(0.05)
+            self.get_logger().warning(
+                f'streaming with {counts} subscriptions (wanted {self.min_subscribers} '
+                f'after {self.wait_subscribers:g} s)'
+            )
 
     def _loop(self) -> None:
         # compile (or load from cache) the numba kernel before the clock starts
