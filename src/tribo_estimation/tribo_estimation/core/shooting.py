@@ -275,6 +275,88 @@ def stuck_states(
     return out
 
 
+#: Fewest window samples of :func:`stuck_states_averaged` that replace the one-sample
+#: belt deflection [-].
+_MIN_WINDOW = 8
+
+
+@njit(cache=True, nogil=True)
+def stuck_states_averaged(
+    p: np.ndarray,
+    t: np.ndarray,
+    torsion: np.ndarray,
+    w: np.ndarray,
+    accel: np.ndarray,
+    t_stick: np.ndarray,
+    tk: np.ndarray,
+    vk: np.ndarray,
+    win_tau: np.ndarray,
+    win_a: np.ndarray,
+    win_a1: np.ndarray,
+    win_a2: np.ndarray,
+    win_n: np.ndarray,
+) -> np.ndarray:
+    """Return the stuck states of :func:`stuck_states`, the belt deflection averaged.
+
+    :func:`stuck_states` takes the shaft angle from the stuck balance at one instant,
+    ``(I1 + I2)*a = Q1 + Q2`` (Equ. 1 + 2), so the accelerometer's noise at that
+    instant enters the belt deflection as ``(I1 + I2)*da/C2`` and makes the simulated
+    stick drift off (a force error of 0.1 N m bends the torsion moment by
+    ``C1*t^2/2*0.1/(I1 + I2)``). While stuck, the discs' angles follow from the state
+    at the start and the measured acceleration: ``w(t) = w + A1``,
+    ``phi1(t) = phi1 + w*tau + A2``, ``phi2(t) = phi2 + w*tau + A2`` (``A1``, ``A2``
+    the single and double integrals of ``a`` from the start, ``tau = t - t_start``).
+    The balance at every window sample in the start's drive piece then gives one
+    estimate of ``phi2``; their mean is used (the noise drops by the square root of
+    their number). An error ``dw`` of the start speed moves the estimate from a sample
+    at ``tau`` by ``-dw*tau*(1 + C1/C2)``: the window is centred on the start
+    (:func:`stuck_windows`), where these cancel.
+
+    Parameters
+    ----------
+    p, t, torsion, w, accel, t_stick, tk, vk : numpy.ndarray
+        As :func:`stuck_states`.
+    win_tau : numpy.ndarray
+        Shape (m, W): times of the window samples relative to each start [s].
+    win_a : numpy.ndarray
+        Shape (m, W): their measured acceleration [rad/s^2].
+    win_a1, win_a2 : numpy.ndarray
+        Shape (m, W): single [rad/s] and double [rad] integrals of it from the start.
+    win_n : numpy.ndarray
+        Valid window samples of each start (the first ``win_n[k]`` of row k) [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        States (``kernel.S_*``), one row per time.
+    """
+    out = stuck_states(p, t, torsion, w, accel, t_stick, tk, vk)
+    for k in range(t.shape[0]):
+        if win_n[k] < _MIN_WINDOW:
+            continue
+        j0 = _piece(tk, vk, t[k])
+        q = _piece_params(p, tk, vk, j0)
+        c1 = q[kn.P_C1]
+        inertia = q[kn.P_I1] + q[kn.P_I2]
+        phi1 = torsion[k] / c1
+        total = 0.0
+        used = 0
+        for j in range(win_n[k]):
+            tj = t[k] + win_tau[k, j]
+            if _piece(tk, vk, tj) != j0:  # the drive angle is relative to its piece
+                continue
+            swept = w[k] * win_tau[k, j] + win_a2[k, j]
+            wj = w[k] + win_a1[k, j]
+            q1 = kn.chamber_moment(q, phi1 + swept, wj)
+            phi0 = kn.drive_angle(q, tj)
+            qa = kn.shaft_moment(q, tj, phi0, wj)
+            total += phi0 - (inertia * win_a[k, j] - q1 - qa) / q[kn.P_C2] - swept
+            used += 1
+        if used >= _MIN_WINDOW:
+            out[k, kn.S_PHI2] = total / used
+    return out
+
+
 @njit(cache=True, nogil=True)
 def sliding_states(
     p: np.ndarray,
@@ -479,6 +561,74 @@ def window_mean(
 STUCK_HALF = 60
 
 
+def _integrals(
+    accel: FloatArray, a_lo: int, a_hi: int, i: int, dt: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Return ``tau``, ``a``, ``A1`` and ``A2`` over ``[a_lo, a_hi)`` from sample ``i``.
+
+    Times relative to sample ``i`` [s], the acceleration [rad/s^2] and its single
+    [rad/s] and double [rad] trapezoid integrals from ``i``.
+    """
+    a = accel[a_lo:a_hi]
+    a1 = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+    a1 -= a1[i - a_lo]
+    a2 = np.concatenate(([0.0], np.cumsum(0.5 * (a1[1:] + a1[:-1]) * dt)))
+    a2 -= a2[i - a_lo]
+    tau = np.asarray((np.arange(a_lo, a_hi) - i) * dt, dtype=np.float64)
+    return tau, np.asarray(a, dtype=np.float64), a1, a2
+
+
+def stuck_windows(
+    accel: FloatArray,
+    idx: IntArray,
+    lo: IntArray,
+    hi: IntArray,
+    dt: float,
+    half: int = STUCK_HALF,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray]:
+    """Return the stick-phase windows of :func:`stuck_states_averaged`.
+
+    Parameters
+    ----------
+    accel : FloatArray
+        Angular acceleration [rad/s^2].
+    idx : IntArray
+        The start samples.
+    lo, hi : IntArray
+        First and stop (exclusive) sample of the stick phase holding each start
+        (``hi <= lo``: none, an empty window).
+    dt : float
+        Sample interval [s].
+    half : int
+        Half width of the window [samples].
+
+    Returns
+    -------
+    tuple
+        ``tau`` [s], ``a`` [rad/s^2], ``A1`` [rad/s], ``A2`` [rad], each of shape
+        ``(idx.size, 2*half + 1)``, and the valid samples per row [-]: the window is
+        centred on the start, as wide as the phase allows on both sides.
+    """
+    m, width = idx.shape[0], 2 * half + 1
+    tau, acc, a1, a2 = (np.zeros((m, width)) for _ in range(4))
+    n = np.zeros(m, dtype=np.int64)
+    for k in range(m):
+        i = int(idx[k])
+        # centred on the start: the shaft angle's estimate from a window sample moves
+        # with the start speed's error times the sample's time from the start, which
+        # a symmetric window averages out
+        h = min(half, i - int(lo[k]), int(hi[k]) - 1 - i)
+        if h < 1:
+            continue
+        a_lo, a_hi = i - h, i + h + 1
+        size = a_hi - a_lo
+        tau[k, :size], acc[k, :size], a1[k, :size], a2[k, :size] = _integrals(
+            accel, a_lo, a_hi, i, dt
+        )
+        n[k] = size
+    return tau, acc, a1, a2, n
+
+
 def stuck_kinematics(
     torsion: FloatArray,
     accel: FloatArray,
@@ -540,12 +690,7 @@ def stuck_kinematics(
         a_hi = min(int(hi[k]), i + half + 1)
         if a_hi - a_lo < 8 or not a_lo <= i < a_hi:
             continue
-        a = accel[a_lo:a_hi]
-        a1 = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
-        a1 -= a1[i - a_lo]
-        a2 = np.concatenate(([0.0], np.cumsum(0.5 * (a1[1:] + a1[:-1]) * dt)))
-        a2 -= a2[i - a_lo]
-        tau = (np.arange(a_lo, a_hi) - i) * dt
+        tau, _, a1, a2 = _integrals(accel, a_lo, a_hi, i, dt)
         z = torsion[a_lo:a_hi] - c1 * a2
         x = np.column_stack((np.ones(tau.size), tau))
         coef, *_ = np.linalg.lstsq(x, z, rcond=None)
@@ -564,5 +709,7 @@ __all__ = [
     'sliding_states',
     'stuck_kinematics',
     'stuck_states',
+    'stuck_states_averaged',
+    'stuck_windows',
     'window_mean',
 ]

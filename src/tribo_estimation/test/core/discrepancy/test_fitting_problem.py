@@ -7,10 +7,15 @@ import dataclasses
 import numpy as np
 import pytest
 from discrepancy_scenarios import TAB1, constant, record, rpm, step
+from tribo_scenarios.spec import DriveSpec, Transition
 
 from tribo_estimation.core.discrepancy.fitting import Problem
 from tribo_estimation.core.discrepancy.pipeline import Policy
-from tribo_estimation.core.discrepancy.pipeline.prepare import fit_record_baseline, prepare
+from tribo_estimation.core.discrepancy.pipeline.prepare import (
+    baseline_starts,
+    fit_record_baseline,
+    prepare,
+)
 
 #: Tab. 1 friction of the generated records (Equ. 8).
 TRUTH = {'mu0': 0.13, 'mu_inf': 0.10, 'k': 2.0}
@@ -64,3 +69,32 @@ def test_a_simulation_does_not_depend_on_the_simulations_before() -> None:
     # the same values give the same simulation, to the last bit
     assert np.array_equal(first.torsion_moment, again.torsion_moment, equal_nan=True)
     assert np.array_equal(first.speed, again.speed, equal_nan=True)
+
+
+@pytest.mark.parametrize('speed_rpm', [25.0, 60.0])
+def test_the_baseline_starts_from_the_breakaway_moment(speed_rpm: float) -> None:
+    # Tab. 1 (mu0 = 0.13): the discs break away at speed, and the chamber's swing then
+    # winds the torsion spring on (its peaks read mu0 = 0.134 at 25 rpm, 0.166 at
+    # 60 rpm); the friction moment at the sticks' ends (Equ. 1) gives mu0 within 1 %
+    rec, rig, drv = record(3, constant(rpm(speed_rpm)), duration=2.0)
+    prep = prepare(rec, rig, drv, k=TRUTH['k'], policy=Policy(shaft=False))
+    assert baseline_starts(prep.problem)[0]['mu0'] == pytest.approx(TRUTH['mu0'], rel=0.01)
+
+
+def test_a_speed_step_out_of_stick_slip_is_placed_from_the_sliding_angles() -> None:
+    # 60 -> 90 rpm in 15 ms, 1 s into the record: stick-slip before, sliding after (no
+    # stick angle within 0.1 s after the step); the drive angles of the sliding stretch
+    # (the shaft's balance with the observed friction moment, Equ. 1, 2) place both
+    # corners within 1 ms and the speeds within 0.1 %
+    a, b = rpm(60.0), rpm(90.0)
+    moves = (Transition(0.0, 0.3, a, 'linear'), Transition(2.5, 0.015, b - a, 'linear'))
+    drv_spec = DriveSpec('steps', moves, 1.5, a, None, ('warm', 'step'))
+    rec, rig, drv = record(3, drv_spec, duration=2.5)
+    pb = prepare(rec, rig, drv, k=TRUTH['k'], policy=Policy(shaft=False)).problem
+    pb.simulate(TRUTH)
+    de = pb.drive_estimate
+    t0 = float(rec.time[0])
+    inner = de.knot_time[1:-1] - t0
+    assert inner.size == 2
+    assert inner == pytest.approx([1.0, 1.015], abs=1e-3)
+    assert de.knot_speed[[0, -1]] == pytest.approx([a, b], rel=1e-3)

@@ -6,8 +6,11 @@ import numpy as np
 import pytest
 
 from tribo_estimation.core.discrepancy.fitting.segments import (
+    SLIP_MAX,
+    SLIP_STRIDE,
     free_stretches,
     sliding_segments,
+    slip_samples,
 )
 from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import TooShortError
@@ -65,3 +68,27 @@ def test_too_short_names_the_longest_stretch_without_a_stick() -> None:
     rec = _record(3.0)
     with pytest.raises(TooShortError, match=r'longest stretch without a stick 0\.3 s'):
         sliding_segments(rec, 0.25, first=round(2.7 * FS))
+
+
+@pytest.mark.parametrize(
+    ('starts', 'stops', 'n', 'expected'),
+    [
+        ((), (), 30, list(range(2, 28, SLIP_STRIDE))),  # no stick phase: the whole record
+        ((10, 20), (15, 25), 40, list(range(27, 38, SLIP_STRIDE))),  # short gaps left out
+        ((0, 70), (20, 80), 80, list(range(22, 68, SLIP_STRIDE))),  # a long slip between
+        ((5, 15), (10, 20), 30, []),  # stick-slip only
+    ],
+)
+def test_slip_samples_are_the_long_stretches_without_a_stick(
+    starts: tuple[int, ...], stops: tuple[int, ...], n: int, expected: list[int]
+) -> None:
+    # stretches of at least 11 samples, 2 samples kept off their ends
+    phases = (np.asarray(starts, np.int64), np.asarray(stops, np.int64)) if starts else None
+    assert slip_samples(n, phases, 11, 2).tolist() == expected
+
+
+def test_slip_samples_are_at_most_slip_max() -> None:
+    # a record of 10 x SLIP_MAX x SLIP_STRIDE samples without a stick: thinned evenly
+    idx = slip_samples(10 * SLIP_MAX * SLIP_STRIDE, None, 10, 0)
+    assert idx.size <= SLIP_MAX
+    assert np.ptp(np.diff(idx)) == 0

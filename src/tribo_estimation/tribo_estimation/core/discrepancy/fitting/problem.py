@@ -41,7 +41,8 @@ from tribo_estimation.core.shooting import (
     local_cubic,
     shoot,
     stuck_kinematics,
-    stuck_states,
+    stuck_states_averaged,
+    stuck_windows,
     window_mean,
 )
 from tribo_estimation.core.signal import CHAMBER_HALF, moving_average, rig_half
@@ -50,7 +51,12 @@ from tribo_estimation.errors import InvalidParameterError
 from .. import candidates as cand_lib
 from ..candidates import ParamSpec
 from ..stats import FloatArray
-from .instrument import speed_sensor_output, speed_slope, stuck_speed_through_lag
+from .instrument import (
+    rig_chamber_speed,
+    speed_sensor_output,
+    speed_slope,
+    stuck_speed_through_lag,
+)
 from .records import (
     CHANNELS,
     EXT_FIELDS,
@@ -69,6 +75,7 @@ from .segments import (
     make_segments,
     sliding_chamber_speed,
     sliding_start_states,
+    slip_samples,
 )
 
 #: Cell of the speed-sensor lag [s] and offset [rad/s] within which the drive profile
@@ -77,6 +84,8 @@ _REPLACE_LAG = 1e-4
 _REPLACE_OFFSET = 1e-2
 #: No drive ripple (amplitude, frequency, phase, second harmonic's amplitude, phase).
 _NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0)
+#: Fewest drive angles the profile is fitted to [-] (fewer: the smoothed speed).
+_MIN_ANGLES = 20
 
 
 def scaled_fit(
@@ -256,6 +265,11 @@ class Problem:
             # moment, which the regression does not describe; it keeps the cubic)
             self._m_stuck = np.where(ok, m_k, self._m_val)
             self._speed_stuck = np.where(ok, w_k, self._speed_stuck)
+        #: stick-phase windows of the stuck starts (the belt deflection's average)
+        self._windows = stuck_windows(
+            record.angular_acceleration, i,
+            lo if lo is not None else i, hi if hi is not None else i, record.dt,
+        )  # fmt: skip
         # stick samples (every 4th, away from the phase ends) and smoothed channels
         # for the drive angle (:meth:`_set_instrument`); the window and the guard
         # span at most a quarter period of the rig's fastest mode
@@ -273,9 +287,17 @@ class Problem:
             for a, b in zip(ra, rb, strict=True)
             if b - a > 2 * guard
         ]
-        self._stick_samples = (
-            np.unique(np.concatenate(idx)) if idx else np.asarray(seg.start, dtype=np.int64)
+        self._stick_samples = np.unique(np.concatenate(idx)) if idx else np.zeros(0, dtype=np.int64)
+        #: samples of the sliding stretches (without a stick phase for longer than
+        #: 2 x SMOOTH_TIME: a start-up, a speed step out of stick-slip, a record without
+        #: it) and their shaft acceleration and chamber speed: their drive angle follows
+        #: from the shaft's balance with the friction moment observed (:meth:`_angle_drive`)
+        self._slip_samples = slip_samples(
+            record.time.size, phases, round(2.0 * SMOOTH_TIME * fs), guard
         )
+        if self._slip_samples.size:
+            self._speed_curv = speed_slope(self._speed_slope, record.dt, rig)
+            self._w1_slip = rig_chamber_speed(record, rig)
         self._meas: dict[str, FloatArray] = {
             'torsion_moment': record.torsion_moment,
             'chamber_speed': np.full(record.time.size, np.nan),
@@ -469,9 +491,12 @@ class Problem:
             )  # fmt: skip
         if not slides.all():
             st = ~slides
-            states[st] = stuck_states(
+            rows = np.flatnonzero(sel)[st]
+            tau, acc, a1, a2, n_win = self._windows
+            states[st] = stuck_states_averaged(
                 p, t0[st], m_true[st], self._w_start[sel][st], self._a0[sel][st],
                 seg.stick_time[sel][st], dk.time, dk.speed,
+                tau[rows], acc[rows], a1[rows], a2[rows], n_win[rows],
             )  # fmt: skip
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
@@ -591,7 +616,7 @@ class Problem:
         ripple: tuple[float, ...],
         torque: tuple[float, float],
     ) -> None:
-        """Fit the drive profile to the drive angles at the stick samples.
+        """Fit the drive profile to the drive angles (stick and sliding-stretch samples).
 
         The profile is a function of the arguments alone, whatever was simulated
         before: its corners are those placed for the speed sensor's cell (lag in steps
@@ -602,7 +627,8 @@ class Problem:
         (:meth:`_angle_drive`, whose parameters ``tau``, ``offset``, ``ripple`` and
         ``torque`` these are).
         """
-        if self.segments.sliding:  # no stick samples: the smoothed shaft speed alone
+        if self._stick_samples.size + self._slip_samples.size < _MIN_ANGLES:
+            # no drive angles: the smoothed shaft speed alone
             self.drive_estimate = self._sliding_drive(offset)
         else:
             cell = (round(tau / _REPLACE_LAG), round(offset / _REPLACE_OFFSET))
@@ -628,7 +654,7 @@ class Problem:
         *,
         place: bool,
     ) -> DriveEstimate:
-        """Return the drive profile fitted to the drive angles at the stick samples.
+        """Return the drive profile fitted to the drive angles (stick and sliding samples).
 
         The speed sensor is inverted, the model's torque offset and drift taken
         off the torsion moment and the model's drive-speed ripple (its angle)
@@ -656,16 +682,28 @@ class Problem:
             The profile.
         """
         rec = self.record
-        # drive angle while stuck = shaft angle (integral of the speed channel, less
-        # the offset; a lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection
-        # (Equ. 2 with the stuck balance); the drive profile is fitted to these angles
+        # drive angle = shaft angle (integral of the speed channel, less the offset; a
+        # lag shifts it by -tau*(y(t) - y(t_first))) - belt deflection, which Equ. 2
+        # gives from the moment q2 = C2*(phi0 - phi2) + K2*(w0 - w2) = I2*w2' + M:
+        # while stuck M = I1*w1' + K1*w + M_t with w1' = w2' (the accelerometer), in a
+        # sliding stretch M is observed alike (Equ. 1) and w2' is the slope of the
+        # speed channel with its lag inverted; the profile is fitted to these angles
         rig = self.rig
-        j = self._stick_samples
+        j = np.concatenate((self._stick_samples, self._slip_samples))
+        n_stick = self._stick_samples.size
         y = self._smooth_speed[j]
-        w = y - offset + tau * self._speed_slope[j]
+        slope = self._speed_slope[j]
+        w = y - offset + tau * slope
         t = rec.time[j]
-        q1 = -rig.K1 * w - (self._smooth_torque[j] - torque[0] - torque[1] * t)
-        q2 = (rig.I1 + rig.I2) * self._smooth_accel[j] - q1
+        accel = self._smooth_accel[j]
+        moment = self._smooth_torque[j] - torque[0] - torque[1] * t
+        w1 = w.copy()
+        shaft_accel = accel.copy()
+        if n_stick < j.size:
+            s = self._slip_samples
+            w1[n_stick:] = self._w1_slip[s]
+            shaft_accel[n_stick:] = slope[n_stick:] + tau * self._speed_curv[s]
+        q2 = rig.I1 * accel + rig.I2 * shaft_accel + rig.K1 * w1 + moment
         phi2 = (
             self._shaft_angle[j]
             - offset * (t - rec.time[0])
@@ -694,7 +732,7 @@ class Problem:
         return drive
 
     def _sliding_drive(self, offset: float) -> DriveEstimate:
-        """Return the drive profile of a record without stick-slip.
+        """Return the drive profile of a record without drive angles (fewer than 20).
 
         The smoothed shaft speed (:func:`~tribo_estimation.core.drive.estimate_drive`)
         less the speed sensor's offset; it blurs the start-up ramp over

@@ -376,6 +376,55 @@ def free_stretches(s_start: IntArray, s_stop: IntArray, n: int) -> list[tuple[in
     return [(int(a), int(b)) for a, b in zip(first, stop, strict=True)]
 
 
+#: Sample stride of the slip samples of :func:`slip_samples` [-] and their most [-].
+SLIP_STRIDE = 4
+SLIP_MAX = 12000
+
+
+def slip_samples(
+    n: int, phases: tuple[IntArray, IntArray] | None, min_gap: int, guard: int
+) -> IntArray:
+    """Return every :data:`SLIP_STRIDE`-th sample of the long stretches without sticks.
+
+    A stretch between stick phases (or before the first, after the last, or the whole
+    record without one) of at least ``min_gap`` samples is a sliding stretch, not the
+    slip of a stick-slip cycle; its samples, ``guard`` away from its ends, are those
+    whose drive angle is taken from the shaft's balance with the observed friction
+    moment (Equ. 1, 2) instead of the stuck balance. The stride grows so that at most
+    :data:`SLIP_MAX` are returned.
+
+    Parameters
+    ----------
+    n : int
+        Samples in the record [-].
+    phases : tuple of IntArray or None
+        First and stop (exclusive) sample of each stick phase (None: none).
+    min_gap : int
+        Shortest sliding stretch [samples].
+    guard : int
+        Samples left out at each end of a stretch (the smoothing windows) [-].
+
+    Returns
+    -------
+    IntArray
+        Sample indices, sorted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> slip_samples(60, (np.array([10, 20]), np.array([15, 25])), 20, 1).tolist()
+    [26, 30, 34, 38, 42, 46, 50, 54, 58]
+    """
+    ends = (np.zeros(0, np.int64), np.zeros(0, np.int64)) if phases is None else phases
+    lo = np.concatenate(([0], np.asarray(ends[1], dtype=np.int64)))
+    hi = np.concatenate((np.asarray(ends[0], dtype=np.int64), [n]))
+    keep = hi - lo >= min_gap
+    parts = [np.arange(a + guard, b - guard) for a, b in zip(lo[keep], hi[keep], strict=True)]
+    idx = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+    stride = max(SLIP_STRIDE, -(-idx.size // SLIP_MAX))
+    return np.asarray(idx[::stride], dtype=np.int64)
+
+
 def sliding_segments(
     record: Record,
     block_time: float,

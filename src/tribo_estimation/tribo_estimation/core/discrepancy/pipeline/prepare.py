@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from tribo_estimation.core.model import DriveProfile, RigParams
+from tribo_estimation.core.signal import span_medians
 
 from ..fitting import (
     CHAMBER_I1,
@@ -198,11 +199,21 @@ def without_hum(prep: Prepared, values: Mapping[str, float], policy: Policy) -> 
 _HUM_JUDGED: tuple[str, ...] = ('torsion_moment', 'speed')
 
 
+#: Fewest stick phases whose ends give the breakaway moment of :func:`baseline_starts`
+#: [-], and the samples before a phase's end its acceleration is the median of [-].
+_BREAKAWAY_PHASES = 3
+_BREAKAWAY_ACCEL_SAMPLES = 5
+
+
 def baseline_starts(problem: Problem) -> list[dict[str, float]]:
     """Return start values of the baseline fit.
 
-    ``mu0`` from the torsion moment at the measured breakaways (the peak of each
-    segment), ``mu_inf`` a fraction of it (Equ. 8).
+    ``mu0`` from the friction moment at the measured breakaways: where the stick
+    phases are known, the chamber's balance at each phase's last stuck sample,
+    ``M = I1*w1' + K1*w + M_t`` (Equ. 1; sticking ends at ``|M| = F_N*R*mu0``, Equ. 6);
+    else the peak torsion moment of each segment (which overshoots the breakaway by
+    up to ``w*sqrt(C1*I1)`` when the discs break away at speed). ``mu_inf`` a
+    fraction of it (Equ. 8).
 
     Parameters
     ----------
@@ -217,11 +228,20 @@ def baseline_starts(problem: Problem) -> list[dict[str, float]]:
     rec = problem.record
     fnr = problem.rig.F_N * problem.rig.R
     seg = problem.segments
-    peaks = [
-        float(np.max(np.abs(rec.torsion_moment[a:b])))
-        for a, b in zip(seg.start, seg.stop, strict=True)
-    ]
-    m_s = float(np.median(peaks)) if peaks else float(np.max(np.abs(rec.torsion_moment)))
+    phases = seg.stick_phases()
+    if phases is not None and phases[0].size >= _BREAKAWAY_PHASES:
+        rig = problem.rig
+        end = phases[1] - 1
+        lo = np.maximum(phases[0], end - _BREAKAWAY_ACCEL_SAMPLES)
+        accel = span_medians(rec.angular_acceleration, lo, end + 1)
+        moment = rec.torsion_moment[end] + rig.I1 * accel + rig.K1 * rec.speed[end]
+        m_s = float(np.median(np.abs(moment)))
+    else:
+        peaks = [
+            float(np.max(np.abs(rec.torsion_moment[a:b])))
+            for a, b in zip(seg.start, seg.stop, strict=True)
+        ]
+        m_s = float(np.median(peaks)) if peaks else float(np.max(np.abs(rec.torsion_moment)))
     mu0 = max(m_s / fnr, 1e-3) if fnr > 0 else MU0.initial
     return [{'mu0': mu0, 'mu_inf': f * mu0} for f in (0.7, 0.85, 0.95)]
 

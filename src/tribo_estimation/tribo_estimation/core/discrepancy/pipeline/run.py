@@ -40,8 +40,9 @@ from .prepare import Prepared, fit_record_baseline, identify_shaft, prepare, wit
 from .result import Effect, MissingPhysics, RecordReport, Traces
 from .screen import FormFit, Model, failing, judge, screen
 
-#: Passes of the hum's removal (each takes out what the baseline left of it).
-_HUM_PASSES = 3
+#: Most passes of the hum's removal (each takes out what the baseline left of it; they
+#: end when no line is significant, :func:`.prepare.without_hum`).
+_HUM_PASSES = 6
 
 
 def _null_laws(
