@@ -10,6 +10,7 @@ that the record singles out; a named model is confirmed against its own null law
 from __future__ import annotations
 
 import dataclasses
+import math
 import time as _time
 from collections.abc import Mapping, Sequence
 
@@ -67,6 +68,38 @@ def _null_laws(
             )
         )
     return laws
+
+
+def detection_limit(stat: float, bound: float, noise: float) -> float:
+    """Return the rms [N m] an effect must add to the torque residual to be seen.
+
+    The statistic is the residual's rms over the noise (:mod:`.null`): an effect whose
+    residual ``r`` is independent of the rest raises it from ``stat`` to
+    ``sqrt(stat^2 + (r/noise)^2)``, which passes ``bound`` at
+    ``r = noise*sqrt(bound^2 - stat^2)``.
+
+    Parameters
+    ----------
+    stat : float
+        The record's torque statistic [-].
+    bound : float
+        Its null law's bound [-].
+    noise : float
+        The noise the statistic is divided by [N m].
+
+    Returns
+    -------
+    float
+        The limit [N m] (NaN without a bound).
+
+    Examples
+    --------
+    >>> round(detection_limit(1.2, 1.3, 0.05), 4)
+    0.025
+    """
+    if not (math.isfinite(bound) and math.isfinite(stat)):
+        return math.nan
+    return noise * math.sqrt(max(bound * bound - stat * stat, 0.0))
 
 
 def _single_speed(ens: Ensemble) -> bool:
@@ -280,15 +313,22 @@ def find_missing_physics(
     decision: Decision
     added: list[FormFit] = []
     if not fails:
-        # how far "nothing missing" reaches: the record's torque statistic and the
-        # largest its own replicas allow (an effect smaller than that gap is not seen)
+        # how far "nothing missing" reaches: the record's torque statistic, the largest
+        # its own replicas allow, and the smallest residual an effect would have to add
+        # (independent of the rest) to cross that bound
         stat = max(a['torsion_moment'] for a in baseline.adequacy)
         bound = max(law.bound('torsion_moment') for law in laws)
+        limit = max(
+            detection_limit(a['torsion_moment'], law.bound('torsion_moment'),
+                            a.noise.torsion_moment.total)
+            for a, law in zip(baseline.adequacy, laws, strict=True)
+        )  # fmt: skip
         decision = Decision(
             NOTHING_MISSING, None, (), (),
             "the paper's model explains the record as well as records simulated from "
             f'itself (torque residual {stat:.3g} x the white noise; its replicas up to '
-            f'{bound:.3g} x)',
+            f'{bound:.3g} x: an effect adding less than {limit:.2g} N m rms to the '
+            'torque residual would not show)',
         )  # fmt: skip
     else:
         say(f'baseline inadequate: {", ".join(fails)}')
