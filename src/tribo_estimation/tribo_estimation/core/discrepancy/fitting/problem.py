@@ -265,10 +265,12 @@ class Problem:
             # moment, which the regression does not describe; it keeps the cubic)
             self._m_stuck = np.where(ok, m_k, self._m_val)
             self._speed_stuck = np.where(ok, w_k, self._speed_stuck)
-        #: stick-phase windows of the stuck starts (the belt deflection's average)
+        #: stick-phase windows of the stuck starts (the belt deflection's average; a
+        #: sliding start's run is empty, so is its window)
         self._windows = stuck_windows(
             record.angular_acceleration, i,
-            lo if lo is not None else i, hi if hi is not None else i, record.dt,
+            seg.run_start if seg.run_start is not None else i,
+            seg.run_stop if seg.run_stop is not None else i, record.dt,
         )  # fmt: skip
         # stick samples (every 4th, away from the phase ends) and smoothed channels
         # for the drive angle (:meth:`_set_instrument`); the window and the guard

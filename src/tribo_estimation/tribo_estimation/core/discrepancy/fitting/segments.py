@@ -415,12 +415,14 @@ def slip_samples(
     >>> slip_samples(60, (np.array([10, 20]), np.array([15, 25])), 20, 1).tolist()
     [26, 30, 34, 38, 42, 46, 50, 54, 58]
     """
-    ends = (np.zeros(0, np.int64), np.zeros(0, np.int64)) if phases is None else phases
-    lo = np.concatenate(([0], np.asarray(ends[1], dtype=np.int64)))
-    hi = np.concatenate((np.asarray(ends[0], dtype=np.int64), [n]))
-    keep = hi - lo >= min_gap
-    parts = [np.arange(a + guard, b - guard) for a, b in zip(lo[keep], hi[keep], strict=True)]
-    idx = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+    none = np.zeros(0, np.int64)
+    first, stop = (none, none) if phases is None else phases
+    parts = [
+        np.arange(a + guard, b - guard, dtype=np.int64)
+        for a, b in free_stretches(first, stop, n)
+        if b - a >= min_gap
+    ]
+    idx = np.concatenate(parts) if parts else none
     stride = max(SLIP_STRIDE, -(-idx.size // SLIP_MAX))
     return np.asarray(idx[::stride], dtype=np.int64)
 
