@@ -32,3 +32,42 @@ def test_refine_keeps_the_speed_channel_where_no_angles_pin_the_profile() -> Non
     for when in (0.5, 1.5, 2.5, 6.0, 7.5):
         assert float(got.speed(when)) == pytest.approx(5.0, abs=0.05), when
     assert float(got.speed(4.0)) == pytest.approx(0.0, abs=0.01)
+
+
+def test_angle_basis_integrates_the_hat_functions() -> None:
+    # the integral from the first knot of each hat function, against a trapezoid sum on
+    # a 1 us grid (tolerance 1e-9 s: the sum's error on a piecewise quadratic)
+    from tribo_estimation.core.drive import _angle_basis
+
+    rng = np.random.default_rng(5)
+    tk = np.sort(rng.uniform(0.0, 0.2, 7))
+    tt = np.concatenate((rng.uniform(tk[0], 0.25, 50), tk))  # samples on the knots too
+    grid = np.arange(tk[0], 0.25 + 1e-6, 1e-6)
+    got = _angle_basis(tk, tt)
+    for j in range(tk.size):
+        unit = np.zeros(tk.size)
+        unit[j] = 1.0
+        hat = np.interp(grid, tk, unit)  # held at the last knot's value beyond it
+        cum = np.concatenate(([0.0], np.cumsum(0.5 * (hat[1:] + hat[:-1]) * np.diff(grid))))
+        assert got[:, j] == pytest.approx(np.interp(tt, grid, cum), abs=1e-9), j
+
+
+def test_knot_least_squares_matches_an_orthogonal_solve() -> None:
+    # the normal equations give lstsq's solution on a tall design (relative 1e-9), hold
+    # a skipped column at 0, and fall back to lstsq on a rank-deficient design
+    from tribo_estimation.core.drive import _least_squares
+
+    rng = np.random.default_rng(6)
+    a = np.column_stack((np.ones(3000), rng.uniform(0.0, 8.0, (3000, 12))))
+    b = a @ rng.normal(size=13) + rng.normal(0.0, 1e-3, 3000)
+    ref = np.linalg.lstsq(a, b, rcond=None)[0]
+    assert _least_squares(a, b) == pytest.approx(ref, rel=1e-9, abs=1e-12)
+    held = _least_squares(a, b, skip=2)
+    assert held[2] == 0.0
+    ref_held = np.linalg.lstsq(np.delete(a, 2, axis=1), b, rcond=None)[0]
+    assert np.delete(held, 2) == pytest.approx(ref_held, rel=1e-9, abs=1e-12)
+    twin = np.column_stack((a, a[:, 1]))  # two equal columns: not positive definite
+    x = _least_squares(twin, b)
+    assert float(np.sum((twin @ x - b) ** 2)) == pytest.approx(
+        float(np.sum((a @ ref - b) ** 2)), rel=1e-9
+    )

@@ -28,6 +28,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
+from scipy.linalg import solve_triangular
 
 from .signal import moving_average
 
@@ -283,23 +285,53 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
     FloatArray
         Shape ``(tt.size, tk.size)`` [s].
     """
-    k = tk.size
-    out = np.zeros((tt.size, k))
-    h = np.diff(tk)
-    for j in range(k):
-        col = out[:, j]
-        if j > 0:
-            s = np.clip(tt, tk[j - 1], tk[j]) - tk[j - 1]
-            col += s * s / (2.0 * h[j - 1])
-        if j < k - 1:
-            s = np.clip(tt, tk[j], tk[j + 1]) - tk[j]
-            col += s - s * s / (2.0 * h[j])
-        else:  # w0 held constant after the last knot
-            col += np.maximum(tt - tk[j], 0.0)
+    out = np.zeros((tt.size, tk.size))
+    _fill_angle_basis(np.ascontiguousarray(tk), np.ascontiguousarray(tt), out)
     return out
 
 
-def _pull_weights(tk: FloatArray, tt: FloatArray) -> FloatArray:
+@njit(cache=True)
+def _fill_angle_basis(tk: FloatArray, tt: FloatArray, out: FloatArray) -> None:
+    """Write :func:`_angle_basis` into ``out`` (compiled; the same arithmetic per entry).
+
+    A hat function's integral over a whole piece is the same for every sample past
+    it: computed once per knot.
+    """
+    k = tk.shape[0]
+    left = np.zeros(k)  # s*s/(2h) of the piece before knot j at s = h
+    right = np.zeros(k)  # s - s*s/(2h) of the piece after knot j at s = h
+    for j in range(k):
+        if j > 0:
+            h = tk[j] - tk[j - 1]
+            left[j] = h * h / (2.0 * h)
+        if j < k - 1:
+            h = tk[j + 1] - tk[j]
+            right[j] = h - h * h / (2.0 * h)
+    for i in range(tt.shape[0]):
+        x = tt[i]
+        for j in range(k):
+            v = 0.0
+            if j > 0 and x > tk[j - 1]:
+                if x >= tk[j]:
+                    v += left[j]
+                else:
+                    h = tk[j] - tk[j - 1]
+                    s = x - tk[j - 1]
+                    v += s * s / (2.0 * h)
+            if j < k - 1:
+                if x > tk[j]:
+                    if x >= tk[j + 1]:
+                        v += right[j]
+                    else:
+                        h = tk[j + 1] - tk[j]
+                        s = x - tk[j]
+                        v += s - s * s / (2.0 * h)
+            else:  # w0 held constant after the last knot
+                v += max(x - tk[j], 0.0)
+            out[i, j] = v
+
+
+def _pull_weights(tk: FloatArray, tt: FloatArray, tt_sorted: bool = False) -> FloatArray:
     """Return the weight of each knot's pull toward the prior profile [s].
 
     A knot with angles on its hat function's support is pinned by them: a weak pull
@@ -315,13 +347,15 @@ def _pull_weights(tk: FloatArray, tt: FloatArray) -> FloatArray:
         Knot times [s].
     tt : FloatArray
         Times of the angles [s], sorted or not.
+    tt_sorted : bool
+        ``tt`` is sorted already.
 
     Returns
     -------
     FloatArray
         One weight per knot [s].
     """
-    ts = np.sort(tt)
+    ts = tt if tt_sorted else np.sort(tt)
     lo = np.concatenate((tk[:1], tk[:-1]))
     hi = np.concatenate((tk[1:], tk[-1:]))
     n_in = np.searchsorted(ts, hi, side='right') - np.searchsorted(ts, lo, side='left')
@@ -334,6 +368,7 @@ def _solve_speeds(
     ph: FloatArray,
     start: float | None = None,
     prior: Prior | None = None,
+    tt_sorted: bool = False,
 ) -> tuple[FloatArray, float]:
     """Solve the knot speeds of the least-squares fit ``c + integral of w0`` to angles.
 
@@ -355,6 +390,8 @@ def _solve_speeds(
         The first knot's speed [rad/s] when known (a drive starting from rest).
     prior : tuple of FloatArray, optional
         Knot times [s] and speeds [rad/s] of the profile the knots are pulled toward.
+    tt_sorted : bool
+        ``tt`` is sorted already.
 
     Returns
     -------
@@ -377,18 +414,39 @@ def _solve_speeds(
         basis = np.vstack((basis, d2))
         rhs = np.concatenate((rhs, np.zeros(k - 2)))
     if prior is not None:
-        weight = _pull_weights(tk, tt)
+        weight = _pull_weights(tk, tt, tt_sorted)
         if start is not None:
             weight[0] = 0.0
         pull = np.zeros((k, k + 1))
         pull[:, 1:] = np.diag(weight)
         basis = np.vstack((basis, pull))
         rhs = np.concatenate((rhs, weight * np.interp(tk, *prior)))
-    sol, *_ = np.linalg.lstsq(basis, rhs, rcond=None)
+    sol = _least_squares(basis, rhs, skip=1 if start is not None else -1)
     r = basis[: tt.size] @ sol - rhs[: tt.size]
     if start is not None:
         sol[1] = start
     return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
+
+
+def _least_squares(a: FloatArray, b: FloatArray, skip: int = -1) -> FloatArray:
+    """Solve ``a @ x ~ b`` by the normal equations, column ``skip`` held at 0.
+
+    The knot fit's design is tall and thin (thousands of angles, tens of knots) and
+    well conditioned (the penalty and pull rows keep every knot speed pinned): a
+    Cholesky factor of ``a^T a`` is several times faster than an orthogonal
+    factorisation; a design that is not positive definite goes to ``lstsq``.
+    """
+    cols = np.arange(a.shape[1]) if skip < 0 else np.delete(np.arange(a.shape[1]), skip)
+    sub = a[:, cols]
+    x = np.zeros(a.shape[1])
+    ata, atb = sub.T @ sub, sub.T @ b
+    try:
+        low = np.linalg.cholesky(ata)
+    except np.linalg.LinAlgError:
+        x[cols] = np.linalg.lstsq(sub, b, rcond=None)[0]
+        return x
+    x[cols] = solve_triangular(low.T, solve_triangular(low, atb, lower=True), lower=False)
+    return x
 
 
 def _outliers(
@@ -518,7 +576,9 @@ def _place(
         # trial is a least-squares solve over them
         pick = np.linspace(0, tt.size - 1, _PLACE_SAMPLES).astype(np.int64)
         tt, ph = tt[pick], ph[pick]
-    _, best = _solve_speeds(tk, tt, ph, start, prior)
+    order = np.argsort(tt, kind='stable')  # sorted once for every trial's knot weights
+    tt, ph = tt[order], ph[order]
+    _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True)
     idx = np.flatnonzero(free).tolist()
     moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
     for j in idx:
@@ -543,7 +603,7 @@ def _place(
                     trial[ks] += d * dirs
                     if not np.all(np.diff(trial) > _MIN_PIECE):
                         continue
-                    _, sse = _solve_speeds(trial, tt, ph, start, prior)
+                    _, sse = _solve_speeds(trial, tt, ph, start, prior, tt_sorted=True)
                     if sse < best:
                         best, tk = sse, trial
         if tk is before:  # a sweep without a move: the next would repeat it exactly

@@ -98,3 +98,17 @@ def test_a_speed_step_out_of_stick_slip_is_placed_from_the_sliding_angles() -> N
     assert inner.size == 2
     assert inner == pytest.approx([1.0, 1.015], abs=1e-3)
     assert de.knot_speed[[0, -1]] == pytest.approx([a, b], rel=1e-3)
+
+
+def test_a_sensor_cells_profile_does_not_depend_on_the_cells_visited_before() -> None:
+    # every sensor cell's corners are searched from those of the sensor-free cell: the
+    # same values give the same simulation to the last bit whichever cells came first
+    rec, rig, drv = record(3, step(rpm(12), rpm(30), 1.0), duration=2.0)
+    b = {**TRUTH, 'speed_lag_tau': 0.004, 'speed_offset': 0.05}
+    c = {**TRUTH, 'speed_lag_tau': 0.0015, 'speed_offset': -0.03}
+    first = Problem(rec, rig, drv, k=TRUTH['k'])
+    first.simulate(c)
+    after_c = first.simulate(b)
+    alone = Problem(rec, rig, drv, k=TRUTH['k']).simulate(b)
+    assert np.array_equal(after_c.torsion_moment, alone.torsion_moment, equal_nan=True)
+    assert np.array_equal(after_c.speed, alone.speed, equal_nan=True)

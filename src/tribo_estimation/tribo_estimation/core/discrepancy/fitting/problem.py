@@ -624,8 +624,9 @@ class Problem:
         before: its corners are those placed for the speed sensor's cell (lag in steps
         of :data:`_REPLACE_LAG`, offset in steps of :data:`_REPLACE_OFFSET`: a sensor
         change moves the corners by about the change of the lag, below the
-        placement's 0.1 ms grid within a cell), placed once per cell from the smoothed
-        speed's profile; the knot speeds are then solved for these arguments
+        placement's 0.1 ms grid within a cell), placed once per cell: the cell without
+        a sensor from the smoothed speed's profile, every other cell locally (fine
+        grids) from that cell's corners; the knot speeds are then solved for these arguments
         (:meth:`_angle_drive`, whose parameters ``tau``, ``offset``, ``ripple`` and
         ``torque`` these are).
         """
@@ -636,9 +637,16 @@ class Problem:
             cell = (round(tau / _REPLACE_LAG), round(offset / _REPLACE_OFFSET))
             placed = self._placed.get(cell)
             if placed is None:
+                # the cell without a sensor (placed when the problem is built) places
+                # the corners from the smoothed speed's profile; every other cell
+                # starts from its corners (a sensor moves them by about its lag) and
+                # searches locally, so a cell's profile never depends on the order
+                # the cells were visited in
+                ref = self._placed.get((0, 0))
                 placed = self._angle_drive(
                     cell[0] * _REPLACE_LAG, cell[1] * _REPLACE_OFFSET, _NO_RIPPLE, (0.0, 0.0),
-                    self._drive_speed0, place=True,
+                    self._drive_speed0 if ref is None else ref, place=True,
+                    local=ref is not None,
                 )  # fmt: skip
                 self._placed[cell] = placed
             self.drive_estimate = self._angle_drive(
@@ -655,6 +663,7 @@ class Problem:
         drive: DriveEstimate,
         *,
         place: bool,
+        local: bool = False,
     ) -> DriveEstimate:
         """Return the drive profile fitted to the drive angles (stick and sliding samples).
 
@@ -677,6 +686,9 @@ class Problem:
             The profile to start from (its corners kept unless ``place``).
         place : bool
             Search the corner times.
+        local : bool
+            The corners of ``drive`` were placed before (for another speed-sensor
+            cell): searched locally from there (fine grids only).
 
         Returns
         -------
@@ -728,7 +740,7 @@ class Problem:
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle, hints, place=place,
-                start_speed=self._start_speed, keep_corners=it > 0,
+                start_speed=self._start_speed, keep_corners=local or it > 0,
                 prior=self._drive_speed0,
             )  # fmt: skip
         return drive
