@@ -71,3 +71,16 @@ def test_knot_least_squares_matches_an_orthogonal_solve() -> None:
     assert float(np.sum((twin @ x - b) ** 2)) == pytest.approx(
         float(np.sum((a @ ref - b) ** 2)), rel=1e-9
     )
+
+
+def test_a_known_start_speed_enters_the_knot_penalty() -> None:
+    # a drive at 2 rad/s + 0.5 rad/s^2, its first knot's speed known: noise-free angles
+    # give the knot speeds to 1e-10 rad/s (the second-difference penalty is zero at
+    # the truth only when it sees the known 2 rad/s, not 0)
+    from tribo_estimation.core.drive import _solve_speeds
+
+    tk = np.linspace(0.0, 1.0, 6)
+    tt = np.sort(np.random.default_rng(1).uniform(0.0, 1.0, 40))
+    vk, sse = _solve_speeds(tk, tt, 0.3 + 2.0 * tt + 0.25 * tt * tt, start=2.0)
+    assert vk == pytest.approx(2.0 + 0.5 * tk, abs=1e-10)
+    assert sse < 1e-20

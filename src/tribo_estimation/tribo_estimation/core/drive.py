@@ -421,6 +421,8 @@ def _solve_speeds(
         pull[:, 1:] = np.diag(weight)
         basis = np.vstack((basis, pull))
         rhs = np.concatenate((rhs, weight * np.interp(tk, *prior)))
+    if start is not None:  # the known speed in the penalty rows too (its column is skipped)
+        rhs = np.concatenate((rhs[: tt.size], rhs[tt.size :] - start * basis[tt.size :, 1]))
     sol = _least_squares(basis, rhs, skip=1 if start is not None else -1)
     r = basis[: tt.size] @ sol - rhs[: tt.size]
     if start is not None:

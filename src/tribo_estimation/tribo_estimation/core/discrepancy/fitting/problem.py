@@ -637,11 +637,7 @@ class Problem:
             cell = (round(tau / _REPLACE_LAG), round(offset / _REPLACE_OFFSET))
             placed = self._placed.get(cell)
             if placed is None:
-                # the cell without a sensor (placed when the problem is built) places
-                # the corners from the smoothed speed's profile; every other cell
-                # starts from its corners (a sensor moves them by about its lag) and
-                # searches locally, so a cell's profile never depends on the order
-                # the cells were visited in
+                # the sensor-free cell is placed when the problem is built
                 ref = self._placed.get((0, 0))
                 placed = self._angle_drive(
                     cell[0] * _REPLACE_LAG, cell[1] * _REPLACE_OFFSET, _NO_RIPPLE, (0.0, 0.0),
