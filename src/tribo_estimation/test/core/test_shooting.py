@@ -12,6 +12,9 @@ from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.config import load_rig_config
 from tribo_estimation.core.model import DriveProfile, pack_params
 from tribo_estimation.core.shooting import (
+    lag2_segments,
+    lag_segments,
+    second_order_lag,
     shoot,
     stuck_kinematics,
     stuck_states,
@@ -113,3 +116,42 @@ def test_the_averaged_belt_deflection_is_exact_and_averages_the_accelerometer_no
     draws = np.array([errors(a + rng.normal(0.0, CFG.noise.accel, n)) for _ in range(30)])
     rms = np.sqrt(np.mean(draws**2, axis=0))
     assert rms[1] < 0.25 * rms[0]
+
+
+def test_the_second_order_sensor_is_exact_for_an_input_linear_between_samples() -> None:
+    from scipy.integrate import solve_ivp
+
+    dt, n = 1e-4, 300
+    t = np.arange(n) * dt
+    x = np.sin(2 * np.pi * 80 * t) + 40.0 * t  # an 80 Hz oscillation on a ramp [rad/s]
+    a1, a2 = 2e-3, 1.5e-6  # [s], [s^2]
+    out, out_d = np.zeros(n), np.zeros(n)
+    y0, yd0 = 0.2, 5.0  # state before the first sample (input held at x[0] before it)
+    lag2_segments(x, np.array([0]), np.array([n]), np.array([y0]), np.array([yd0]),
+                  second_order_lag(a1, a2, dt), out, out_d)  # fmt: skip
+
+    def rhs(tt: float, s: np.ndarray) -> list[float]:
+        u = float(np.interp(tt, t, x)) if tt >= 0.0 else float(x[0])
+        return [s[1], (u - s[0] - a1 * s[1]) / a2]
+
+    ref = solve_ivp(rhs, (-dt, t[-1]), [y0, yd0], t_eval=t, method='DOP853',
+                    rtol=1e-11, atol=1e-13, max_step=dt / 4)  # fmt: skip
+    # the matrix-exponential step is exact: to the ODE solver's tolerance
+    assert np.max(np.abs(out - ref.y[0])) < 1e-9
+    assert np.max(np.abs(out_d - ref.y[1])) < 1e-5 * np.max(np.abs(ref.y[1]))
+
+
+def test_a_vanishing_second_order_is_the_first_order_sensor() -> None:
+    dt, n = 1e-4, 300
+    t = np.arange(n) * dt
+    x = np.sin(2 * np.pi * 80 * t) + 40.0 * t
+    a1 = 2e-3
+    a = float(np.exp(-dt / a1))
+    first = np.zeros(n)
+    lag_segments(x, np.array([0]), np.array([n]), np.array([0.2]), a, first, (1 - a) * a1 / dt)
+    second, d = np.zeros(n), np.zeros(n)
+    lag2_segments(x, np.array([0]), np.array([n]), np.array([0.2]), np.array([0.0]),
+                  second_order_lag(a1, 1e-3 * dt * dt, dt), out=second, out_d=d)  # fmt: skip
+    # a2 = 1e-3 dt^2 (the threshold below which the first order is used): the two
+    # differ by under 1e-3 of the largest change per sample
+    assert np.max(np.abs(first - second)) < 1e-3 * np.max(np.abs(np.diff(x)))

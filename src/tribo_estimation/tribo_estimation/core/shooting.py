@@ -457,6 +457,93 @@ def lag_segments(
             out[i] = y
 
 
+def second_order_lag(a1: float, a2: float, dt: float) -> FloatArray:
+    """Return the exact step of a second-order sensor for an input linear between samples.
+
+    The sensor ``a2*y'' + a1*y' + y = x`` (``a1 = 2*zeta/omega`` [s], ``a2 = 1/omega^2``
+    [s^2]) with state ``s = (y, y')``: over one sample interval, with ``x`` linear
+    between samples, ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])``, from the
+    matrix exponential of the system augmented by the input and its slope.
+
+    Parameters
+    ----------
+    a1 : float
+        First-order coefficient [s] (> 0).
+    a2 : float
+        Second-order coefficient [s^2] (> 0).
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    FloatArray
+        ``(Phi00, Phi01, Phi10, Phi11, g0_0, g0_1, g1_0, g1_1)``, the units of ``s``.
+
+    Examples
+    --------
+    >>> c = second_order_lag(2e-3, 1e-6, 1e-4)
+    >>> bool(abs(c[0] + c[4] - 1.0) < 1e-12)  # a constant input is kept
+    True
+    """
+    from scipy.linalg import expm
+
+    m = np.zeros((4, 4))
+    m[0, 1] = 1.0
+    m[1, 0] = -1.0 / a2
+    m[1, 1] = -a1 / a2
+    m[1, 2] = 1.0 / a2
+    m[2, 3] = 1.0
+    e = expm(m * dt)
+    return np.array(
+        [e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2], e[0, 3] / dt, e[1, 3] / dt]
+    )
+
+
+@njit(cache=True, nogil=True)
+def lag2_segments(
+    x: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    y_prev: np.ndarray,
+    yd_prev: np.ndarray,
+    c: np.ndarray,
+    out: np.ndarray,
+    out_d: np.ndarray,
+) -> None:
+    """Apply a second-order sensor per segment, each from its own filter state.
+
+    ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])`` with ``s = (y, y')`` and
+    the coefficients of :func:`second_order_lag`; before a segment the input is held
+    at its first sample (as :func:`lag_segments`).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Sensor input [unit].
+    starts, stops : numpy.ndarray
+        First and stop (exclusive) sample of each segment.
+    y_prev, yd_prev : numpy.ndarray
+        Filter output [unit] and its slope [unit/s] before each segment's first sample.
+    c : numpy.ndarray
+        The eight coefficients of :func:`second_order_lag`.
+    out, out_d : numpy.ndarray
+        Sensor output [unit] and its slope [unit/s], written per segment.
+    """
+    for k in range(starts.shape[0]):
+        y = y_prev[k]
+        yd = yd_prev[k]
+        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
+        for i in range(starts[k], stops[k]):
+            dx = x[i] - x_prev
+            y, yd = (
+                c[0] * y + c[1] * yd + c[4] * x_prev + c[6] * dx,
+                c[2] * y + c[3] * yd + c[5] * x_prev + c[7] * dx,
+            )
+            x_prev = x[i]
+            out[i] = y
+            out_d[i] = yd
+
+
 # ------------------------------------------------------------- local polynomials
 def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
     """Return the rows (value, slope per sample) of the least-squares cubic.
@@ -703,8 +790,10 @@ def stuck_kinematics(
 __all__ = [
     'STUCK_HALF',
     'DriveKnots',
+    'lag2_segments',
     'lag_segments',
     'local_cubic',
+    'second_order_lag',
     'shoot',
     'sliding_states',
     'stuck_kinematics',

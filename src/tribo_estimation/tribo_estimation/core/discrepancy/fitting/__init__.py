@@ -39,7 +39,7 @@ from .instrument import (
     identify_torsion_lag,
     speed_sensor_output,
     speed_slope,
-    stuck_speed_through_lag,
+    stuck_sensor_states,
     torsion_compensated_record,
 )
 from .problem import Problem
@@ -60,6 +60,7 @@ from .records import (
     SHAFT_FIELDS,
     SPEED_LAG,
     SPEED_OFFSET,
+    SPEED_SHAPE,
     FitOutcome,
     Record,
     Segments,
@@ -101,6 +102,7 @@ __all__ = [
     'SLIDE_WIN',
     'SPEED_LAG',
     'SPEED_OFFSET',
+    'SPEED_SHAPE',
     'UNKNOWN_DWELL',
     'AccelSensor',
     'FitOutcome',
@@ -125,6 +127,6 @@ __all__ = [
     'speed_slope',
     'stick_runs',
     'stuck_before_onset',
-    'stuck_speed_through_lag',
+    'stuck_sensor_states',
     'torsion_compensated_record',
 ]

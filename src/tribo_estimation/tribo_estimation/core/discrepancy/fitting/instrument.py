@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
-from tribo_estimation.core.shooting import lag_segments
+from tribo_estimation.core.shooting import lag2_segments, lag_segments, second_order_lag
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
@@ -623,17 +623,26 @@ def identify_accel_sensor(record: Record, rig: RigParams) -> AccelSensor:
     return AccelSensor(g if use_g else 1.0, g_se, b, b_se)
 
 
-def stuck_speed_through_lag(
-    record: Record, segments: Segments, speed_start: FloatArray, slope: FloatArray, tau: float
-) -> FloatArray:
-    """Return the shaft speed at the segment starts behind a first-order speed sensor.
+def stuck_sensor_states(
+    record: Record,
+    segments: Segments,
+    speed_start: FloatArray,
+    slope: FloatArray,
+    tau: float,
+    a2: float = 0.0,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Return the shaft speed and the speed sensor's state at the segment starts.
 
     Inverting ``w = y + tau*y'`` pointwise multiplies the speed noise by ``tau``
     over the derivative's window (x10 at 5 ms); instead the whole stick phase is
     used: while stuck, ``w = w_s + A(t)`` with ``A`` the integrated measured
-    acceleration, so the sensor shows ``y = w_s + lag(A) + d*exp(-(t - t_s)/tau)``
-    (the filter's memory of the slip before), a linear regression in ``w_s`` and
-    ``d`` over the phase.
+    acceleration, and the sensor (first order, or ``a2*y'' + tau*y' + y = w``) shows
+    ``y = w_s + L(A) + c1*h1 (+ c2*h2)`` with ``L`` its response from rest and ``h1``
+    (``h2``) its free response from a unit output (slope): the filter's memory of
+    the slip before. A linear regression over the phase gives ``w_s``, and the
+    fitted output (and slope) before each start is the sensor's state there, the
+    same for either order as ``a2`` goes to 0 (a smoothed slope of the measured
+    speed is no second-order state: at a stick onset the sensor still rings).
 
     Parameters
     ----------
@@ -646,41 +655,82 @@ def stuck_speed_through_lag(
     slope : FloatArray
         Slope of the speed channel per sample (:func:`speed_slope`) [rad/s^2].
     tau : float
-        Speed-sensor lag [s], > 0.
+        First-order coefficient (lag) of the sensor [s], > 0.
+    a2 : float
+        Second-order coefficient of the sensor [s^2] (0: first order).
 
     Returns
     -------
-    FloatArray
-        Shaft speed at each segment start [rad/s] (sensor offset not removed);
-        ``y + tau*y'`` where a stick phase is too short for the regression.
+    tuple of FloatArray
+        Shaft speed at each segment start [rad/s] (sensor offset not removed;
+        ``y + tau*y'`` where a stick phase is too short for the regression), the
+        sensor's output [rad/s] and slope [rad/s^2] before each start (the measured
+        speed and slope at the start where too short).
     """
     seg = segments
     dt = record.dt
     acc = record.angular_acceleration
-    fallback = speed_start + tau * slope[seg.start]
+    w = speed_start + tau * slope[seg.start]
+    y0 = speed_start.copy()
+    yd0 = slope[seg.start].copy()
     if seg.run_start is None or seg.run_stop is None:
-        return fallback
-    out = fallback.copy()
+        return w, y0, yd0
+    second = a2 > 0.0
+    c = second_order_lag(tau, a2, dt) if second else np.zeros(8)
     alpha = math.exp(-dt / tau)
     c_hold = (1.0 - alpha) * tau / dt
+    zero = np.zeros(1, np.int64)
     for k, (i, ra, rb) in enumerate(zip(seg.start, seg.run_start, seg.run_stop, strict=True)):
+        # regressed over the phase less its ends (the detected onset may still slip),
+        # the model running from the start when the start lies before that window
         lo = int(ra) + CHAMBER_HALF
         hi = int(rb) - CHAMBER_HALF
-        if hi - lo < 10 or not lo <= int(i) < hi:
+        if hi - lo < 10 or not int(ra) <= int(i) < hi:
             continue
-        a = acc[lo:hi]
+        base = min(int(i), lo)
+        a = acc[base:hi]
         big_a = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
-        lag_a = np.empty(big_a.size)
-        zero = np.zeros(1, np.int64)
-        lag_segments(big_a, zero, zero + big_a.size, np.zeros(1), alpha, lag_a, c_hold)
-        z = record.speed[lo:hi] - lag_a
-        x = np.column_stack((np.ones(z.size), alpha ** np.arange(z.size)))
+        m = big_a.size
+        # columns: the response from rest to A, then the free responses from a unit
+        # output and (second order) a unit slope before the first sample
+        cols = np.zeros((3, m))
+        slopes = np.zeros((3, m))
+        if second:
+            free = np.zeros(m)
+            for row, (x, s0, d0) in enumerate(
+                ((big_a, 0.0, 0.0), (free, 1.0, 0.0), (free, 0.0, 1.0))
+            ):
+                lag2_segments(
+                    x, zero, zero + m, np.array([s0]), np.array([d0]), c, cols[row], slopes[row]
+                )
+        else:
+            lag_segments(big_a, zero, zero + m, np.zeros(1), alpha, cols[0], c_hold)
+            cols[1] = alpha ** np.arange(1, m + 1)
+        x_mat = np.column_stack((np.ones(m), cols[1], cols[2]) if second else (np.ones(m), cols[1]))
+        fit = slice(lo - base, m)
         try:
-            coef, *_ = np.linalg.lstsq(x, z, rcond=None)
+            coef, *_ = np.linalg.lstsq(x_mat[fit], record.speed[lo:hi] - cols[0][fit], rcond=None)
         except np.linalg.LinAlgError:
             continue
-        out[k] = float(coef[0]) + float(big_a[int(i) - lo])
-    return out
+        c_free = np.append(coef[1:], 0.0)
+        j = int(i) - base - 1
+        w[k] = float(coef[0]) + float(big_a[j + 1])
+        if j < 0:  # the state before the first sample: the free responses' own
+            y0[k] = float(coef[0] + c_free[0])
+            yd0[k] = float(c_free[1])
+        else:
+            y0[k] = float(coef[0] + cols[0, j] + c_free[0] * cols[1, j] + c_free[1] * cols[2, j])
+            yd0[k] = float(slopes[0, j] + c_free[0] * slopes[1, j] + c_free[1] * slopes[2, j])
+    return w, y0, yd0
+
+
+#: A second-order term ``a2`` below this fraction of dt^2 is the first order [-]: its
+#: response differs from the first order's by about 1e-8 of a sample's change, and
+#: the matrix exponential of :func:`~tribo_estimation.core.shooting.second_order_lag`
+#: is accurate to 1e-7 down to 1e-9 dt^2 (below, it loses digits). Kept this low so
+#: that a forward-difference step of ``speed_lag_shape`` from 0 (1e-5) reaches the
+#: second order for any lag above 0.1 dt.
+FIRST_ORDER_A2 = 1e-7
 
 
 def speed_sensor_output(
@@ -690,13 +740,17 @@ def speed_sensor_output(
     speed_start: FloatArray,
     dt: float,
     values: Mapping[str, float],
+    slope_start: FloatArray | None = None,
 ) -> FloatArray:
     """Pass a simulated shaft speed through the speed sensor.
 
-    First-order lag ``speed_lag_tau`` [s] (its state at each segment start = the
-    measured speed there, less the offset) and zero offset ``speed_offset``
-    [rad/s]; the lag is the exact form for an input linear between samples
-    (:func:`tribo_estimation.core.shooting.lag_segments`).
+    Lag ``speed_lag_tau`` [s] (its state at each segment start = the measured speed
+    there, less the offset) and zero offset ``speed_offset`` [rad/s]; the lag is the
+    exact form for an input linear between samples: first order
+    (:func:`tribo_estimation.core.shooting.lag_segments`) or, with
+    ``speed_lag_shape`` > 0, second order ``a2*y'' + tau*y' + y = w`` with
+    ``a2 = speed_lag_shape*tau^2`` (:func:`tribo_estimation.core.shooting.lag2_segments`,
+    its slope state at the start the measured speed's slope there).
 
     Parameters
     ----------
@@ -712,6 +766,9 @@ def speed_sensor_output(
         Sample interval [s].
     values : mapping of str to float
         Model values holding the instrument terms (missing: 0).
+    slope_start : FloatArray, optional
+        Measured speed's slope at every segment start [rad/s^2] (a second-order
+        sensor's state; default 0).
 
     Returns
     -------
@@ -720,10 +777,23 @@ def speed_sensor_output(
     """
     tau = float(values.get('speed_lag_tau', 0.0))
     off = float(values.get('speed_offset', 0.0))
+    a2 = float(values.get('speed_lag_shape', 0.0)) * tau * tau
     if tau <= 0.0 and off == 0.0:
         return w2
     out = w2.copy()
-    if tau > 0.0:
+    if tau > 0.0 and a2 > FIRST_ORDER_A2 * dt * dt:
+        yd = np.zeros(segments.n) if slope_start is None else slope_start
+        lag2_segments(
+            w2,
+            segments.start[sel],
+            segments.stop[sel],
+            speed_start[sel] - off,
+            yd[sel],
+            second_order_lag(tau, a2, dt),
+            out,
+            np.empty_like(out),
+        )
+    elif tau > 0.0:
         a = math.exp(-dt / tau)
         lag_segments(
             w2,

@@ -52,10 +52,11 @@ from .. import candidates as cand_lib
 from ..candidates import ParamSpec
 from ..stats import FloatArray
 from .instrument import (
+    FIRST_ORDER_A2,
     rig_chamber_speed,
     speed_sensor_output,
     speed_slope,
-    stuck_speed_through_lag,
+    stuck_sensor_states,
 )
 from .records import (
     CHANNELS,
@@ -310,7 +311,9 @@ class Problem:
         self._w1_slide = (
             sliding_chamber_speed(record, i, rig) if seg.sliding_starts.any() else np.zeros(i.size)
         )
-        self._instrument: tuple[float, ...] = (math.nan,) * 9
+        self._instrument: tuple[float, ...] = (math.nan,) * 10
+        #: the speed sensor's output and slope before each segment start [rad/s, rad/s^2]
+        self._sensor_start: tuple[FloatArray, FloatArray] = (self._speed_start, np.zeros(0))
         #: the drive profile placed once per speed-sensor cell (:meth:`_fit_drive`)
         self._placed: dict[tuple[int, int], DriveEstimate] = {}
         self._set_instrument(0.0, 0.0)
@@ -478,6 +481,7 @@ class Problem:
         self._set_instrument(
             float(values.get('speed_lag_tau', 0.0)),
             float(values.get('speed_offset', 0.0)),
+            float(values.get('speed_lag_shape', 0.0)),
             (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase, ext.ripple2_amp, ext.ripple2_phase),
             (ext.torque_offset, ext.torque_offset_drift),
         )
@@ -535,8 +539,11 @@ class Problem:
             else seg
         )  # fmt: skip
         sel_used = np.ones(1, dtype=bool) if continuous else sel
-        speed_start = self._speed_start[sel] if continuous else self._speed_start
-        speed = speed_sensor_output(out[kn.OUT_SPEED], used, sel_used, speed_start, rec.dt, values)
+        y0, yd0 = self._sensor_start
+        speed = speed_sensor_output(
+            out[kn.OUT_SPEED], used, sel_used, y0[sel] if continuous else y0, rec.dt, values,
+            yd0[sel] if continuous else yd0,
+        )  # fmt: skip
         torsion, _ = apply_measurement_transforms(
             ext, rec.time, out[kn.OUT_TORSION].copy(), rec.dt,
             segments=(seg.start[sel], stops), measured_first=m_meas,
@@ -557,6 +564,7 @@ class Problem:
         self,
         tau: float,
         offset: float,
+        shape: float = 0.0,
         ripple: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0),
         torque: tuple[float, float] = (0.0, 0.0),
     ) -> None:
@@ -564,10 +572,14 @@ class Problem:
 
         While stuck the discs share one speed w with w' = the measured
         acceleration a, and a first-order sensor shows y with ``w = y + tau*y'``,
-        ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``. The measured
-        chamber speed channel is ``w1(start) + integral of a`` per segment (a sliding
-        start's w1 from the torsion moment, :func:`.segments.sliding_chamber_speed`). The
-        drive profile is then re-fitted (:meth:`_fit_drive`).
+        ``y' = a`` (slowly varying a): ``w = y - offset + tau*a``, taken from a
+        regression over the stick phase, which gives the sensor's state there too,
+        of first or (``shape`` > 0, :data:`.records.SPEED_SHAPE`) second order
+        (:func:`.instrument.stuck_sensor_states`); the drive profile uses the
+        first-order inversion. The measured chamber speed channel is
+        ``w1(start) + integral of a`` per segment (a sliding start's w1 from the torsion
+        moment, :func:`.segments.sliding_chamber_speed`). The drive profile is then
+        re-fitted (:meth:`_fit_drive`).
 
         Parameters
         ----------
@@ -575,28 +587,32 @@ class Problem:
             Speed-sensor lag [s].
         offset : float
             Speed-sensor offset [rad/s].
+        shape : float
+            The sensor's second order (:data:`.records.SPEED_SHAPE`) [-].
         ripple : tuple of float
             The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad],
             second harmonic's amplitude [rad/s] and phase [rad]).
         torque : tuple of float
             The model's torque offset [N m] and drift [N m/s].
         """
-        key = (tau, offset, *ripple, *torque)
+        key = (tau, offset, shape, *ripple, *torque)
         if self._instrument == key:
             return
-        same_sensor = self._instrument[:2] == (tau, offset)
+        same_sensor = self._instrument[:3] == (tau, offset, shape)
         self._instrument = key
         if same_sensor:  # only the model's drive ripple or torque offset changed
             self._fit_drive(tau, offset, ripple, torque)
             return
         rec = self.record
+        self._sensor_start = (self._speed_start, self._speed_slope[self.segments.start])
         if tau > 0.0:
-            self._w_start = (
-                stuck_speed_through_lag(
-                    rec, self.segments, self._speed_start, self._speed_slope, tau
-                )
-                - offset
-            )
+            a2 = shape * tau * tau
+            w, y0, yd0 = stuck_sensor_states(
+                rec, self.segments, self._speed_start, self._speed_slope, tau,
+                a2 if a2 > FIRST_ORDER_A2 * rec.dt * rec.dt else 0.0,
+            )  # fmt: skip
+            self._w_start = w - offset
+            self._sensor_start = (y0, yd0)
         else:
             self._w_start = self._speed_stuck - offset
         w1 = np.full(rec.time.size, np.nan)

@@ -56,7 +56,12 @@ K_DECAY = ParamSpec('k', 's/rad', 0.05, 100.0, 1.0, 2.0, log=True)
 #: other channels are insensitive to both.
 SPEED_LAG = ParamSpec('speed_lag_tau', 's', 0.0, 0.02, 1e-3, 0.0)
 SPEED_OFFSET = ParamSpec('speed_offset', 'rad/s', -1.0, 1.0, 0.01, 0.0)
-INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET)
+#: The speed sensor's second order: ``a2*y'' + tau*y' + y = w`` with
+#: ``a2 = speed_lag_shape*tau^2`` (0: first order; 1/(4 zeta^2) for a damping ratio
+#: zeta). Bounded at 2, a damping ratio of 0.35: a tachometer filter ringing more
+#: than that overshoots a step by over 30 % (docs/physics.md).
+SPEED_SHAPE = ParamSpec('speed_lag_shape', '-', 0.0, 2.0, 0.1, 0.0)
+INSTRUMENT: tuple[ParamSpec, ...] = (SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE)
 INSTRUMENT_FIELDS: frozenset[str] = frozenset(p.name for p in INSTRUMENT)
 
 #: The shaft side of the rig (Equ. 2: I2, K2, C2) as factors on RIG.yaml's design

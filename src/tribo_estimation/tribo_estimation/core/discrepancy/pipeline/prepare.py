@@ -40,6 +40,7 @@ from ..fitting import (
     SHAFT,
     SPEED_LAG,
     SPEED_OFFSET,
+    SPEED_SHAPE,
     Problem,
     Record,
     SimulatedRecord,
@@ -288,10 +289,10 @@ def fit_record_baseline(
     values = one.split(fo.values)[0]
     sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
-    # the chamber's inertia is free from here on, with the speed sensor's lag and offset
-    # when the lag is significant
+    # the chamber's inertia is free from here on, with the speed sensor's lag, offset and
+    # second order when the lag is significant
     lagged = sensor['speed_lag_tau'] > 0.0
-    pb.free_instrument = (*((SPEED_LAG, SPEED_OFFSET) if lagged else ()), CHAMBER_I1)
+    pb.free_instrument = (*((SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE) if lagged else ()), CHAMBER_I1)
     one = Ensemble([pb])
     fo = one.fit(
         one.specs(), one.join([{**values, CHAMBER_I1.name: CHAMBER_I1.initial}]),
@@ -310,6 +311,11 @@ def fit_record_baseline(
             if isinstance(entry, dict):
                 entry['used'] = values[name]
                 entry['se_joint'] = fo.se.get(own(name, 0), math.nan)
+        inst[SPEED_SHAPE.name] = {
+            'value': values.get(SPEED_SHAPE.name, 0.0),
+            'se': fo.se.get(own(SPEED_SHAPE.name, 0), math.nan),
+            'unit': '-',
+        }
     say(
         f'baseline: mu0 = {values["mu0"]:.4f}, mu_inf = {values["mu_inf"]:.4f}, '
         f'k = {values["k"]:.3g} s/rad, '
