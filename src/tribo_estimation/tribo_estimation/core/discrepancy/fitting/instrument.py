@@ -744,13 +744,13 @@ def speed_sensor_output(
 ) -> FloatArray:
     """Pass a simulated shaft speed through the speed sensor.
 
-    Lag ``speed_lag_tau`` [s] (its state at each segment start = the measured speed
-    there, less the offset) and zero offset ``speed_offset`` [rad/s]; the lag is the
-    exact form for an input linear between samples: first order
+    Lag ``speed_lag_tau`` [s] (its state before each segment start given, less the
+    offset) and zero offset ``speed_offset`` [rad/s]; the lag is the exact form for an
+    input linear between samples: first order
     (:func:`tribo_estimation.core.shooting.lag_segments`) or, with
     ``speed_lag_shape`` > 0, second order ``a2*y'' + tau*y' + y = w`` with
     ``a2 = speed_lag_shape*tau^2`` (:func:`tribo_estimation.core.shooting.lag2_segments`,
-    its slope state at the start the measured speed's slope there).
+    its slope state given too).
 
     Parameters
     ----------
@@ -761,14 +761,15 @@ def speed_sensor_output(
     sel : numpy.ndarray of bool
         Selected segments.
     speed_start : FloatArray
-        Measured speed at every segment start [rad/s].
+        The sensor's output before every segment start, offset included [rad/s]
+        (:func:`stuck_sensor_states`, or the measured speed there).
     dt : float
         Sample interval [s].
     values : mapping of str to float
         Model values holding the instrument terms (missing: 0).
     slope_start : FloatArray, optional
-        Measured speed's slope at every segment start [rad/s^2] (a second-order
-        sensor's state; default 0).
+        The sensor's output slope before every segment start [rad/s^2] (a
+        second-order sensor's state; default 0).
 
     Returns
     -------
