@@ -10,8 +10,10 @@ from tribo_estimation.core.discrepancy.fitting.segments import (
     SLIP_STRIDE,
     free_stretches,
     sliding_segments,
+    slip_peak_starts,
     slip_samples,
 )
+from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.record import RigRecord
 from tribo_estimation.errors import TooShortError
 
@@ -92,3 +94,33 @@ def test_slip_samples_are_at_most_slip_max() -> None:
     idx = slip_samples(10 * SLIP_MAX * SLIP_STRIDE, None, 10, 0)
     assert idx.size <= SLIP_MAX
     assert np.ptp(np.diff(idx)) == 0
+
+
+@pytest.mark.parametrize('phase', [0.3, 2.0, 4.5])
+def test_a_sliding_start_moves_to_its_swings_slip_speed_peak(phase: float) -> None:
+    # the chamber swings at its mode (Tab. 1: 73.7 Hz), M_t = 20 + 15*sin(omega*t + p)
+    # [N m] with 0.05 N m white noise: w1 = M_t'/C1 swings by 15*omega/C1 = 2.97 rad/s
+    rig = RigParams(0.0109, 0.04034, 2338.6, 0.0315, 4.0, 5975.0, 8000.0, 0.08)
+    fs = 10_000.0
+    n = 4000
+    t = np.arange(n) / fs
+    omega = np.sqrt(rig.C1 / rig.I1)
+    rng = np.random.default_rng(3)
+    m = 20.0 + 15.0 * np.sin(omega * t + phase) + 0.05 * rng.standard_normal(n)
+    starts = np.asarray([500, 1500, 2500], dtype=np.int64)
+    # the shaft at 2.5 rad/s: the swing reaches it (a brief stick each cycle), and the
+    # slip speed w2 - w1 peaks where cos(omega*t + p) = -1
+    rec = RigRecord(t, m, np.zeros(n), np.full(n, 2.5))
+    got = slip_peak_starts(rec, starts, rig, 1000)
+    # within one sample of the peak that follows each start, one period at most later
+    period = 2.0 * np.pi / omega * fs
+    peak = (np.pi - phase) / omega * fs  # first sample where cos(omega t + p) = -1
+    want = starts + np.mod(peak - starts, period)
+    assert np.all(np.abs(got - want) <= 1.0)
+    assert np.all((got >= starts) & (got < starts + period))
+    # a reach shorter than the period bounds the move
+    assert np.all(slip_peak_starts(rec, starts, rig, 20) < starts + 20)
+    # the shaft at 3.5 rad/s: the swing never reaches it, the phase does not end, and
+    # the starts stay
+    fast = RigRecord(t, m, np.zeros(n), np.full(n, 3.5))
+    assert np.array_equal(slip_peak_starts(fast, starts, rig, 1000), starts)

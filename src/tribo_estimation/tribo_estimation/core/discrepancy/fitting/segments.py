@@ -270,7 +270,10 @@ def make_segments(
         # a stick phase (at rest before a start-up, through a stop) has no sliding
         # state: sliding segments fill the stretches between stick phases
         return sliding_segments(
-            record, block_time, stretches=free_stretches(s_start, s_stop, record.time.size)
+            record,
+            block_time,
+            stretches=free_stretches(s_start, s_stop, record.time.size),
+            rig=rig,
         )
     min_len = round(min_length * fs)
     chosen = [cand[0]]
@@ -291,6 +294,7 @@ def make_segments(
     # segment from a stuck start does not run on through it
     length = max(round(block_time * fs), 100)
     slide = _sliding_starts(free_stretches(s_start, s_stop, record.time.size), length, stuck)
+    slide = slip_peak_starts(record, slide, rig, length // 4)
     order = np.argsort(np.concatenate((stuck, slide)), kind='stable')
     start_arr = np.concatenate((stuck, slide))[order]
     slides = np.concatenate((np.zeros(stuck.size, bool), np.ones(slide.size, bool)))[order]
@@ -352,6 +356,72 @@ def _sliding_starts(stretches: Sequence[tuple[int, int]], length: int, stuck: In
         first = a + length if np.any(stuck < a) else a + SLIDE_WIN
         out.append(np.arange(first, b - length // 2, length, dtype=np.int64))
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def slip_peak_starts(record: Record, starts: IntArray, rig: RigParams, reach: int) -> IntArray:
+    """Move sliding segment starts to the slip-speed peak of the chamber's next swing.
+
+    Each start whose chamber swings back to the disc's speed moves forward, by less
+    than one period of the chamber's mode (``omega = sqrt(C1/I1)``) and less than
+    ``reach`` samples, to where the slip speed ``|v| = |w2 - w1|`` peaks: the torsion
+    moment over that window is fitted by
+    ``m + c*t + a*cos(omega*t) + b*sin(omega*t)`` (the chamber's free swing, Equ. 1),
+    ``w1 = M_t'/C1`` (Equ. 4) of the fit is extremal there, on the side away from the
+    shaft speed w2 (the speed channel's mean over the window). A fit, not the samples'
+    extreme, so noise does not choose the start. A start whose fitted swing does not
+    reach the shaft speed stays: its sliding phase does not end there.
+
+    A sliding start state has passed its phase's slip-speed peak (the deceleration
+    rule of Equ. 8, ``peak_passed`` set by
+    :func:`tribo_estimation.core.shooting.sliding_states`). On a chamber that swings
+    back to the disc's speed every cycle (brief sticks) that holds only from the
+    swing's peak on; before it the kernel would slide at ``mu_inf`` where the record
+    follows Equ. 8. At the peak the chamber's acceleration crosses zero, so the window
+    estimates of w1 and of the acceleration there carry no curvature bias.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record.
+    starts : IntArray
+        Nominal starts [samples], each at least ``reach`` samples before the next
+        start or the end of its stretch.
+    rig : RigParams
+        Rig parameters (I1 [kg m^2], C1 [N m/rad]).
+    reach : int
+        Largest move [samples].
+
+    Returns
+    -------
+    IntArray
+        The moved starts [samples].
+    """
+    st = np.asarray(starts, dtype=np.int64)
+    omega = math.sqrt(rig.C1 / rig.I1)
+    span = min(round(2.0 * math.pi / omega * record.fs), reach, record.time.size)
+    if st.size == 0 or span < 8:
+        return st
+    t = np.arange(span) / record.fs
+    c, s = np.cos(omega * t), np.sin(omega * t)
+    basis = np.column_stack((np.ones(span), t, c, s))
+    # slope of the fitted swing per coefficient: d/dt of (m, c*t, a*cos, b*sin)
+    slope = np.column_stack((np.zeros(span), np.ones(span), -omega * s, omega * c))
+    out = st.copy()
+    for k, a in enumerate(st):
+        lo = int(a)
+        hi = lo + span
+        if hi > record.time.size:
+            continue
+        coef, *_ = np.linalg.lstsq(basis, record.torsion_moment[lo:hi], rcond=None)
+        w1 = slope @ coef / rig.C1
+        w2 = float(np.mean(record.speed[lo:hi]))
+        away = 1.0 if w2 >= float(np.mean(w1)) else -1.0
+        slip = away * (w2 - w1)
+        # a swing that does not reach the shaft speed never ends the sliding phase:
+        # the start state's "past the peak" holds wherever it starts
+        if float(np.min(slip)) <= 0.0:
+            out[k] = lo + int(np.argmax(slip))
+    return out
 
 
 def free_stretches(s_start: IntArray, s_stop: IntArray, n: int) -> list[tuple[int, int]]:
@@ -434,12 +504,14 @@ def sliding_segments(
     first: int = 0,
     last: int | None = None,
     stretches: Sequence[tuple[int, int]] | None = None,
+    rig: RigParams | None = None,
 ) -> Segments:
     """Cut a record without stick-slip (slip-slip, steady sliding) into segments.
 
     One segment per ``block_time``, each starting from the measured sliding
     state (see :meth:`~.problem.Problem.simulate`), in every stretch between stick
-    phases that holds one.
+    phases that holds one; with ``rig``, each start at the slip-speed peak of the
+    chamber's next swing (:func:`slip_peak_starts`).
 
     Parameters
     ----------
@@ -456,6 +528,8 @@ def sliding_segments(
     stretches : sequence of (int, int) or None
         The stretches without a stick phase (``(first, stop)`` samples, in time order,
         :func:`free_stretches`) instead of ``first`` and ``last``.
+    rig : RigParams or None
+        Rig parameters (None: the starts stay on the block grid).
 
     Returns
     -------
@@ -481,6 +555,8 @@ def sliding_segments(
         st = np.arange(max(edge, a + edge), b - length // 2, length, dtype=np.int64)
         if st.size == 0:
             continue
+        if rig is not None:
+            st = slip_peak_starts(record, st, rig, length // 4)
         if a > covered_to:
             rejected.append(
                 (
