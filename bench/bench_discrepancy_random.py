@@ -27,7 +27,7 @@ instrument, config, family, form, motion, effect magnitude), the worst cases (ev
 wrong answer, the clearest effects missed or undecided, the worst residuals and
 parameter errors, the slowest runs) and the timing; never a best case.
 
-    python bench/bench_discrepancy_random.py [--n 200 | --seeds A-B | --fresh]
+    python bench/bench_discrepancy_random.py [--n 200 | --seeds A-B,C | --fresh]
         [--workers 2] [--duration S] [--log results.jsonl] [--keep DIR]
     python bench/bench_discrepancy_random.py --from-log results.jsonl   (report again)
 
@@ -588,10 +588,16 @@ def _seed_text(seeds: Sequence[int]) -> str:
 
 
 def _parse_seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition('-')
-    if not (lo.isdigit() and hi.isdigit()) or int(hi) < int(lo):
-        raise argparse.ArgumentTypeError(f'--seeds wants A-B (0 <= A <= B), got {text!r}')
-    return list(range(int(lo), int(hi) + 1))
+    seeds: list[int] = []
+    for part in text.split(','):
+        lo, dash, hi = part.partition('-')
+        hi = hi if dash else lo
+        if not (lo.isdigit() and hi.isdigit()) or int(hi) < int(lo):
+            raise argparse.ArgumentTypeError(
+                f'--seeds wants A-B or a comma list of them (0 <= A <= B), got {text!r}'
+            )
+        seeds.extend(range(int(lo), int(hi) + 1))
+    return sorted(set(seeds))
 
 
 def _row_json(r: Row) -> str:
@@ -706,8 +712,8 @@ def main() -> int:
     """Run the bench; returns the exit code."""
     ap = argparse.ArgumentParser(description=(__doc__ or '').split('\n\n')[0])
     ap.add_argument('--n', type=int, default=200, help='number of scenarios (seeds 0..n-1)')
-    ap.add_argument('--seeds', type=_parse_seeds, default=None, metavar='A-B',
-                    help='run seeds A to B (inclusive) instead')  # fmt: skip
+    ap.add_argument('--seeds', type=_parse_seeds, default=None, metavar='A-B,C',
+                    help='run seeds A to B (inclusive) and C instead')  # fmt: skip
     ap.add_argument('--fresh', action='store_true', help='draw --n new random seeds (printed)')
     ap.add_argument('--workers', type=int, default=2, help='worker processes (2)')
     ap.add_argument('--duration', type=float, default=None, help='record length [s] (drawn)')
