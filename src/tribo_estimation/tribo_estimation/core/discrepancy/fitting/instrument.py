@@ -635,6 +635,11 @@ def identify_accel_sensor(record: Record, rig: RigParams) -> AccelSensor:
     return AccelSensor(g if use_g else 1.0, g_se, b, b_se)
 
 
+#: Fewest samples of the stick regression of :func:`stuck_sensor_states` (its two or
+#: three columns and at least three degrees of freedom left) [-].
+_STUCK_FIT_MIN = 6
+
+
 def stuck_sensor_states(
     record: Record,
     segments: Segments,
@@ -642,6 +647,8 @@ def stuck_sensor_states(
     slope: FloatArray,
     tau: float,
     a2: float = 0.0,
+    *,
+    guard: int,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Return the shaft speed and the speed sensor's state at the segment starts.
 
@@ -670,6 +677,11 @@ def stuck_sensor_states(
         First-order coefficient (lag) of the sensor [s], > 0.
     a2 : float
         Second-order coefficient of the sensor [s^2] (0: first order).
+    guard : int
+        Samples left out at each end of a stick phase, whose detected ends may still
+        slip (``CHAMBER_HALF`` shortened to a quarter period of the rig's fastest
+        mode by :func:`tribo_estimation.core.signal.rig_half`, as the windows are:
+        at 2 kHz a stick phase is often 14 samples long).
 
     Returns
     -------
@@ -695,9 +707,9 @@ def stuck_sensor_states(
     for k, (i, ra, rb) in enumerate(zip(seg.start, seg.run_start, seg.run_stop, strict=True)):
         # regressed over the phase less its ends (the detected onset may still slip),
         # the model running from the start when the start lies before that window
-        lo = int(ra) + CHAMBER_HALF
-        hi = int(rb) - CHAMBER_HALF
-        if hi - lo < 10 or not int(ra) <= int(i) < hi:
+        lo = int(ra) + guard
+        hi = int(rb) - guard
+        if hi - lo < _STUCK_FIT_MIN or not int(ra) <= int(i) < hi:
             continue
         base = min(int(i), lo)
         a = acc[base:hi]

@@ -610,6 +610,7 @@ class Problem:
             w, y0, yd0 = stuck_sensor_states(
                 rec, self.segments, self._speed_start, self._speed_slope, tau,
                 a2 if a2 > FIRST_ORDER_A2 * rec.dt * rec.dt else 0.0,
+                guard=rig_half(CHAMBER_HALF, rec.fs, self.rig.fastest_mode_hz, least=1),
             )  # fmt: skip
             self._w_start = w - offset
             self._sensor_start = (y0, yd0)
