@@ -14,7 +14,7 @@ Their distribution under "nothing missing" is measured on this record by a
 parametric bootstrap (:func:`null_law`): the fitted model is simulated as one
 stretch from the record's first segment state (:meth:`..fitting.Problem.simulate`
 with ``continuous``) through the identified drive profile and speed sensor, the
-measured noise (white and AR(1), :class:`.noise.NoiseModel`) is added, and each
+measured white noise (:class:`.noise.NoiseModel`) is added, and each
 replica is prepared and refitted like the record itself. Thresholds are the
 one-sided prediction bounds of the replicas' log statistics (normal law, Student
 t with B - 1 degrees of freedom, ``sqrt(1 + 1/B)``), at ``alpha`` shared equally
