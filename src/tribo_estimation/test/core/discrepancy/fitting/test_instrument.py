@@ -8,14 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from tribo_estimation.core.discrepancy.fitting import Record
+from tribo_estimation.core.discrepancy.fitting import Problem, Record
 from tribo_estimation.core.discrepancy.fitting.instrument import (
     identify_accel_sensor,
     identify_hum,
+    identify_speed_sensor,
     identify_torsion_lag,
     torsion_compensated_record,
 )
-from tribo_estimation.core.model import FrictionLaw, RigParams
+from tribo_estimation.core.model import DriveProfile, FrictionLaw, RigParams
 from tribo_estimation.core.reference import SpeedProfile
 from tribo_estimation.core.reference_records import RecordSpec, make_record, rig_channels, rpm
 
@@ -90,3 +91,29 @@ def test_torsion_lag_and_accelerometer_gain_at_low_and_high_rates(fs: float) -> 
     acc = identify_accel_sensor(torsion_compensated_record(rec, RigParams.tab1(), lag.used),
                                 RigParams.tab1())  # fmt: skip
     assert acc.gain == pytest.approx(1.05, rel=0.015)  # within 1.5 %
+
+
+@pytest.mark.parametrize(('error', 'used'), [(0.04, True), (0.25, False)])
+def test_a_speed_gain_beyond_the_physical_bound_is_reported_not_used(
+    error: float, used: bool
+) -> None:
+    # a start-up to 25 rpm (sticks at many speeds: the gain is identifiable), the
+    # tachometer 4 % high (used, within 0.5 %) or 25 % high, beyond the 10 % a
+    # calibrated tachometer stays within (SPEED_GAIN_BOUND): reported as rejected
+    # (within 0.5 %), 1 used
+    tq, ac, sp = rig_channels(1.0)
+    sp = dataclasses.replace(sp, gain_error=error)
+    r = make_record(
+        RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), SpeedProfile.startup(rpm(25), 1.0),
+                   torsion=tq, accel=ac, speed=sp, seed=4, duration=3.0, start_offset=0.0)
+    )  # fmt: skip
+    rec = Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed)
+    rig = RigParams.tab1()
+    sticks = Problem(rec, rig, DriveProfile(rpm(25), 1.0), k=2.0).segments.stick_phases()
+    sensor = identify_speed_sensor(rec, rig, sticks)
+    if used:
+        assert sensor.gain == pytest.approx(1.0 + error, rel=5e-3)
+        assert math.isnan(sensor.gain_rejected)
+    else:
+        assert sensor.gain == 1.0
+        assert sensor.gain_rejected == pytest.approx(1.0 + error, rel=5e-3)

@@ -298,6 +298,9 @@ class SpeedSensor:
         moment [-] (1: not identified, the sticks all at one speed).
     gain_se : float
         Its standard error [-].
+    gain_rejected : float
+        A gain the regression gave beyond :data:`SPEED_GAIN_BOUND` of 1 [-]: not
+        used (NaN: none).
     """
 
     tau: float
@@ -309,6 +312,7 @@ class SpeedSensor:
     drift_se: float = math.nan
     gain: float = 1.0
     gain_se: float = math.nan
+    gain_rejected: float = math.nan
 
     def drifting(self) -> bool:
         """Tell whether the stick-phase kinematics drift during the record.
@@ -377,6 +381,11 @@ class SpeedSensor:
 #: lag, a thin margin; a 2 % stiffness drift shows 1.3-2.3 % at 14-55 SE.
 MAX_MISMATCH_DRIFT = 0.01
 DRIFT_Z = 5.0
+#: Largest error of a speed channel's gain that is identified [-]: a tachometer's
+#: calibration is within a few percent (docs/physics.md section 9); a regression over
+#: the stick phases that gives more says its sensor model (lag and offset) does not
+#: hold there, and the gain is not used.
+SPEED_GAIN_BOUND = 0.1
 #: Spread of the stick phases' mean speeds (p90 - p10 over the mean) [-] above which
 #: a sensor gain is fitted with the drift (a speed step tells a gain from a drift).
 _GAIN_SPREAD = 0.2
@@ -508,20 +517,23 @@ def identify_speed_sensor(
     cl = np.concatenate(cl_l)
     d = record.speed[idx] - w[idx]
     X = np.column_stack((np.ones(idx.size), -acc[idx]))
-    gain, gain_se = 1.0, math.nan
+    gain, gain_se, rejected = 1.0, math.nan, math.nan
     # y = g*lag(w) + b: regressed as w = (y - b)/g + (tau/g)*y' (the speed channel is the
     # regressor: its noise is far below that of w from the torsion moment's slope); the
     # gain is used where 1/g is beyond 3 standard errors from 1 (sticks all at one speed
-    # make it collinear with the offset: a large error)
+    # make it collinear with the offset: a large error) and within the physical bound
     fit_g = _cluster_lstsq(
         np.column_stack((np.ones(idx.size), record.speed[idx], acc[idx])), w[idx], cl
     )
     if fit_g is not None:
         inv, inv_se = float(fit_g[0][1]), float(fit_g[1][1])
-        if math.isfinite(inv_se) and abs(inv - 1.0) > 3.0 * inv_se and 0.5 < inv < 2.0:
-            gain, gain_se = 1.0 / inv, inv_se / (inv * inv)
-            d = record.speed[idx] / gain - w[idx]
-            X = np.column_stack((np.ones(idx.size), -acc[idx] / gain))
+        if math.isfinite(inv_se) and abs(inv - 1.0) > 3.0 * inv_se and inv > 0.0:
+            if abs(1.0 / inv - 1.0) <= SPEED_GAIN_BOUND:
+                gain, gain_se = 1.0 / inv, inv_se / (inv * inv)
+                d = record.speed[idx] / gain - w[idx]
+                X = np.column_stack((np.ones(idx.size), -acc[idx] / gain))
+            else:
+                rejected = 1.0 / inv
     fit = _cluster_lstsq(X, d, cl)
     if fit is None:
         return SpeedSensor(0.0, math.nan, 0.0, math.nan, int(idx.size))
@@ -530,7 +542,7 @@ def identify_speed_sensor(
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
     return SpeedSensor(
         tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
-        gain, gain_se,
+        gain, gain_se, rejected,
     )  # fmt: skip
 
 

@@ -38,6 +38,7 @@ from ..fitting import (
     HUM_CHANNELS,
     MU0,
     SHAFT,
+    SPEED_GAIN_BOUND,
     SPEED_LAG,
     SPEED_OFFSET,
     SPEED_SHAPE,
@@ -110,7 +111,10 @@ def prepare(
     sticks = pb.segments.stick_phases()
     accel = identify_accel_sensor(rec, rig)
     sensor = identify_speed_sensor(rec, rig, sticks)
-    speed_gain = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
+    speed_gain: dict[str, object] = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
+    if math.isfinite(sensor.gain_rejected):
+        speed_gain['rejected'] = sensor.gain_rejected
+        speed_gain['bound'] = SPEED_GAIN_BOUND
     if accel.gain != 1.0 or sensor.gain != 1.0:
         # the channels in the torsion moment's frame (a common gain of all three is
         # the torque's calibration: it scales mu0 and mu_inf alike)
