@@ -604,7 +604,6 @@ class Problem:
             self._fit_drive(tau, offset, ripple, torque)
             return
         rec = self.record
-        self._sensor_start = (self._speed_start, self._speed_slope[self.segments.start])
         if tau > 0.0:
             a2 = shape * tau * tau
             w, y0, yd0 = stuck_sensor_states(
@@ -616,6 +615,7 @@ class Problem:
             self._sensor_start = (y0, yd0)
         else:
             self._w_start = self._speed_stuck - offset
+            self._sensor_start = (self._speed_start, self._speed_slope[self.segments.start])
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
         # a stuck start's chamber speed is the shaft's; a sliding one's is the model's

@@ -397,7 +397,7 @@ def slip_peak_starts(record: Record, starts: IntArray, rig: RigParams, reach: in
         The moved starts [samples].
     """
     st = np.asarray(starts, dtype=np.int64)
-    omega = math.sqrt(rig.C1 / rig.I1)
+    omega = 2.0 * math.pi * rig.natural_frequency_hz
     span = min(round(2.0 * math.pi / omega * record.fs), reach, record.time.size)
     if st.size == 0 or span < 8:
         return st
