@@ -1,8 +1,8 @@
 """``tribo discrepancy`` end to end on a rig CSV, the report layout and bad input.
 
 The CSV is written by ``tribo simulate`` from config/rig_hidden_frictional_lag.yaml (a
-hidden first-order lag of the friction coefficient, tau = 2 ms, at 30 rpm; 3 s with the
-noise of the rig file); the command must name the family, write discrepancy.json with
+hidden first-order lag of the friction coefficient, tau = 2 ms, at 30 rpm; 3 s at 5 kHz
+with the noise of the rig file); the command must name the family, write discrepancy.json with
 the documented keys (core/discrepancy/report.py) and the plots.
 """
 
@@ -21,6 +21,8 @@ from tribo_bringup.cli import main
 CONFIG = Path(__file__).resolve().parents[4] / 'config'
 #: The hidden lag [s] (config/rig_hidden_frictional_lag.yaml).
 LAG = 2e-3
+#: Sample rate of the simulated records [Hz].
+FS = 5000.0
 #: A model that explains the record leaves its torque residual within this factor of the
 #: white noise floor (the segments restart from measured, noisy states: about 1.05) [-].
 FLOOR_FACTOR = 1.3
@@ -28,7 +30,8 @@ FLOOR_FACTOR = 1.3
 
 def _simulate(out: Path, seed: int) -> Path:
     rc = main(['simulate', '--rig', str(CONFIG / 'rig_hidden_frictional_lag.yaml'),
-               '--duration', '3', '--noise', '--seed', str(seed), '--out', str(out)])  # fmt: skip
+               '--duration', '3', '--fs', str(FS), '--noise', '--seed', str(seed),
+               '--out', str(out)])  # fmt: skip
     assert rc == 0
     return out
 
@@ -114,7 +117,7 @@ def test_cli_reads_a_bag(hidden_csv: Path, tmp_path: Path) -> None:
 
     rec = read_rig_csv(hidden_csv)
     types = bagio.typestore().types
-    fs = 10_000.0
+    fs = FS
     t0_ns = 1_700_000_000 * 1_000_000_000
     signals = {
         '/rig/torsion_moment': ('N m', rec.torsion_moment),

@@ -82,7 +82,7 @@ def test_a_saturating_drift_is_named_as_friction_drift() -> None:
     )
     # the record starts 0.5 s into the drift: D*(1 - exp(-(t + 0.5)/tau)) is the form with
     # D' = D*exp(-0.5/tau) and the levels shifted
-    rec, rig, drv = record(2, constant(rpm(25), start=0.5), effect=eff, duration=4.0)
+    rec, rig, drv = record(2, constant(rpm(25), start=0.5), effect=eff, duration=4.0, fs=5000.0)
     res = find_missing_physics([rec], rig, [drv])
     assert res.verdict == NAMED, res.finding()
     (e,) = res.named
@@ -94,7 +94,8 @@ def test_a_saturating_drift_is_named_as_friction_drift() -> None:
 
 
 def test_frictional_lag_is_named_and_single_joint_and_live_agree() -> None:
-    rec, rig, drv = record(3, constant(rpm(25)), effect=_lag(0.002))
+    # sampled at 5 kHz: the three budgets cost half of what they do at 10 kHz
+    rec, rig, drv = record(3, constant(rpm(25)), effect=_lag(0.002), fs=5000.0)
     single = find_missing_physics([rec], rig, [drv])
     assert single.verdict == NAMED, single.finding()
     assert single.added == ('frictional_lag',)
@@ -131,7 +132,7 @@ def test_a_spent_time_budget_never_buys_a_name_and_says_what_was_not_fitted() ->
 def test_one_speed_never_names_k_or_shape_for_a_lag_and_a_speed_step_decides() -> None:
     # a 1 ms lag at one speed is nearly what a smaller k or another Stribeck shape
     # gives: the set, nothing, or the lag itself when the record decides (within 20 %)
-    rec, rig, drv = record(6, constant(rpm(25)), effect=_lag(0.001))
+    rec, rig, drv = record(6, constant(rpm(25)), effect=_lag(0.001), fs=5000.0)
     res = find_missing_physics([rec], rig, [drv], policy=Policy(max_effects=1, shaft=False))
     assert res.verdict in (CANNOT_TELL_APART, NOTHING_MISSING, NAMED), res.finding()
     if res.verdict == CANNOT_TELL_APART:
