@@ -52,22 +52,56 @@ def test_angle_basis_integrates_the_hat_functions() -> None:
         assert got[:, j] == pytest.approx(np.interp(tt, grid, cum), abs=1e-9), j
 
 
-def test_knot_least_squares_matches_an_orthogonal_solve() -> None:
-    # the normal equations give lstsq's solution on a tall design (relative 1e-9), hold
-    # a skipped column at 0, and fall back to lstsq on a rank-deficient design
-    from tribo_estimation.core.drive import _least_squares
+def test_knot_normal_equations_match_an_orthogonal_solve_of_the_stacked_rows() -> None:
+    # the Gram matrix of the angle rows plus the penalty and pull terms gives lstsq's
+    # solution of the stacked rows (angles, second differences, pull toward a prior;
+    # a known first speed moved to the right-hand side) to a relative 1e-8, the last
+    # knot with no angle near it held by the pull alone
+    from tribo_estimation.core.drive import (
+        _KNOT_SMOOTH,
+        _angle_basis,
+        _pull_weights,
+        _solve_speeds,
+    )
+
+    rng = np.random.default_rng(6)
+    tk = np.array([0.0, 0.2, 0.35, 0.6, 0.8, 1.0])
+    tt = np.sort(rng.uniform(0.0, 0.7, 500))
+    ph = 0.1 + 2.0 * tt + 0.3 * np.sin(3.0 * tt) + rng.normal(0.0, 1e-3, tt.size)
+    prior = (np.array([0.0, 1.0]), np.array([2.0, 3.0]))
+    k = tk.size
+    for start in (None, 2.1):
+        vk, sse = _solve_speeds(tk, tt, ph, start, prior)
+        d2 = np.zeros((k - 2, k + 1))
+        for i in range(k - 2):
+            d2[i, 1 + i : 4 + i] = _KNOT_SMOOTH * np.array([1.0, -2.0, 1.0])
+        w = _pull_weights(tk, tt)
+        if start is not None:
+            w[0] = 0.0
+        pull = np.column_stack((np.zeros(k), np.diag(w)))
+        rows = np.vstack((np.column_stack((np.ones(tt.size), _angle_basis(tk, tt))), d2, pull))
+        rhs = np.concatenate((ph, np.zeros(k - 2), w * np.interp(tk, *prior)))
+        if start is not None:
+            rhs = rhs - start * rows[:, 1]
+            rows = np.delete(rows, 1, axis=1)
+        x = np.linalg.lstsq(rows, rhs, rcond=None)[0]
+        ref = x[1:] if start is None else np.concatenate(([start], x[1:]))
+        assert vk == pytest.approx(ref, rel=1e-8, abs=1e-10)
+        r = rows[: tt.size] @ x - rhs[: tt.size]
+        assert sse == pytest.approx(float(r @ r), rel=1e-6)
+
+
+def test_a_singular_knot_system_gets_the_least_squares_residual() -> None:
+    # two equal columns: the Gram matrix is not positive definite; the solve falls back
+    # to the least-norm solution, whose residual is lstsq's (relative 1e-9)
+    from tribo_estimation.core.drive import _solve_normal
 
     rng = np.random.default_rng(6)
     a = np.column_stack((np.ones(3000), rng.uniform(0.0, 8.0, (3000, 12))))
     b = a @ rng.normal(size=13) + rng.normal(0.0, 1e-3, 3000)
     ref = np.linalg.lstsq(a, b, rcond=None)[0]
-    assert _least_squares(a, b) == pytest.approx(ref, rel=1e-9, abs=1e-12)
-    held = _least_squares(a, b, skip=2)
-    assert held[2] == 0.0
-    ref_held = np.linalg.lstsq(np.delete(a, 2, axis=1), b, rcond=None)[0]
-    assert np.delete(held, 2) == pytest.approx(ref_held, rel=1e-9, abs=1e-12)
-    twin = np.column_stack((a, a[:, 1]))  # two equal columns: not positive definite
-    x = _least_squares(twin, b)
+    twin = np.column_stack((a, a[:, 1]))
+    x = _solve_normal(twin.T @ twin, twin.T @ b)
     assert float(np.sum((twin @ x - b) ** 2)) == pytest.approx(
         float(np.sum((a @ ref - b) ** 2)), rel=1e-9
     )

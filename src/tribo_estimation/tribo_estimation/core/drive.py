@@ -23,13 +23,13 @@ Units: time s, speed rad/s, rate rad/s^2.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
-from scipy.linalg import solve_triangular
 
 from .signal import moving_average
 
@@ -399,56 +399,60 @@ def _solve_speeds(
         Knot speeds [rad/s] and the data's sum of squared residuals [rad^2].
     """
     k = tk.size
-    basis = np.column_stack((np.ones_like(tt), _angle_basis(tk, tt)))
-    rhs = ph
-    if start is not None:  # known: its column moves to the right-hand side
-        rhs = ph - start * basis[:, 1]
-        basis = basis.copy()
-        basis[:, 1] = 0.0
+    ab = _angle_basis(tk, tt)
+    # the normal equations of the stacked rows (angles; penalty; pull) in x = (c, v):
+    # the angle rows' Gram matrix, then the small penalty and pull terms added to it
+    gram = np.empty((k + 1, k + 1))
+    gram[0, 0] = float(tt.size)
+    gram[0, 1:] = gram[1:, 0] = ab.sum(axis=0)
+    gram[1:, 1:] = ab.T @ ab
+    rhs = np.empty(k + 1)
+    rhs[0] = float(ph.sum())
+    rhs[1:] = ph @ ab
     if k >= 3:
         # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
         # closely spaced knots with few samples between them from oscillating
-        d2 = np.zeros((k - 2, k + 1))
-        for i in range(k - 2):
-            d2[i, 1 + i : 4 + i] = (_KNOT_SMOOTH, -2.0 * _KNOT_SMOOTH, _KNOT_SMOOTH)
-        basis = np.vstack((basis, d2))
-        rhs = np.concatenate((rhs, np.zeros(k - 2)))
+        gram[1:, 1:] += _KNOT_SMOOTH**2 * _second_difference_gram(k)
     if prior is not None:
         weight = _pull_weights(tk, tt, tt_sorted)
         if start is not None:
             weight[0] = 0.0
-        pull = np.zeros((k, k + 1))
-        pull[:, 1:] = np.diag(weight)
-        basis = np.vstack((basis, pull))
-        rhs = np.concatenate((rhs, weight * np.interp(tk, *prior)))
-    if start is not None:  # the known speed in the penalty rows too (its column is skipped)
-        rhs = np.concatenate((rhs[: tt.size], rhs[tt.size :] - start * basis[tt.size :, 1]))
-    sol = _least_squares(basis, rhs, skip=1 if start is not None else -1)
-    r = basis[: tt.size] @ sol - rhs[: tt.size]
-    if start is not None:
-        sol[1] = start
-    return np.asarray(sol[1:], dtype=np.float64), float(r @ r)
+        w2 = weight * weight
+        gram[1:, 1:] += np.diag(w2)
+        rhs[1:] += w2 * np.interp(tk, *prior)
+    x = np.zeros(k + 1)
+    if start is None:
+        x[:] = _solve_normal(gram, rhs)
+    else:  # known: its column moves to the right-hand side
+        cols = np.delete(np.arange(k + 1), 1)
+        x[1] = start
+        x[cols] = _solve_normal(gram[np.ix_(cols, cols)], rhs[cols] - start * gram[cols, 1])
+    r = x[0] + ab @ x[1:] - ph
+    return np.asarray(x[1:], dtype=np.float64), float(r @ r)
 
 
-def _least_squares(a: FloatArray, b: FloatArray, skip: int = -1) -> FloatArray:
-    """Solve ``a @ x ~ b`` by the normal equations, column ``skip`` held at 0.
+@functools.cache
+def _second_difference_gram(k: int) -> FloatArray:
+    """Return ``D^T D`` of the second-difference operator ``D`` on ``k`` knot speeds."""
+    d2 = np.diff(np.eye(k), 2, axis=0)
+    out: FloatArray = d2.T @ d2
+    out.setflags(write=False)
+    return out
+
+
+def _solve_normal(gram: FloatArray, rhs: FloatArray) -> FloatArray:
+    """Solve the normal equations ``gram @ x = rhs`` of the knot fit.
 
     The knot fit's design is tall and thin (thousands of angles, tens of knots) and
-    well conditioned (the penalty and pull rows keep every knot speed pinned): a
-    Cholesky factor of ``a^T a`` is several times faster than an orthogonal
-    factorisation; a design that is not positive definite goes to ``lstsq``.
+    well conditioned (the penalty and pull rows keep every knot speed pinned), so its
+    Gram matrix is positive definite and solved directly; one that is not (a knot
+    with neither angles nor pull) gets the least-norm solution.
     """
-    cols = np.arange(a.shape[1]) if skip < 0 else np.delete(np.arange(a.shape[1]), skip)
-    sub = a[:, cols]
-    x = np.zeros(a.shape[1])
-    ata, atb = sub.T @ sub, sub.T @ b
     try:
-        low = np.linalg.cholesky(ata)
+        np.linalg.cholesky(gram)
     except np.linalg.LinAlgError:
-        x[cols] = np.linalg.lstsq(sub, b, rcond=None)[0]
-        return x
-    x[cols] = solve_triangular(low.T, solve_triangular(low, atb, lower=True), lower=False)
-    return x
+        return np.asarray(np.linalg.lstsq(gram, rhs, rcond=None)[0], dtype=np.float64)
+    return np.asarray(np.linalg.solve(gram, rhs), dtype=np.float64)
 
 
 def _outliers(
