@@ -248,7 +248,16 @@ def estimate_drive(
     return DriveEstimate(tk, vk, nom, level, mismatch, True)
 
 
-__all__ = ['MISMATCH_LIMIT', 'SMOOTH_TIME', 'DriveEstimate', 'estimate_drive', 'tolerance']
+__all__ = [
+    'MISMATCH_LIMIT',
+    'SMOOTH_TIME',
+    'TRANSITION_MAX',
+    'DriveEstimate',
+    'estimate_drive',
+    'tolerance',
+    'untimed_transitions',
+    'with_durations',
+]
 
 
 #: Weight of the knot-speed smoothness penalty of :func:`refine_with_angles` [s].
@@ -744,3 +753,103 @@ def refine_with_angles(
     nom = drive.nominal
     mismatch = _mismatch(level, nom)
     return DriveEstimate(tk.copy(), vk, nom, level, mismatch, drive.from_record)
+
+
+#: Widest drive transition [s]: :func:`refine_with_angles` makes each speed step or
+#: ramp two corners within 2 x :data:`SMOOTH_TIME` of each other.
+TRANSITION_MAX = 2.0 * SMOOTH_TIME
+#: Fewest drive angles between a transition's corners that time it [-].
+_TIMED_ANGLES = 3
+
+
+def untimed_transitions(drive: DriveEstimate, angle_times: FloatArray) -> list[int]:
+    """Return the transitions whose duration the drive angles leave open.
+
+    A transition is a pair of adjacent interior knots at most :data:`TRANSITION_MAX`
+    apart. The angles on either side fix its mid-time (the angle gained over it,
+    ``integral of w0``, is that of a step at the mid-time whatever its duration) but
+    not its duration; angles spread between the corners would. Fewer than
+    :data:`_TIMED_ANGLES` there, or angles spanning less than half the time between
+    the corners (the end of a stick phase that a corner placed too early takes in),
+    leave the duration open: the torsion moment it drives through the belt (Equ. 2)
+    decides it (``Problem.set_transition_durations`` of the discrepancy fit).
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        The placed profile.
+    angle_times : FloatArray
+        Times of the drive angles it was fitted to [s].
+
+    Returns
+    -------
+    list of int
+        The index of each such transition's first knot.
+    """
+    tk = drive.knot_time
+    ts = np.sort(np.asarray(angle_times, dtype=np.float64))
+    out: list[int] = []
+    j = 1
+    while j + 2 < tk.size:
+        a, b = float(tk[j]), float(tk[j + 1])
+        if b - a <= TRANSITION_MAX:
+            inside = ts[np.searchsorted(ts, a, side='right') : np.searchsorted(ts, b, side='left')]
+            if inside.size < _TIMED_ANGLES or inside[-1] - inside[0] < 0.5 * (b - a):
+                out.append(j)
+                j += 2
+                continue
+        j += 1
+    return out
+
+
+def with_durations(
+    drive: DriveEstimate, durations: tuple[tuple[float, float], ...]
+) -> DriveEstimate:
+    """Return the profile with transitions of the given durations at their mid-times.
+
+    Each ``(mid-time, duration)`` applies to the pair of adjacent interior knots at
+    most :data:`TRANSITION_MAX` apart whose mid-time is nearest and within
+    :data:`SMOOTH_TIME` of it; the pair keeps its own mid-time (the drive angles')
+    and takes the duration, within its neighbouring knots less the shortest piece.
+    The knot speeds are kept.
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        The placed profile.
+    durations : tuple of (float, float)
+        Mid-time [s] and duration [s] per transition.
+
+    Returns
+    -------
+    DriveEstimate
+        The profile (``drive`` itself without a matching pair).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = DriveEstimate(np.array([0.0, 1.0, 1.002, 3.0]), np.array([1.0, 1.0, 2.0, 2.0]),
+    ...                   float('nan'), 1.5, float('nan'))
+    >>> with_durations(d, ((1.001, 0.02),)).knot_time.round(4).tolist()
+    [0.0, 0.991, 1.011, 3.0]
+    """
+    tk = drive.knot_time.copy()
+    changed = False
+    for mid, duration in durations:
+        if tk.size < 4:
+            break
+        j_all = np.arange(1, tk.size - 2)
+        gap = tk[j_all + 1] - tk[j_all]
+        mids = 0.5 * (tk[j_all] + tk[j_all + 1])
+        ok = (gap <= TRANSITION_MAX) & (np.abs(mids - mid) <= SMOOTH_TIME)
+        if not ok.any():
+            continue
+        j = int(j_all[ok][np.argmin(np.abs(mids[ok] - mid))])
+        m = 0.5 * float(tk[j] + tk[j + 1])
+        room = min(m - float(tk[j - 1]), float(tk[j + 2]) - m) - _MIN_PIECE
+        half = min(0.5 * float(duration), room)
+        if half < 0.5 * _MIN_PIECE:
+            continue
+        tk[j], tk[j + 1] = m - half, m + half
+        changed = True
+    return replace(drive, knot_time=tk) if changed else drive

@@ -13,6 +13,7 @@ residuals (measured - simulated) of :data:`.records.CHANNELS`.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
@@ -23,9 +24,12 @@ import numpy.typing as npt
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import (
     SMOOTH_TIME,
+    TRANSITION_MAX,
     DriveEstimate,
     estimate_drive,
     refine_with_angles,
+    untimed_transitions,
+    with_durations,
 )
 from tribo_estimation.core.lsq import levenberg_marquardt
 from tribo_estimation.core.measurement import apply_measurement_transforms, true_torsion_at_starts
@@ -87,6 +91,35 @@ _REPLACE_OFFSET = 1e-2
 _NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0)
 #: Fewest drive angles the profile is fitted to [-] (fewer: the smoothed speed).
 _MIN_ANGLES = 20
+#: Durations a transition's search tries (:meth:`Problem.set_transition_durations`):
+#: the shortest [s], trials per doubling of the grid [-] and golden-section steps after
+#: it [-] (the last step's bracket is below 2 % of the best duration).
+_DURATION_MIN = 2e-3
+_DURATION_PER_OCTAVE = 2
+_DURATION_GOLDEN = 6
+
+
+def _golden_log(
+    cost: Callable[[float], float], lo: float, hi: float, steps: int
+) -> tuple[float, float]:
+    """Return the argument in ``[lo, hi]`` (> 0) of least ``cost`` and that cost.
+
+    Golden-section steps on the logarithm of the argument.
+    """
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    a, b = math.log(lo), math.log(hi)
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    c1, c2 = cost(math.exp(x1)), cost(math.exp(x2))
+    for _ in range(steps):
+        if c1 <= c2:
+            b, x2, c2 = x2, x1, c1
+            x1 = b - g * (b - a)
+            c1 = cost(math.exp(x1))
+        else:
+            a, x1, c1 = x1, x2, c2
+            x2 = a + g * (b - a)
+            c2 = cost(math.exp(x2))
+    return (math.exp(x1), c1) if c1 <= c2 else (math.exp(x2), c2)
 
 
 def scaled_fit(
@@ -316,6 +349,9 @@ class Problem:
         self._sensor_start: tuple[FloatArray, FloatArray] = (self._speed_start, np.zeros(0))
         #: the drive profile placed once per speed-sensor cell (:meth:`_fit_drive`)
         self._placed: dict[tuple[int, int], DriveEstimate] = {}
+        #: durations of the transitions the angles leave open, (mid-time, duration) [s]
+        #: (:meth:`set_transition_durations`)
+        self.durations: tuple[tuple[float, float], ...] = ()
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -560,6 +596,97 @@ class Problem:
             covered=covered,
         )
 
+    def set_transition_durations(
+        self, values: Mapping[str, float]
+    ) -> tuple[tuple[float, float], ...]:
+        """Choose the duration of each drive transition that the angles leave open.
+
+        The drive angles at the stick phases on either side of a speed step fix its
+        mid-time but not its duration (:func:`~tribo_estimation.core.drive.untimed_transitions`);
+        the belt moment ``C2*(phi0 - phi2) + K2*(w0 - w2)`` (Equ. 2) that drives the
+        shaft while it lasts does. Per such transition of the placed profile, the
+        duration whose model ``values`` fits the torsion moment of the segments
+        spanning it best (least squares): a grid from :data:`_DURATION_MIN` to the
+        room between the neighbouring knots (at most
+        :data:`~tribo_estimation.core.drive.TRANSITION_MAX`), then golden-section
+        steps around the best, at the mid-time the angles give. The durations hold
+        for every speed-sensor cell from then on (:attr:`durations`).
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            The model (a fitted baseline).
+
+        Returns
+        -------
+        tuple of (float, float)
+            Mid-time [s] and duration [s] of each transition timed.
+        """
+        self.durations = ()
+        self._drive_stale()
+        self.simulate(values)  # the profile of the values' speed-sensor cell
+        drive = self.drive_estimate
+        seg = self.segments
+        rec = self.record
+        angles = rec.time[np.concatenate((self._stick_samples, self._slip_samples))]
+        t_start = rec.time[seg.start]
+        t_stop = rec.time[np.minimum(seg.stop, rec.time.size) - 1]
+        chosen: list[tuple[float, float]] = []
+        for j in untimed_transitions(drive, angles):
+            tk = drive.knot_time
+            mid = 0.5 * float(tk[j] + tk[j + 1])
+            room = min(mid - float(tk[j - 1]), float(tk[j + 2]) - mid)
+            longest = min(TRANSITION_MAX, 2.0 * room)
+            # the segments whose span meets the longest transition tried
+            mask = (t_stop >= mid - 0.5 * longest) & (t_start <= mid + 0.5 * longest)
+            if longest <= _DURATION_MIN or not mask.any():
+                continue
+
+            cost = functools.partial(self._durations_cost, values, drive, tuple(chosen), mid, mask)
+            n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / _DURATION_MIN))
+            grid = np.geomspace(_DURATION_MIN, longest, max(n, 2))
+            costs = [cost(float(d)) for d in grid]
+            k = int(np.argmin(costs))
+            # golden section in log(duration) between the best's grid neighbours
+            best_d, best_c = _golden_log(
+                cost, float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]),
+                _DURATION_GOLDEN,
+            )  # fmt: skip
+            if costs[k] <= best_c:
+                best_d = float(grid[k])
+            chosen.append((mid, best_d))
+        self.durations = tuple(chosen)
+        self._drive_stale()
+        self.simulate(values)
+        return self.durations
+
+    def _durations_cost(
+        self,
+        values: Mapping[str, float],
+        drive: DriveEstimate,
+        fixed: tuple[tuple[float, float], ...],
+        mid: float,
+        mask: npt.NDArray[np.bool_],
+        duration: float,
+    ) -> float:
+        """Return the torsion moment's squared residual [N^2 m^2] of the masked segments.
+
+        Simulated with ``drive`` given the transitions ``fixed`` and one of ``duration``
+        [s] at ``mid`` [s] (its knot speeds kept) and the model ``values``, whose
+        speed-sensor cell is the current one.
+        """
+        trial = with_durations(drive, (*fixed, (mid, duration)))
+        self.drive_estimate = trial
+        self._knots = DriveKnots.from_estimate(trial)
+        sim = self.simulate(values, mask)
+        cov = sim.covered
+        r = self.record.torsion_moment[cov] - sim.torsion_moment[cov]
+        return float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+
+    def _drive_stale(self) -> None:
+        """Make the next simulation fit the drive profile again (same sensor state)."""
+        self._instrument = (*self._instrument[:3], math.nan)
+
     def _set_instrument(
         self,
         tau: float,
@@ -662,6 +789,8 @@ class Problem:
                     local=ref is not None,
                 )  # fmt: skip
                 self._placed[cell] = placed
+            if self.durations:
+                placed = with_durations(placed, self.durations)
             self.drive_estimate = self._angle_drive(
                 tau, offset, ripple, torque, placed, place=False
             )

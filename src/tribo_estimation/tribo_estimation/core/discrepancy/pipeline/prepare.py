@@ -291,6 +291,8 @@ def fit_record_baseline(
     assert best is not None
     fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
     values = one.split(fo.values)[0]
+    # the durations of the drive's steps that its angles leave open, by this model
+    pb.set_transition_durations(values)
     sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
     # the chamber's inertia is free from here on, with the speed sensor's lag, offset and
