@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribo_estimation.core.drive import estimate_drive, refine_with_angles
+from tribo_estimation.core.drive import (
+    DriveEstimate,
+    estimate_drive,
+    refine_with_angles,
+    untimed_transitions,
+    with_durations,
+)
 
 FS = 1000.0
 
@@ -118,3 +124,39 @@ def test_a_known_start_speed_enters_the_knot_penalty() -> None:
     vk, sse = _solve_speeds(tk, tt, 0.3 + 2.0 * tt + 0.25 * tt * tt, start=2.0)
     assert vk == pytest.approx(2.0 + 0.5 * tk, abs=1e-10)
     assert sse < 1e-20
+
+
+def _stepped(knots: list[float]) -> DriveEstimate:
+    """A profile at 2 rad/s with knots ``knots`` stepping to 1 rad/s over knots 1-2."""
+    tk = np.asarray(knots)
+    vk = np.where(np.arange(tk.size) <= 1, 2.0, 1.0)
+    return DriveEstimate(tk, vk, float('nan'), 1.5, float('nan'))
+
+
+def test_a_step_is_untimed_unless_angles_spread_between_its_corners() -> None:
+    drive = _stepped([0.0, 1.0, 1.03, 1.5, 3.0])
+    stick = np.concatenate((np.arange(0.2, 0.99, 0.002), np.arange(1.04, 1.45, 0.002)))
+    # angles only on the plateaus: the pair 1.0-1.03 s is open (the pair 1.03-1.5 s is
+    # no transition: 0.47 s apart)
+    assert untimed_transitions(drive, stick) == [1]
+    # angles through the step (a stick phase inside it) time it
+    inside = np.concatenate((stick, np.arange(1.002, 1.029, 0.002)))
+    assert untimed_transitions(drive, inside) == []
+    # a stick phase's end taken in by an early corner (angles over 4 of its 30 ms) does not
+    edge = np.concatenate((stick, np.arange(1.002, 1.006, 0.001)))
+    assert untimed_transitions(drive, edge) == [1]
+
+
+def test_durations_keep_each_transitions_mid_time_within_its_neighbours() -> None:
+    drive = _stepped([0.0, 1.0, 1.03, 1.5, 3.0])
+    # 15 ms at the pair's own mid-time (1.015 s), the speeds kept (to 1e-12 s and rad/s)
+    d = with_durations(drive, ((1.02, 0.015),))
+    assert d.knot_time == pytest.approx([0.0, 1.0075, 1.0225, 1.5, 3.0], abs=1e-12)
+    assert np.array_equal(d.knot_speed, drive.knot_speed)
+    # longer than the room about its mid-time: held 2 ms (the shortest piece) short of
+    # the nearer neighbour (1.5 s), as far on the other side
+    wide = with_durations(drive, ((1.015, 2.0),))
+    assert wide.knot_time[1] == pytest.approx(0.532, abs=1e-12)
+    assert wide.knot_time[2] == pytest.approx(1.498, abs=1e-12)
+    # no pair near the given mid-time: the profile itself
+    assert with_durations(drive, ((2.5, 0.01),)) is drive

@@ -52,15 +52,21 @@ def constant(speed: float, start: float = 1.5) -> DriveSpec:
 
 
 def step(
-    speed: float, to: float, at: float, start: float = 1.5, shape: str = 'linear'
+    speed: float,
+    to: float,
+    at: float,
+    start: float = 1.5,
+    shape: str = 'linear',
+    length: float = 0.05,
 ) -> DriveSpec:
-    """Return a drive at ``speed`` stepping to ``to`` [rad/s] in 50 ms ``at`` s into the record.
+    """Return a drive at ``speed`` stepping to ``to`` [rad/s] ``at`` s into the record.
 
-    ``shape`` of the transition: 'linear' or 'cosine' (raised cosine).
+    ``shape`` of the transition: 'linear' or 'cosine' (raised cosine); ``length`` its
+    duration [s].
     """
     moves = (
         Transition(0.0, 0.3, speed, 'linear'),
-        Transition(start + at, 0.05, to - speed, shape),
+        Transition(start + at, length, to - speed, shape),
     )
     return DriveSpec('steps', moves, start, speed, None, ('warm', 'step'))
 
