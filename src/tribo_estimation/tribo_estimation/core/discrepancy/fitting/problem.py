@@ -625,6 +625,8 @@ class Problem:
         self.durations = ()
         self._drive_stale()
         self.simulate(values)  # the profile of the values' speed-sensor cell
+        if self._stick_samples.size + self._slip_samples.size < _MIN_ANGLES:
+            return ()  # no drive angles: the smoothed speed's profile has no corners to time
         drive = self.drive_estimate
         seg = self.segments
         rec = self.record

@@ -345,8 +345,7 @@ def null_law(
     for _ in range(replicas):
         try:
             rep = problem.like(replica(problem, values, noise, rng))
-            if problem.durations:  # the record's estimator: its open steps timed too
-                rep.set_transition_durations(values)
+            rep.set_transition_durations(values)  # the record's estimator: open steps timed
             fo = rep.fit(free, values, max_nfev=max_nfev)
             st = adequacy(rep, rep.simulate(fo.values))
         except EstimationError:  # a replica that cannot be fitted gives no sample
