@@ -11,6 +11,7 @@ from tribo_scenarios.spec import ChannelSpec, DriveSpec, InstrumentSpec, Transit
 
 from tribo_estimation.core.discrepancy.fitting import Problem
 from tribo_estimation.core.discrepancy.pipeline import Policy
+from tribo_estimation.core.discrepancy.pipeline.describe import drive_report
 from tribo_estimation.core.discrepancy.pipeline.policy import quiet
 from tribo_estimation.core.discrepancy.pipeline.prepare import (
     baseline_starts,
@@ -248,6 +249,7 @@ def test_a_short_speed_step_is_timed_by_the_torsion_moment(
     pb = prep.problem
     ((mid, duration),) = pb.durations
     assert duration == pytest.approx(length, rel=0.1)
+    assert drive_report(pb)['timed_steps'] == [{'mid': mid, 'duration': duration, 'unit': 's'}]
     assert mid == pytest.approx(1.2 + 0.5 * length, abs=1e-3)
     sim = pb.simulate(values)
     r = rec.torsion_moment - sim.torsion_moment

@@ -24,7 +24,9 @@ The top-level ``baseline``, ``final``, ``noise_floor``, ``unexplained``,
 accelerometer lag, speed-sensor lag, offset and gain, accelerometer gain and
 offset, the stick kinematics' drift. ``drive`` the drive speed measured from the
 record (``level``, ``nominal`` [rad/s], ``mismatch`` [-], ``warning``, the
-profile's ``knot_time`` [s] / ``knot_speed`` [rad/s], per time block ``blocks``).
+profile's ``knot_time`` [s] / ``knot_speed`` [rad/s], the speed steps whose duration
+the torsion moment chose, ``timed_steps`` (``mid``, ``duration`` [s]), per time block
+``blocks``).
 """
 
 from __future__ import annotations

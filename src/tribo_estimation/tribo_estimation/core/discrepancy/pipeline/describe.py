@@ -105,7 +105,9 @@ def drive_report(pb: Problem) -> dict[str, object]:
     -------
     dict[str, object]
         Level and nominal speed [rad/s], relative mismatch [-] and its warning, the
-        knots of the piecewise-linear profile [s, rad/s] and the mean drive speed
+        knots of the piecewise-linear profile [s, rad/s], the speed steps timed by the
+        torsion moment (mid-time and duration [s],
+        :meth:`..fitting.Problem.set_transition_durations`) and the mean drive speed
         used per time block [rad/s].
     """
     de = pb.drive_estimate
@@ -122,6 +124,7 @@ def drive_report(pb: Problem) -> dict[str, object]:
         'from_record': de.from_record,
         'knot_time': [float(x) for x in de.knot_time],
         'knot_speed': [float(x) for x in de.knot_speed],
+        'timed_steps': [{'mid': m, 'duration': d, 'unit': 's'} for m, d in pb.durations],
         'blocks': blocks,
     }
 
