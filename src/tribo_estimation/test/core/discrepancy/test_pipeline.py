@@ -56,7 +56,7 @@ def test_mains_hum_is_instrument_not_physics() -> None:
         ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, 0.005, hum_freq=50.0, hum_amps=(0.01,),
                     hum_phases=(2.0,)),
     )  # fmt: skip
-    rec, rig, drv = record(7, constant(rpm(25)), instrument=hummed)
+    rec, rig, drv = record(7, constant(rpm(25)), instrument=hummed, fs=5000.0)
     res = find_missing_physics([rec], rig, [drv], policy=EXACT_RIG)
     assert res.verdict == NOTHING_MISSING, res.finding()
     rep = res.records[0]
@@ -67,7 +67,7 @@ def test_mains_hum_is_instrument_not_physics() -> None:
 
 def test_a_sweep_ending_inside_the_record_fits_to_the_floor() -> None:
     # 8 -> 40 rpm over 2 s, ending 1.5 s before the record does
-    rec, rig, drv = record(4, sweep(rpm(8), rpm(40), 0.5, 2.0), duration=4.0)
+    rec, rig, drv = record(4, sweep(rpm(8), rpm(40), 0.5, 2.0), duration=4.0, fs=5000.0)
     res = find_missing_physics([rec], rig, [drv], policy=EXACT_RIG)
     assert res.verdict == NOTHING_MISSING, res.finding()
     rep = res.records[0]
