@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 from discrepancy_scenarios import clean_instrument, constant, record, rpm, step, sweep
 from tribo_scenarios.spec import ChannelSpec, EffectSpec, InstrumentSpec
@@ -74,6 +75,21 @@ def test_a_sweep_ending_inside_the_record_fits_to_the_floor() -> None:
     assert rep.rms_baseline < FLOOR_FACTOR * rep.noise_floor
     # the profile's last knot holds the sweep's end level (40 rpm) within 2 %
     assert rep.drive['knot_speed'][-1] == pytest.approx(rpm(40), rel=0.02)
+
+
+def test_a_short_step_leaves_the_null_law_at_the_noise() -> None:
+    # nothing hidden, a 10 ms step up between stick phases at 2 kHz: the replicas of the
+    # baseline time their step by the torsion moment as the record does, so they refit
+    # their own model near the noise (median torque statistic below 1.15x; placing the
+    # step by the angles alone gave 2.5-4.2x, a null law too wide to see anything), and
+    # nothing is named
+    rec, rig, drv = record(4, step(rpm(25), rpm(35), 1.2, length=0.01), fs=2000.0,
+                           duration=2.5)  # fmt: skip
+    res = find_missing_physics([rec], rig, [drv], policy=Policy(shaft=False))
+    assert res.verdict == NOTHING_MISSING, res.finding()
+    null = res.records[0].null
+    assert null.replicas >= 6
+    assert float(np.median(null.samples['torsion_moment'])) < 1.15, null.samples
 
 
 def test_a_saturating_drift_is_named_as_friction_drift() -> None:
