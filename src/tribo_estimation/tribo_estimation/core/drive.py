@@ -249,6 +249,7 @@ def estimate_drive(
 
 
 __all__ = [
+    'MIN_PIECE',
     'MISMATCH_LIMIT',
     'SMOOTH_TIME',
     'TRANSITION_MAX',
@@ -268,7 +269,7 @@ _CORNER_GRID = 41
 _CORNER_SWEEPS = 3
 
 #: Shortest linear piece of a refined profile [s].
-_MIN_PIECE = 2e-3
+MIN_PIECE = 2e-3
 
 #: Outlying drive angles of :func:`refine_with_angles`: robust standard deviations
 #: [-], smallest flagged residual [rad] and most re-fits [-].
@@ -616,7 +617,7 @@ def _place(
                         continue
                     trial = base.copy()
                     trial[ks] += d * dirs
-                    if not np.all(np.diff(trial) > _MIN_PIECE):
+                    if not np.all(np.diff(trial) > MIN_PIECE):
                         continue
                     _, sse = _solve_speeds(trial, tt, ph, start, prior, tt_sorted=True)
                     if sse < best:
@@ -704,7 +705,7 @@ def refine_with_angles(
         else:
             moved = np.zeros(0)
         corners = inner.copy() if keep_corners else _corners(inner)
-        corners = corners[(corners > t_lo + _MIN_PIECE) & (corners < t_hi - _MIN_PIECE)]
+        corners = corners[(corners > t_lo + MIN_PIECE) & (corners < t_hi - MIN_PIECE)]
         # a corner without angles near it has nothing to place it by: its transition
         # keeps the smoothed speed's knots
         near = np.asarray(
@@ -714,7 +715,7 @@ def refine_with_angles(
         if not near.all():
             far = corners[~near]
             kept = inner[(np.abs(inner[:, None] - far[None, :]) <= SMOOTH_TIME).any(axis=1)]
-            kept = kept[(kept > t_lo + _MIN_PIECE) & (kept < t_hi - _MIN_PIECE)]
+            kept = kept[(kept > t_lo + MIN_PIECE) & (kept < t_hi - MIN_PIECE)]
             corners = np.concatenate((corners[near], kept))
             near = np.concatenate((np.ones(int(near.sum()), bool), np.zeros(kept.size, bool)))
         tk = np.concatenate(([t_lo, t_hi], moved, corners))
@@ -722,7 +723,7 @@ def refine_with_angles(
         free = np.concatenate((np.zeros(n_fixed, bool), near))
         order = np.argsort(tk, kind='stable')
         tk, free = tk[order], free[order]
-        keep = np.concatenate(([True], np.diff(tk) > _MIN_PIECE))
+        keep = np.concatenate(([True], np.diff(tk) > MIN_PIECE))
         tk, free = tk[keep], free[keep]
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
@@ -834,10 +835,10 @@ def with_durations(
     [0.0, 0.991, 1.011, 3.0]
     """
     tk = drive.knot_time.copy()
+    if tk.size < 4:  # no interior pair of knots
+        return drive
     changed = False
     for mid, duration in durations:
-        if tk.size < 4:
-            break
         j_all = np.arange(1, tk.size - 2)
         gap = tk[j_all + 1] - tk[j_all]
         mids = 0.5 * (tk[j_all] + tk[j_all + 1])
@@ -846,9 +847,9 @@ def with_durations(
             continue
         j = int(j_all[ok][np.argmin(np.abs(mids[ok] - mid))])
         m = 0.5 * float(tk[j] + tk[j + 1])
-        room = min(m - float(tk[j - 1]), float(tk[j + 2]) - m) - _MIN_PIECE
+        room = min(m - float(tk[j - 1]), float(tk[j + 2]) - m) - MIN_PIECE
         half = min(0.5 * float(duration), room)
-        if half < 0.5 * _MIN_PIECE:
+        if half < 0.5 * MIN_PIECE:
             continue
         tk[j], tk[j + 1] = m - half, m + half
         changed = True

@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import (
+    MIN_PIECE,
     SMOOTH_TIME,
     TRANSITION_MAX,
     DriveEstimate,
@@ -91,11 +92,10 @@ _REPLACE_OFFSET = 1e-2
 _NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0)
 #: Fewest drive angles the profile is fitted to [-] (fewer: the smoothed speed).
 _MIN_ANGLES = 20
-#: Durations a transition's search tries (:meth:`Problem.set_transition_durations`):
-#: the shortest [s], trials per doubling of the grid [-] and golden-section steps after
-#: it [-] (from the best's two grid neighbours, a factor 2 apart, the bracket ends 2.4 %
-#: wide).
-_DURATION_MIN = 2e-3
+#: Durations a transition's search tries (:meth:`Problem.set_transition_durations`),
+#: from the profile's shortest piece (:data:`~tribo_estimation.core.drive.MIN_PIECE`):
+#: trials per doubling of the grid [-] and golden-section steps after it [-] (from the
+#: best's two grid neighbours, a factor 2 apart, the bracket ends 2.4 % wide).
 _DURATION_PER_OCTAVE = 2
 _DURATION_GOLDEN = 6
 
@@ -607,8 +607,9 @@ class Problem:
         the belt moment ``C2*(phi0 - phi2) + K2*(w0 - w2)`` (Equ. 2) that drives the
         shaft while it lasts does. Per such transition of the placed profile, the
         duration whose model ``values`` fits the torsion moment of the segments
-        spanning it best (least squares): a grid from :data:`_DURATION_MIN` to the
-        room between the neighbouring knots (at most
+        spanning it best (least squares): a grid from the shortest piece
+        (:data:`~tribo_estimation.core.drive.MIN_PIECE`) to the room between the
+        neighbouring knots (at most
         :data:`~tribo_estimation.core.drive.TRANSITION_MAX`), then golden-section
         steps around the best, at the mid-time the angles give. The durations hold
         for every speed-sensor cell from then on (:attr:`durations`).
@@ -642,12 +643,12 @@ class Problem:
             longest = min(TRANSITION_MAX, 2.0 * room)
             # the segments whose span meets the longest transition tried
             mask = (t_stop >= mid - 0.5 * longest) & (t_start <= mid + 0.5 * longest)
-            if longest <= _DURATION_MIN or not mask.any():
+            if longest <= MIN_PIECE or not mask.any():
                 continue
 
             cost = functools.partial(self._durations_cost, values, drive, tuple(chosen), mid, mask)
-            n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / _DURATION_MIN))
-            grid = np.geomspace(_DURATION_MIN, longest, max(n, 2))
+            n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / MIN_PIECE))
+            grid = np.geomspace(MIN_PIECE, longest, max(n, 2))
             costs = [cost(float(d)) for d in grid]
             k = int(np.argmin(costs))
             # golden section in log(duration) between the best's grid neighbours
@@ -659,8 +660,9 @@ class Problem:
                 best_d = float(grid[k])
             chosen.append((mid, best_d))
         self.durations = tuple(chosen)
-        self._drive_stale()
-        self.simulate(values)
+        if self.drive_estimate is not drive:  # the trials left theirs: the cell's, timed
+            key = self._instrument
+            self._fit_drive(key[0], key[1], key[3:8], (key[8], key[9]))
         return self.durations
 
     def _durations_cost(
