@@ -102,3 +102,13 @@ def _sigint_restored() -> Iterator[None]:
     yield
     if main and signal.getsignal(signal.SIGINT) is not before and before is not None:
         signal.signal(signal.SIGINT, before)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Queue the tests marked ``slow`` first (a stable sort, the order otherwise kept).
+
+    pytest-xdist hands the tests out in collection order: a long test started last would
+    keep one worker busy after the others ran out of work; started first, the short tests
+    fill the other workers around it.
+    """
+    items.sort(key=lambda item: item.get_closest_marker('slow') is None)

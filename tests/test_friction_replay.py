@@ -26,6 +26,7 @@ def _num(text: str) -> float:
     return math.nan if text in ('', 'nan', 'NaN') else float(text)
 
 
+@pytest.mark.slow
 def test_node_on_replayed_bag_matches_offline_cli(tmp_path: Path, procs: list[Proc]) -> None:
     bag = tmp_path / 'session'
     make_rig_bag(bag, 4.0)

@@ -47,6 +47,7 @@ def _offline(bag: Path) -> list:  # type: ignore[type-arg]
     return out
 
 
+@pytest.mark.slow
 def test_monitor_node_on_replayed_bag(tmp_path: Path, procs: list[Proc]) -> None:
     bag = tmp_path / 'session'
     make_rig_bag(bag, SECONDS)

@@ -17,6 +17,7 @@ from tribo_bringup import bagio
 pytestmark = [requires_ros, pytest.mark.ros]
 
 
+@pytest.mark.slow
 def test_two_rigs_in_two_namespaces(tmp_path: Path, procs: list[Proc]) -> None:
     rigs = {}
     for ns in ('rigA', 'rigB'):

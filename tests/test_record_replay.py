@@ -27,6 +27,7 @@ def _sim_rig(tmp_path: Path, name: str, *extra: str) -> Proc:
     return Proc([exe, '--ros-args', '-p', 'seed:=7', *extra], tmp_path / f'{name}.log')
 
 
+@pytest.mark.slow
 def test_record_sim_rig_no_missing_samples(tmp_path: Path, procs: list[Proc]) -> None:
     bag = tmp_path / 'session'
     sim = _sim_rig(tmp_path, 'sim')
@@ -144,6 +145,7 @@ def test_killed_recorder_keeps_what_it_flushed(tmp_path: Path, procs: list[Proc]
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(200)]
 
 
+@pytest.mark.slow
 def test_tribo_run_records_the_graph_without_loss(tmp_path: Path, procs: list[Proc]) -> None:
     """`tribo run` (the graph runner): simulated rig + friction estimator + recorder
     in one process and one executor, no sample missing."""
@@ -228,6 +230,7 @@ def test_recording_error_ends_with_nonzero_exit(
     assert [int(m.first_index) for m in got] == [k * 50 for k in range(len(got))]
 
 
+@pytest.mark.slow
 def test_sim_rig_waits_for_the_recorder(tmp_path: Path, procs: list[Proc]) -> None:
     """With min_subscribers the rig holds its stream until the recorder has matched:
     the bag starts at sample 0 (a launch with record:=true lost the first 0.6 s)."""

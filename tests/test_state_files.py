@@ -62,6 +62,7 @@ def _restored(log: str) -> int:
     return int(found.group(1))
 
 
+@pytest.mark.slow
 def test_simulated_run_starts_fresh_unless_resumed(tmp_path: Path) -> None:
     state = tmp_path / 'wear_state.json'
     assert _restored(_run(state)) == 0
@@ -71,6 +72,7 @@ def test_simulated_run_starts_fresh_unless_resumed(tmp_path: Path) -> None:
     assert list(tmp_path.glob('wear_state.json.*.bak'))
 
 
+@pytest.mark.slow
 def test_tribo_run_starts_the_daq_driver(tmp_path: Path) -> None:
     """`tribo run --no-sim --daq PORT` runs the lifecycle DAQ driver in the graph (a
     machine without ros2 launch runs a real rig); here on the DAQ emulator's pty."""

@@ -69,3 +69,6 @@ _.created
 
 # pytest autouse fixtures (conftest.py): pytest calls them by itself
 _sigint_restored
+
+# pytest hooks (conftest.py)
+pytest_collection_modifyitems

@@ -87,6 +87,7 @@ def test_duration_is_checked() -> None:
 
 
 @pytest.mark.ros
+@pytest.mark.slow
 def test_short_demo_end_to_end(tmp_path: Path) -> None:
     """3 s on the live graph, recorded and reported (the minute-long run is `make demo`)."""
     import json

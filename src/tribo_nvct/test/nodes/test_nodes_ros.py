@@ -66,6 +66,7 @@ def stop(p: subprocess.Popen[bytes]) -> None:
             p.wait()
 
 
+@pytest.mark.slow
 def test_pipeline_and_restart(tmp_path: Path) -> None:
     os.environ['ROS_DOMAIN_ID'] = DOMAIN
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
