@@ -18,7 +18,7 @@ It minimises ``sum(fun(x)**2)`` within box bounds ``lo <= x <= hi``:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -331,4 +331,56 @@ def levenberg_marquardt(
     return LsqResult(x, r, cost, J, nfev, it, converged, jac_current)
 
 
-__all__ = ['LsqResult', 'forward_jacobian', 'levenberg_marquardt', 'normal_equations']
+def parabola_vertex_log(points: Sequence[tuple[float, float]]) -> float | None:
+    """Return the vertex of the parabola through the best point and its neighbours.
+
+    One step of a 1-D search of a positive argument on its logarithm: the points
+    ``(value, cost)`` (one per value, the lowest cost kept; non-positive values and
+    non-finite costs left out) are sorted, and the parabola through the least-cost
+    point and its two neighbours gives its vertex, clipped to the neighbours.
+
+    Parameters
+    ----------
+    points : sequence of (float, float)
+        Argument values (> 0) and their costs.
+
+    Returns
+    -------
+    float or None
+        The vertex's log argument; None if there are fewer than three points, the best
+        is an end point or the parabola is not convex.
+
+    Examples
+    --------
+    >>> import math
+    >>> pts = [(v, (math.log(v) - math.log(2.0)) ** 2) for v in (1.0, 1.5, 4.0)]
+    >>> round(math.exp(parabola_vertex_log(pts)), 6)
+    2.0
+    """
+    best: dict[float, float] = {}
+    for v, c in points:
+        if v > 0 and math.isfinite(c):
+            x = round(math.log(v), 9)
+            best[x] = min(c, best.get(x, math.inf))
+    pts = sorted(best.items())
+    if len(pts) < 3:
+        return None
+    k = min(range(len(pts)), key=lambda i: pts[i][1])
+    if k == 0 or k == len(pts) - 1:
+        return None
+    (x0, c0), (x1, c1), (x2, c2) = pts[k - 1 : k + 2]
+    d01 = (c1 - c0) / (x1 - x0)
+    d12 = (c2 - c1) / (x2 - x1)
+    curv = (d12 - d01) / (x2 - x0)
+    if not curv > 0.0:
+        return None
+    return min(max(0.5 * (x0 + x1) - d01 / (2.0 * curv), x0), x2)
+
+
+__all__ = [
+    'LsqResult',
+    'forward_jacobian',
+    'levenberg_marquardt',
+    'normal_equations',
+    'parabola_vertex_log',
+]

@@ -71,6 +71,9 @@ class Policy:
     shaft : bool
         Identify the shaft's I2, K2, C2 with the baseline of a single record
         (:func:`.prepare.identify_shaft`); they then stay free in every model.
+    speed_gain : bool
+        Identify the speed channel's gain with the baseline of each record
+        (:func:`.prepare.identify_speed_gain`) instead of the stick regression's alone.
     """
 
     alpha: float = 0.01
@@ -91,6 +94,7 @@ class Policy:
     describe: bool = True
     k_starts: tuple[float, ...] = (1.0, 1.0 / 3.0, 3.0)
     shaft: bool = True
+    speed_gain: bool = True
 
     def __post_init__(self) -> None:
         """Refuse settings out of range."""
@@ -124,8 +128,9 @@ class Policy:
     def live(cls, time_budget: float = 1.0) -> Policy:
         """Return the live monitor's budget: the same rules, fewer replicas, one effect.
 
-        The baseline starts from RIG.yaml's k only (a window every hop: the offline
-        run's three starts do not fit the hop).
+        The baseline starts from RIG.yaml's k only, and neither the shaft nor the speed
+        channel's gain is identified with it (a window every hop: the offline run's
+        extra baseline fits do not fit the hop).
 
         The fits keep the offline budgets (a fit stopped early is a different fit, and the
         verdict must not depend on where one runs); the window's wall-time budget stops
@@ -150,6 +155,7 @@ class Policy:
             describe=False,
             k_starts=(1.0,),
             shaft=False,
+            speed_gain=False,
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -172,6 +178,7 @@ class Policy:
             'describe': self.describe,
             'k_starts': list(self.k_starts),
             'shaft': self.shaft,
+            'speed_gain': self.speed_gain,
         }
 
 

@@ -28,10 +28,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.stats import chi2
 
 from tribo_estimation.core.model import DriveProfile, RigParams
 from tribo_estimation.core.signal import span_medians
+from tribo_estimation.errors import EstimationError
 
+from ...lsq import parabola_vertex_log
 from ..fitting import (
     CHAMBER_I1,
     CHANNELS,
@@ -82,7 +85,12 @@ class Prepared:
 
 
 def prepare(
-    record: Record, rig: RigParams, drive: DriveProfile, *, k: float, policy: Policy
+    record: Record,
+    rig: RigParams,
+    drive: DriveProfile,
+    *,
+    k: float,
+    policy: Policy,
 ) -> Prepared:
     """Prepare one record: instrument chain, segments, drive profile, speed sensor.
 
@@ -111,17 +119,18 @@ def prepare(
     sticks = pb.segments.stick_phases()
     accel = identify_accel_sensor(rec, rig)
     sensor = identify_speed_sensor(rec, rig, sticks)
-    speed_gain: dict[str, object] = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
+    report_gain: dict[str, object] = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
     if math.isfinite(sensor.gain_rejected):
-        speed_gain['rejected'] = sensor.gain_rejected
-        speed_gain['bound'] = SPEED_GAIN_BOUND
-    if accel.gain != 1.0 or sensor.gain != 1.0:
+        report_gain['rejected'] = sensor.gain_rejected
+        report_gain['bound'] = SPEED_GAIN_BOUND
+    gain = sensor.gain
+    if accel.gain != 1.0 or gain != 1.0:
         # the channels in the torsion moment's frame (a common gain of all three is
         # the torque's calibration: it scales mu0 and mu_inf alike)
         rec = replace(
             rec,
             angular_acceleration=accel.correct(rec.angular_acceleration),
-            speed=rec.speed / sensor.gain,
+            speed=rec.speed / gain,
         )
         pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
         sensor = identify_speed_sensor(rec, rig, pb.segments.stick_phases())
@@ -141,7 +150,7 @@ def prepare(
             'used': used['speed_offset'],
         },
         'speed_mismatch_drift': {'value': sensor.drift, 'se': sensor.drift_se, 'unit': '-'},
-        'speed_gain': speed_gain,
+        'speed_gain': report_gain,
         'accel_sensor': accel.report(),
         'stick_samples': sensor.n,
     }
@@ -331,6 +340,137 @@ def fit_record_baseline(
     return values
 
 
+#: Trial steps of the speed channel's gain about the stick regression's, relative [-].
+GAIN_STEP = 0.03
+#: Most baseline fits of the gain's search before its vertex [-] (the current gain and
+#: steps out to the physical bound, SPEED_GAIN_BOUND, from anywhere within it).
+_GAIN_TRIALS = 9
+#: Standard errors by which the baseline's second-order term of the speed sensor
+#: (speed_lag_shape) exceeds 0 for the gain to be searched [-].
+_SHAPE_Z = 3.0
+
+
+def _gain_trial(
+    prep: Prepared, values: Mapping[str, float], factor: float, policy: Policy
+) -> tuple[float, Problem, dict[str, float]]:
+    """Fit the baseline on the record with its speed channel's gain times ``factor``.
+
+    The speed channel is divided by ``factor`` (the drive profile, the segments'
+    states and the sensor's offset follow it) and the baseline refitted from
+    ``values``; its cost is in the record's frame (the speed channel's weight times
+    ``factor``), so trials of different gains compare. Returns the cost, the
+    problem and the fitted values.
+    """
+    pb = prep.problem
+    rec = replace(pb.record, speed=pb.record.speed / factor)
+    weights = {**pb.weights, 'speed': pb.weights.get('speed', 0.0) * factor}
+    trial = Problem(rec, pb.rig, pb.drive, k=pb.k, weights=weights, block_time=pb.block_time)
+    trial.free_instrument = pb.free_instrument
+    trial.hum_lines = dict(pb.hum_lines)
+    start = dict(values)
+    if SPEED_OFFSET.name in start:
+        start[SPEED_OFFSET.name] = start[SPEED_OFFSET.name] / factor
+    trial.set_transition_durations(start)
+    one = Ensemble([trial])
+    fo = one.fit(one.specs(), one.join([start]), max_nfev=policy.fit_nfev)
+    return fo.cost, trial, one.split(fo.values)[0]
+
+
+def identify_speed_gain(
+    prep: Prepared, values: Mapping[str, float], policy: Policy, say: Progress
+) -> tuple[Prepared, dict[str, float]]:
+    """Identify the speed channel's gain with the baseline, on the whole record.
+
+    The stick regression of :func:`..fitting.identify_speed_sensor` sees the stuck
+    discs swing at one frequency ``w``, where a second-order sensor's
+    ``a2*y''`` is ``-a2*w**2*y``: its gain is off by the factor ``1 - a2*w**2`` and
+    cannot tell the two apart. The sliding phases' transients can. Where the baseline
+    found a second order (``speed_lag_shape`` beyond 3 standard errors), the baseline is
+    refitted (one budget ``policy.fit_nfev`` each) at the current gain, at
+    :data:`GAIN_STEP` below and above it, further steps while the least cost is at an
+    end (up to the bound), and at the vertex of the parabola through the least cost and its
+    neighbours (on log gain, within :data:`..fitting.SPEED_GAIN_BOUND` of 1). The least
+    cost in the record's frame is kept if its drop of the weighted sum of squares
+    beats the chi-square law of one degree of freedom at ``policy.alpha`` (the gain is
+    one more parameter); else the current gain and baseline stay.
+
+    Parameters
+    ----------
+    prep : Prepared
+        The prepared record with its baseline fitted (weights set).
+    values : mapping of str to float
+        Its baseline's values.
+    policy : Policy
+        The policy (evaluation budget).
+    say : Progress
+        Receiver of progress messages.
+
+    Returns
+    -------
+    tuple of (Prepared, dict)
+        The record prepared with the identified gain and its baseline (``prep`` and
+        ``values`` themselves when the current gain stays).
+    """
+    shape = prep.instrument.get(SPEED_SHAPE.name)
+    if not (isinstance(shape, dict) and float(shape['value']) > _SHAPE_Z * float(shape['se'])):
+        return prep, dict(values)  # no second order: the regression has no a2*y'' to miss
+    pb = prep.problem
+    entry = prep.instrument.get('speed_gain')
+    report = dict(entry) if isinstance(entry, dict) else {}
+    g0 = float(report.get('used', report.get('value', 1.0)))
+    # the current gain refitted with the trials' budget: like is compared with like
+    one = Ensemble([pb])
+    fo = one.fit(one.specs(), one.join([dict(values)]), max_nfev=policy.fit_nfev)
+    here = one.split(fo.values)[0]
+    current = (1.0, pb, here)
+    best_cost = fo.cost
+    best = current
+    points = [(1.0, fo.cost)]
+    lo = (1.0 - SPEED_GAIN_BOUND) / g0
+    hi = (1.0 + SPEED_GAIN_BOUND) / g0
+
+    def run(factor: float) -> None:
+        nonlocal best, best_cost
+        try:
+            cost, trial, vals = _gain_trial(prep, here, factor, policy)
+        except EstimationError:
+            return
+        points.append((factor, cost))
+        if cost < best_cost:
+            best, best_cost = (factor, trial, vals), cost
+
+    for f in (1.0 - GAIN_STEP, 1.0 + GAIN_STEP):
+        if lo <= f <= hi:
+            run(f)
+    xv = parabola_vertex_log(points)
+    while xv is None and len(points) < _GAIN_TRIALS:
+        # the least cost at an end of the trials: one more step beyond it
+        f_end = min(points, key=lambda p: p[1])[0]
+        f_next = f_end * (1.0 + GAIN_STEP if f_end > 1.0 else 1.0 - GAIN_STEP)
+        if f_end == 1.0 or not lo <= f_next <= hi:
+            break
+        run(f_next)
+        xv = parabola_vertex_log(points)
+    if xv is not None and all(abs(math.log(f) - xv) > 0.2 * GAIN_STEP for f, _ in points):
+        run(min(max(math.exp(xv), lo), hi))
+    # the gain is one more parameter of the least squares: its drop of the weighted sum
+    # of squares beats the chi-square law of one degree of freedom at policy.alpha, or
+    # the current gain stays
+    n = int(np.count_nonzero(pb.simulate(here).covered))
+    if best is current or not n * (fo.cost - best_cost) > float(chi2.ppf(1.0 - policy.alpha, 1)):
+        return prep, dict(values)
+    factor, trial, vals = best
+    gain = g0 * factor
+    sensor = identify_speed_sensor(trial.record, trial.rig, trial.segments.stick_phases())
+    sensor = replace(sensor, gain=gain, gain_se=prep.sensor.gain_se)
+    instrument = {
+        **prep.instrument,
+        'speed_gain': {**report, 'used': gain, 'from': 'baseline fit'},
+    }
+    say(f'speed gain {gain:.4f} from the baseline fit (stick regression {g0:.4f})')
+    return Prepared(trial, prep.torsion_lag, sensor, instrument), vals
+
+
 #: Evaluation budget of the shaft's identification, in the baseline fit's [-].
 _SHAFT_NFEV = 4
 
@@ -435,6 +575,7 @@ __all__ = [
     'channel_floors',
     'fit_record_baseline',
     'identify_shaft',
+    'identify_speed_gain',
     'prepare',
     'without_hum',
 ]

@@ -37,7 +37,14 @@ from .describe import describe_unexplained, drive_report
 from .ensemble import LEVELS, Ensemble, Fit, at_bound
 from .null import NullLaw, null_law
 from .policy import Policy, Progress, quiet
-from .prepare import Prepared, fit_record_baseline, identify_shaft, prepare, without_hum
+from .prepare import (
+    Prepared,
+    fit_record_baseline,
+    identify_shaft,
+    identify_speed_gain,
+    prepare,
+    without_hum,
+)
 from .result import Effect, MissingPhysics, RecordReport, Traces
 from .screen import FormFit, Model, failing, judge, screen
 
@@ -284,6 +291,10 @@ def find_missing_physics(
                 prep = dataclasses.replace(
                     prep, instrument={**prep.instrument, 'shaft': {**report, 'used': False}}
                 )
+        if pol.speed_gain:
+            # with the record's own shaft: a baseline far off its record would pull the
+            # gain to take up its misfit
+            prep, vals = identify_speed_gain(prep, vals, pol, say)
         preps.append(prep)
         base_vals.append(vals)
     ens = Ensemble([p.problem for p in preps], shared_friction=shared_friction)

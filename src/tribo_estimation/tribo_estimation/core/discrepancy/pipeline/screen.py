@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...lsq import parabola_vertex_log
 from .. import candidates as cand_lib
 from ..candidates import Candidate, ParamSpec, StartContext
 from ..stats import stick_durations
@@ -185,28 +186,6 @@ def start_context(ens: Ensemble, current: Model) -> StartContext:
     )
 
 
-def _parabola_vertex(points: Sequence[tuple[float, float]]) -> float | None:
-    """Return the vertex (log value) of a parabola through the best point and its neighbours."""
-    best: dict[float, float] = {}
-    for v, c in points:  # one point per value (the lowest cost)
-        if v > 0 and math.isfinite(c):
-            x = round(math.log(v), 9)
-            best[x] = min(c, best.get(x, math.inf))
-    pts = sorted(best.items())
-    if len(pts) < 3:
-        return None
-    k = min(range(len(pts)), key=lambda i: pts[i][1])
-    if k == 0 or k == len(pts) - 1:
-        return None
-    (x0, c0), (x1, c1), (x2, c2) = pts[k - 1 : k + 2]
-    d01 = (c1 - c0) / (x1 - x0)
-    d12 = (c2 - c1) / (x2 - x1)
-    curv = (d12 - d01) / (x2 - x0)
-    if not curv > 0.0:
-        return None
-    return min(max(0.5 * (x0 + x1) - d01 / (2.0 * curv), x0), x2)
-
-
 def screen_form(
     ens: Ensemble,
     current: Model,
@@ -268,7 +247,7 @@ def screen_form(
     if held:
         spec = next(p for p in form.params if p.name == held)
         for _ in range(_PROFILE_STEPS):
-            xv = _parabola_vertex(profile)
+            xv = parabola_vertex_log(profile)
             if xv is None or any(abs(math.log(v) - xv) < 0.02 for v, _ in profile):
                 break
             value = min(max(math.exp(xv), spec.lower), spec.upper)
