@@ -21,10 +21,11 @@ adequacy statistics dimensionless, :mod:`.pipeline.null`)::
 The top-level ``baseline``, ``final``, ``noise_floor``, ``unexplained``,
 ``instrument`` and ``drive`` are the first record's (``records`` has them all).
 ``instrument`` holds the identified instrument chain: torsion amplifier or
-accelerometer lag, speed-sensor lag, offset and gain, accelerometer gain and
-offset, the stick kinematics' drift. ``drive`` the drive speed measured from the
-record (``level``, ``nominal`` [rad/s], ``mismatch`` [-], ``warning``, the
-profile's ``knot_time`` [s] / ``knot_speed`` [rad/s], the speed steps whose duration
+accelerometer lag, speed-sensor lag, offset and gain (``speed_gain``: the stick
+regression's ``value``, and ``used`` with ``from`` when the baseline identified it),
+accelerometer gain and offset, the stick kinematics' drift. ``drive`` the drive speed
+measured from the record (``level``, ``nominal`` [rad/s], ``mismatch`` [-], ``warning``,
+the profile's ``knot_time`` [s] / ``knot_speed`` [rad/s], the speed steps whose duration
 the torsion moment chose, ``timed_steps`` (``mid``, ``duration`` [s]), per time block
 ``blocks``).
 """
