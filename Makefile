@@ -63,23 +63,24 @@ $(DEPS_STAMP): requirements.txt constraints.txt tools/fix_ros_wheels.py
 	@$(PY) tools/fix_ros_wheels.py
 	@touch $@
 
-# The numba warm-up (pure-Python cores from src/, one core) runs beside the build, and so
-# does one scenario of the independent generator (validation/tribo_scenarios), whose own
-# compiled integrator the tests' records need: compiled once here, not by every test
-# worker at once.
+# The numba warm-up (pure-Python cores from src/, one core) runs beside the build and,
+# after the build on the same core, one scenario of the independent generator
+# (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
+# compiled once here, not by every test worker at once (the warm-up, the longest, keeps
+# a core to itself).
 $(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
 	@echo '[setup] colcon build of the workspace (install/), numba warm-up beside it'
 	@mkdir -p log; rm -rf log/scenario-warmup
 	@PYTHONPATH=$(ROOT)/src/tribo_common:$(ROOT)/src/tribo_estimation $(PY) tools/warmup.py \
 	  > log/warmup.txt 2>&1 & warm_pid=$$!; \
-	  PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 --duration 1 \
-	  --out log/scenario-warmup > log/scenario-warmup.txt 2>&1 & gen_pid=$$!; \
 	  $(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
 	  --event-handlers console_direct- summary- \
 	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
-	  || { wait $$warm_pid $$gen_pid || true; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }; \
+	  || { wait $$warm_pid || true; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }; \
+	  PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 --duration 1 \
+	  --out log/scenario-warmup > log/scenario-warmup.txt 2>&1 \
+	  || { wait $$warm_pid || true; cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }; \
 	  wait $$warm_pid || { cat log/warmup.txt >&2; echo 'setup: numba warm-up failed (log/warmup.txt)' >&2; exit 2; }; \
-	  wait $$gen_pid || { cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }; \
 	  cat log/warmup.txt >&2
 	@touch $@
 
