@@ -37,7 +37,7 @@ PYTEST_ARGS ?=
 PYTEST_JOBS ?= 3
 PYTEST_DIST ?= worksteal
 
-.PHONY: help setup build test fuzz lint bench demo clean distclean
+.PHONY: help setup build test typecheck fuzz lint bench demo clean distclean
 
 help:
 	@echo 'make demo   - run the demo on the simulated rig (main job)'
@@ -49,8 +49,8 @@ help:
 
 # Set-up in two lines of work on the two cores (make -j2): the numerical packages first
 # (numpy, scipy, numba: what the numba warm-up needs), then the warm-up of the compiled
-# cores (45 s on one core) beside the rest of the packages, the colcon build and the
-# independent scenario generator's warm-up.
+# cores (45 s on one core) and the scenario generator's beside the rest of the packages
+# and the colcon build.
 setup:
 	@$(MAKE) -s -j2 --no-print-directory $(ROOT)/.setup-done
 
@@ -77,28 +77,28 @@ $(DEPS_STAMP): $(NUMERIC_STAMP) requirements.txt constraints.txt tools/fix_ros_w
 	@touch $@
 
 # The numba warm-up (pure-Python cores from src/, one core): compiled once here, not by
-# the first node, test or demo.
+# the first node, test or demo; then one scenario of the independent generator
+# (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
+# compiled once here, not by every test worker at once.
 $(WARM_STAMP): $(NUMERIC_STAMP) $(PKG_FILES)
 	@echo '[setup] numba warm-up of the compiled cores (beside the packages and the build)'
 	@mkdir -p log
 	@PYTHONPATH=$(ROOT)/src/tribo_common:$(ROOT)/src/tribo_estimation $(PY) tools/warmup.py \
 	  > log/warmup.txt 2>&1 || { cat log/warmup.txt >&2; echo 'setup: numba warm-up failed (log/warmup.txt)' >&2; exit 2; }
 	@cat log/warmup.txt >&2
+	@rm -rf log/scenario-warmup; PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 \
+	  --duration 1 --out log/scenario-warmup > log/scenario-warmup.txt 2>&1 \
+	  || { cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }
 	@touch $@
 
-# The colcon build, then one scenario of the independent generator
-# (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
-# compiled once here, not by every test worker at once.
+# The colcon build of the workspace.
 $(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
 	@echo '[setup] colcon build of the workspace (install/)'
-	@mkdir -p log; rm -rf log/scenario-warmup
+	@mkdir -p log
 	@$(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
 	  --event-handlers console_direct- summary- \
 	  --cmake-args -DPython3_EXECUTABLE=$(PY) -DBUILD_TESTING=OFF > log/colcon-build.txt 2>&1 \
 	  || { tail -40 log/colcon-build.txt >&2; echo 'setup: colcon build failed (log/colcon-build.txt)' >&2; exit 2; }
-	@PYTHONPATH=$(ROOT)/validation $(PY) -m tribo_scenarios 5 --duration 1 \
-	  --out log/scenario-warmup > log/scenario-warmup.txt 2>&1 \
-	  || { cat log/scenario-warmup.txt >&2; echo 'setup: scenario generator warm-up failed (log/scenario-warmup.txt)' >&2; exit 2; }
 	@touch $@
 
 build:
@@ -109,19 +109,25 @@ MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimatio
 	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench \
 	validation/tribo_scenarios
 
-# mypy (one core, ~20 s) runs beside pytest, whose workers wait much on subprocesses and
-# DDS; its report follows pytest's, and either failing fails the target.
-test: setup
-	@echo '[test] ruff, vulture, mypy beside pytest'
+# mypy (one core, 25 s; it needs the packages, not the build) runs beside the set-up
+# once the packages are in (make -j2: on the core the warm-up leaves), not beside
+# pytest, whose workers keep both cores busy; its report follows pytest's, and either
+# failing fails the target.
+test:
+	@$(MAKE) -s -j2 --no-print-directory $(ROOT)/.setup-done typecheck
+	@echo '[test] ruff, vulture, pytest'
 	@mkdir -p $(TMPDIR)
 	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
 	@$(IN_ENV) vulture
-	@mkdir -p log; $(IN_ENV) { mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS) \
-	  > log/mypy.txt 2>&1 & mypy_pid=$$!; }; \
-	  rc=0; python -m pytest -q -n $(PYTEST_JOBS) --dist $(PYTEST_DIST) --timeout=600 $(PYTEST_ARGS) || rc=$$?; \
-	  mrc=0; wait $$mypy_pid || mrc=$$?; cat log/mypy.txt; \
-	  if [ $$mrc -ne 0 ]; then echo 'test: mypy failed (above)' >&2; fi; \
-	  [ $$rc -eq 0 ] && [ $$mrc -eq 0 ]
+	@$(IN_ENV) rc=0; python -m pytest -q -n $(PYTEST_JOBS) --dist $(PYTEST_DIST) --timeout=600 \
+	  $(PYTEST_ARGS) || rc=$$?; \
+	  cat log/mypy.txt; mrc=$$(cat log/mypy.rc); \
+	  if [ "$$mrc" != 0 ]; then echo 'test: mypy failed (above)' >&2; fi; \
+	  [ $$rc -eq 0 ] && [ "$$mrc" = 0 ]
+
+typecheck: $(DEPS_STAMP)
+	@mkdir -p log; rc=0; $(VENV)/bin/mypy --no-incremental --cache-dir .mypy_cache/make \
+	  $(MYPY_PATHS) > log/mypy.txt 2>&1 || rc=$$?; echo $$rc > log/mypy.rc
 
 # Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
 # runs its short profile): FUZZ_EXAMPLES generated bad inputs per command (the burst
