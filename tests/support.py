@@ -114,16 +114,18 @@ def bag_so_far(path: Path, topics: list[str] | None = None) -> list[Any]:
             return []
 
 
-def make_rig_bag(path: Path, seconds: float, *, seed: int = 11, block: int = 100) -> None:
+def make_rig_bag(
+    path: Path, seconds: float, *, seed: int = 11, block: int = 100, fs: float = 10_000.0
+) -> None:
     """A bag of the simulated rig (config/rig.yaml, seeded noise) as the sim_rig node
-    would record it: SampleBlocks of ``block`` samples on the three rig topics."""
+    would record it: SampleBlocks of ``block`` samples at ``fs`` [Hz] on the three rig
+    topics."""
     import numpy as np
 
     from tribo_bringup import bagio
     from tribo_estimation.core.config import load_rig_config
     from tribo_estimation.core.simulate import simulate
 
-    fs = 10_000.0
     cfg = load_rig_config(ROOT / 'config' / 'rig.yaml')
     res = simulate(cfg.rig, cfg.friction, cfg.drive, seconds, fs, noise=cfg.noise, seed=seed)
     store = bagio.typestore()
