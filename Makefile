@@ -108,6 +108,7 @@ build:
 MYPY_PATHS := src/tribo_common/tribo_common src/tribo_estimation/tribo_estimation \
 	src/tribo_nvct/tribo_nvct src/tribo_drivers/tribo_drivers src/tribo_bringup/tribo_bringup tools bench \
 	validation/tribo_scenarios
+MYPY := $(VENV)/bin/mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
 
 # mypy (one core, 25 s; it needs the packages, not the build) runs beside the set-up
 # once the packages are in (make -j2: on the core the warm-up leaves), not beside
@@ -126,8 +127,7 @@ test:
 	  [ $$rc -eq 0 ] && [ "$$mrc" = 0 ]
 
 typecheck: $(DEPS_STAMP)
-	@mkdir -p log; rc=0; $(VENV)/bin/mypy --no-incremental --cache-dir .mypy_cache/make \
-	  $(MYPY_PATHS) > log/mypy.txt 2>&1 || rc=$$?; echo $$rc > log/mypy.rc
+	@mkdir -p log; rc=0; $(MYPY) > log/mypy.txt 2>&1 || rc=$$?; echo $$rc > log/mypy.rc
 
 # Long profile of the property-based bad-input suite (tests/test_fuzz_*.py; make test
 # runs its short profile): FUZZ_EXAMPLES generated bad inputs per command (the burst
@@ -146,7 +146,7 @@ fuzz: setup
 lint: setup
 	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
 	@$(IN_ENV) ruff format --no-cache --check src tests bench tools validation conftest.py
-	@$(IN_ENV) mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PATHS)
+	@$(MYPY)
 	@$(IN_ENV) vulture
 
 # the benchmarks that print accuracy figures also write them into docs/validation.md

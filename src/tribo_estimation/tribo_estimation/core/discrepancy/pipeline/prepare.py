@@ -362,11 +362,8 @@ def _gain_trial(
     problem and the fitted values.
     """
     pb = prep.problem
-    rec = replace(pb.record, speed=pb.record.speed / factor)
-    weights = {**pb.weights, 'speed': pb.weights.get('speed', 0.0) * factor}
-    trial = Problem(rec, pb.rig, pb.drive, k=pb.k, weights=weights, block_time=pb.block_time)
-    trial.free_instrument = pb.free_instrument
-    trial.hum_lines = dict(pb.hum_lines)
+    trial = pb.like(replace(pb.record, speed=pb.record.speed / factor))
+    trial.weights['speed'] = pb.weights.get('speed', 0.0) * factor
     start = dict(values)
     if SPEED_OFFSET.name in start:
         start[SPEED_OFFSET.name] = start[SPEED_OFFSET.name] / factor
