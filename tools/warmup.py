@@ -61,17 +61,28 @@ def main() -> int:
             families=('viscous_friction',), max_effects=1, replicas=2, confirm_replicas=0
         ),
     )
-    # paths the short record may not reach: sliding nodes, the speed-sensor lag
+    # paths the short record may not reach: sliding nodes, the speed sensor's first- and
+    # second-order lags, and the kernel's functions called from Python (the model's
+    # vectorised friction and drive, its stick moment and equations of motion)
     import numpy as np
 
-    from tribo_estimation.core import shooting
-    from tribo_estimation.core.model import pack_params
+    from tribo_estimation.core import kernel, model, shooting
 
-    p = pack_params(rig, friction, drive)
+    p = model.pack_params(rig, friction, drive)
     one = np.ones(1)
+    start, stop = np.zeros(1, np.int64), np.ones(1, np.int64)
     knots = shooting.DriveKnots.constant(3.14159)
     shooting.sliding_states(p, one, one, one, one, one, one, knots.time, knots.speed)
-    shooting.lag_segments(one, np.zeros(1, np.int64), np.ones(1, np.int64), one, 0.5, one.copy())
+    shooting.lag_segments(one, start, stop, one, 0.5, one.copy())
+    shooting.lag_segments(one, start, stop, one, 0.5, one.copy(), 1.0)
+    lag2 = shooting.second_order_lag(1e-3, 2e-7, 1e-4)
+    shooting.lag2_segments(one, start, stop, one, one, lag2, one.copy(), one.copy())
+    friction.mu(one)
+    drive.speed(one)
+    drive.angle(one)
+    model.stick_moment(rig, drive, 0.0, 0.0, 0.0, 0.0)
+    model.derivatives(rig, friction, drive, model.RigState())
+    kernel.chamber_moment(p, 0.0, 1.0)
     t3 = time.monotonic()
     print(
         f'warmup: numba code ready in {t3 - t0:.1f} s (simulator {t1 - t0:.1f} s, '
