@@ -40,6 +40,10 @@ PYTEST_DIST ?= worksteal
 
 .PHONY: help setup build test typecheck fuzz lint bench demo clean distclean
 
+# The exported TMPDIR exists before any recipe that may write temporary files runs.
+$(TMPDIR):
+	@mkdir -p $@
+
 help:
 	@echo 'make demo   - run the demo on the simulated rig (main job)'
 	@echo 'make test   - run the tests'
@@ -64,9 +68,8 @@ $(ROOT)/.setup-done: $(WARM_STAMP) $(BUILD_STAMP)
 # it, and every process would compile what it imports. uv's cache lies in .venv.
 UV_INSTALL := UV_CACHE_DIR=$(VENV)/.uv-cache $(UV) pip install -q --compile-bytecode --python $(PY)
 
-$(NUMERIC_STAMP): requirements.txt constraints.txt
+$(NUMERIC_STAMP): requirements.txt constraints.txt | $(TMPDIR)
 	@echo '[setup] virtual environment and pinned packages (.venv)'
-	@mkdir -p $(TMPDIR)
 	@v=$$($(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
 	  if [ "$$v" != "3.11" ]; then echo "setup: Python 3.11 is required for the ROS 2 Jazzy wheels (found $$v at $(PYTHON))" >&2; exit 2; fi
 	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
@@ -88,7 +91,7 @@ $(DEPS_STAMP): $(NUMERIC_STAMP) requirements.txt constraints.txt tools/fix_ros_w
 # the first node, test or demo; then one scenario of the independent generator
 # (validation/tribo_scenarios), whose own compiled integrator the tests' records need:
 # compiled once here, not by every test worker at once.
-$(WARM_STAMP): $(NUMERIC_STAMP) $(PKG_FILES)
+$(WARM_STAMP): $(NUMERIC_STAMP) $(PKG_FILES) | $(TMPDIR)
 	@echo '[setup] numba warm-up of the compiled cores (beside the packages and the build)'
 	@mkdir -p log
 	@PYTHONPATH=$(ROOT)/src/tribo_common:$(ROOT)/src/tribo_estimation $(PY) tools/warmup.py \
@@ -104,7 +107,7 @@ $(WARM_STAMP): $(NUMERIC_STAMP) $(PKG_FILES)
 # PYTHONDONTWRITEBYTECODE is set, every process of the tests would otherwise compile
 # what it imports (0.7 s of CPU for a process that imports every module).
 COMPILE := $(PY) -m compileall -q -j0 src validation
-$(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES)
+$(BUILD_STAMP): $(DEPS_STAMP) $(PKG_FILES) | $(TMPDIR)
 	@echo '[setup] colcon build of the workspace (install/)'
 	@mkdir -p log
 	@$(COLCON_ENV) $(VENV)/bin/colcon --log-base log build --symlink-install \
@@ -127,10 +130,9 @@ MYPY := $(VENV)/bin/mypy --no-incremental --cache-dir .mypy_cache/make $(MYPY_PA
 # once the packages are in (make -j2: on the core the warm-up leaves), not beside
 # pytest, whose workers keep both cores busy; its report follows pytest's, and either
 # failing fails the target.
-test:
+test: | $(TMPDIR)
 	@$(MAKE) -s -j2 --no-print-directory $(ROOT)/.setup-done typecheck
 	@echo '[test] ruff, vulture, pytest'
-	@mkdir -p $(TMPDIR)
 	@$(COMPILE)
 	@$(IN_ENV) ruff check --no-cache src tests bench tools validation conftest.py
 	@$(IN_ENV) vulture
@@ -148,8 +150,7 @@ typecheck: $(DEPS_STAMP)
 # property test a quarter of them); FUZZ_LOG=path logs every command run (command,
 # exit code, seconds), so a run stopped early still tells how many inputs ran.
 FUZZ_EXAMPLES ?= 10000
-fuzz: setup
-	@mkdir -p $(TMPDIR)
+fuzz: setup | $(TMPDIR)
 	@echo '[fuzz] $(FUZZ_EXAMPLES) generated bad inputs per command and decoder'
 	@$(IN_ENV) HYPOTHESIS_PROFILE=fuzz HYPOTHESIS_MAX_EXAMPLES=$(FUZZ_EXAMPLES) python -m pytest -q \
 	  -n $(PYTEST_JOBS) --timeout=0 --hypothesis-show-statistics tests/test_fuzz_commands.py \
@@ -165,12 +166,10 @@ lint: setup
 
 # the benchmarks that print accuracy figures also write them into docs/validation.md
 # (bench/validation_doc.py: one section per benchmark, with the date, commit and command)
-bench: setup
-	@mkdir -p $(TMPDIR)
+bench: setup | $(TMPDIR)
 	@$(IN_ENV) for b in bench/bench_*.py; do echo "=== $$b"; TRIBO_WRITE_VALIDATION=1 python $$b; done
 
-demo: setup
-	@mkdir -p $(TMPDIR)
+demo: setup | $(TMPDIR)
 	@$(IN_ENV) python -m tribo_bringup.cli demo
 
 clean:
