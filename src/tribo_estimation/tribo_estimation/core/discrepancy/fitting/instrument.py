@@ -21,7 +21,6 @@ from tribo_estimation.core.shooting import lag2_segments, lag_segments, second_o
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
-    grouped_medians,
     local_slope,
     mad_sigma,
     rig_half,
@@ -434,36 +433,6 @@ def _mismatch_drift(
     return float(coef[k]) / abs(w_mean), float(se[k]) / abs(w_mean)
 
 
-#: A phase whose median speed disagreement lies this many robust standard deviations
-#: (over the phases) from the phases' median is no stick (the chamber rests while the
-#: shaft slides: steady sliding also gives a flat stick residual) [-].
-OUTLIER_PHASE_SIGMA = 5.0
-
-
-def _agreeing_phases(
-    d: FloatArray, idx_l: list[IntArray], cl_l: list[IntArray]
-) -> tuple[list[IntArray], list[IntArray]]:
-    """Drop the phases whose speed disagreement ``d = y - w`` is an outlier.
-
-    In a stick the speed channel and the chamber speed agree up to the sensor's
-    offset and lag, the same in every phase; a phase whose median ``d`` lies more
-    than :data:`OUTLIER_PHASE_SIGMA` robust standard deviations from the median over
-    the phases is not a stick. Kept when fewer than 3 phases or all would go.
-    """
-    if len(idx_l) < 3:
-        return idx_l, cl_l
-    med = grouped_medians(np.concatenate([d[ii] for ii in idx_l]), [ii.size for ii in idx_l])
-    centre = float(np.median(med))
-    spread = 1.4826 * float(np.median(np.abs(med - centre)))
-    keep = np.abs(med - centre) <= OUTLIER_PHASE_SIGMA * spread
-    if spread <= 0.0 or not np.any(keep):
-        return idx_l, cl_l
-    return (
-        [ii for ii, k in zip(idx_l, keep, strict=True) if k],
-        [cc for cc, k in zip(cl_l, keep, strict=True) if k],
-    )
-
-
 def identify_speed_sensor(
     record: Record, rig: RigParams, runs: tuple[IntArray, IntArray] | None = None
 ) -> SpeedSensor:
@@ -512,7 +481,6 @@ def identify_speed_sensor(
             cl_l.append(np.full(ii.size, k, dtype=np.int64))
     if not idx_l:
         return SpeedSensor(0.0, math.nan, 0.0, math.nan, 0)
-    idx_l, cl_l = _agreeing_phases(record.speed - w, idx_l, cl_l)
     idx = np.concatenate(idx_l)
     cl = np.concatenate(cl_l)
     d = record.speed[idx] - w[idx]

@@ -298,6 +298,17 @@ def fit_record_baseline(
         if best is None or fo.cost < best.cost:
             best = fo
     assert best is not None
+    offset_set_aside = False
+    if sensor[SPEED_OFFSET.name] != 0.0:
+        # the stick regression's offset is what a sensor slower than the stick phases
+        # throws far off (its output there still carries the slip before), and through
+        # the drive angles it moves the whole baseline: the best start is screened with
+        # the calibrated zero too; where that costs less, the offset is fitted
+        zero = {**one.split(best.values)[0], SPEED_OFFSET.name: 0.0}
+        fo = one.fit(one.specs(), one.join([zero]), max_nfev=policy.screen_nfev, fold=0)
+        if fo.cost < best.cost:
+            best, offset_set_aside = fo, True
+            say(f'speed offset fitted from 0 (stick regression {sensor[SPEED_OFFSET.name]:.4g})')
     fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
     values = one.split(fo.values)[0]
     # the durations of the drive's steps that its angles leave open, by this model
@@ -305,9 +316,14 @@ def fit_record_baseline(
     sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
     # the chamber's inertia is free from here on, with the speed sensor's lag, offset and
-    # second order when the lag is significant
+    # second order when the lag is significant, its offset alone when the regression's
+    # was set aside
     lagged = sensor['speed_lag_tau'] > 0.0
-    pb.free_instrument = (*((SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE) if lagged else ()), CHAMBER_I1)
+    free_sensor = (
+        (SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE) if lagged
+        else (SPEED_OFFSET,) if offset_set_aside else ()
+    )  # fmt: skip
+    pb.free_instrument = (*free_sensor, CHAMBER_I1)
     one = Ensemble([pb])
     fo = one.fit(
         one.specs(), one.join([{**values, CHAMBER_I1.name: CHAMBER_I1.initial}]),
@@ -320,12 +336,12 @@ def fit_record_baseline(
         'se': fo.se.get(own(CHAMBER_I1.name, 0), math.nan),
         'unit': '-',
     }
+    for spec in free_sensor:
+        entry = inst.get(spec.name)
+        if isinstance(entry, dict):
+            entry['used'] = values[spec.name]
+            entry['se_joint'] = fo.se.get(own(spec.name, 0), math.nan)
     if lagged:
-        for name in ('speed_lag_tau', 'speed_offset'):
-            entry = inst[name]
-            if isinstance(entry, dict):
-                entry['used'] = values[name]
-                entry['se_joint'] = fo.se.get(own(name, 0), math.nan)
         inst[SPEED_SHAPE.name] = {
             'value': values.get(SPEED_SHAPE.name, 0.0),
             'se': fo.se.get(own(SPEED_SHAPE.name, 0), math.nan),
