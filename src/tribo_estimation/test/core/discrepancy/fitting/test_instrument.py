@@ -10,6 +10,7 @@ import pytest
 
 from tribo_estimation.core.discrepancy.fitting import Problem, Record
 from tribo_estimation.core.discrepancy.fitting.instrument import (
+    SpeedSensor,
     identify_accel_sensor,
     identify_hum,
     identify_speed_sensor,
@@ -117,3 +118,17 @@ def test_a_speed_gain_beyond_the_physical_bound_is_reported_not_used(
     else:
         assert sensor.gain == 1.0
         assert sensor.gain_rejected == pytest.approx(1.0 + error, rel=5e-3)
+
+
+@pytest.mark.parametrize(
+    ('tau_raw', 'tau_se', 'holds'),
+    [(-1e-3, 1e-4, False), (-2e-4, 1e-4, True), (2e-3, 1e-4, True), (-1e-3, math.nan, True)],
+)
+def test_a_significantly_negative_lag_says_the_sensor_model_does_not_hold(
+    tau_raw: float, tau_se: float, holds: bool
+) -> None:
+    # no sensor lags by a negative time: a regression lag over 3 standard errors below
+    # zero says the stick phases are not described by the first-order model (its offset
+    # is then no estimate); within 3 SE, or without a standard error, it holds
+    sensor = SpeedSensor(max(tau_raw, 0.0), tau_se, 0.5, 0.01, 100, tau_raw=tau_raw)
+    assert sensor.consistent() is holds

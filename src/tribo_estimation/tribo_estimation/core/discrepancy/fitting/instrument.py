@@ -300,6 +300,8 @@ class SpeedSensor:
     gain_rejected : float
         A gain the regression gave beyond :data:`SPEED_GAIN_BOUND` of 1 [-]: not
         used (NaN: none).
+    tau_raw : float
+        The regression's lag before it is limited to [0, 20 ms] [s] (NaN: none).
     """
 
     tau: float
@@ -312,6 +314,22 @@ class SpeedSensor:
     gain: float = 1.0
     gain_se: float = math.nan
     gain_rejected: float = math.nan
+    tau_raw: float = math.nan
+
+    def consistent(self) -> bool:
+        """Tell whether the regression's sensor model holds on the stick phases.
+
+        A lag more than 3 standard errors below zero is no sensor's: the phases are
+        not described by ``y = w - tau*y' + offset`` (a sensor slower than the stick
+        phases, whose output there still carries the slip before; an uncompensated
+        torsion lag), and its offset is no estimate either.
+
+        Returns
+        -------
+        bool
+            False if the raw lag is significantly negative.
+        """
+        return not (math.isfinite(self.tau_se) and self.tau_raw < -3.0 * self.tau_se)
 
     def drifting(self) -> bool:
         """Tell whether the stick-phase kinematics drift during the record.
@@ -510,7 +528,7 @@ def identify_speed_sensor(
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
     return SpeedSensor(
         tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
-        gain, gain_se, rejected,
+        gain, gain_se, rejected, float(coef[1]),
     )  # fmt: skip
 
 
