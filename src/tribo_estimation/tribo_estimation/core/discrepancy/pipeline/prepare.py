@@ -286,48 +286,41 @@ def fit_record_baseline(
     pb = prep.problem
     one = Ensemble([pb])
     sensor = prep.sensor.values()
-    best: Fit | None = None
     # k of Equ. 8 from the policy's starts: the config's k (a preset, or another test's) can
     # start the fit in the wrong valley (at a few rpm, k v spans 0.1-10)
     ks = [previous['k']] if previous is not None else [pb.k * f for f in policy.k_starts]
     starts = [{**s, 'k': k} for k in ks for s in baseline_starts(pb)]
     if previous is not None:
         starts.append({n: previous[n] for n in ('mu0', 'mu_inf', 'k')})
-    for s in starts:
-        fo = one.fit(one.specs(), one.join([{**s, **sensor}]), max_nfev=policy.screen_nfev, fold=0)
-        if best is None or fo.cost < best.cost:
-            best = fo
-    assert best is not None
-    offset_set_aside = False
-    if not prep.sensor.consistent():
-        # the regression's sensor model does not hold (its lag below zero): from the
-        # best start, its offset and zero, each with the lag over the span of a
-        # tachometer's (a slow second-order sensor's fit has its own basin), are
-        # screened; the offset is fitted from the least cost's
-        here = one.split(best.values)[0]
-        for offset in {here[SPEED_OFFSET.name], 0.0}:
-            for tau in _LAG_STARTS:
-                trial = {**here, SPEED_LAG.name: tau, SPEED_OFFSET.name: offset}
-                fo = one.fit(one.specs(), one.join([trial]), max_nfev=policy.screen_nfev, fold=0)
-                if fo.cost < best.cost:
-                    best = fo
-        chosen = one.split(best.values)[0]
-        sensor = {n: chosen[n] for n in (SPEED_LAG.name, SPEED_OFFSET.name)}
-        offset_set_aside = True
+    best = _least_cost(one, [{**s, **sensor} for s in starts], policy)
+    # the speed sensor, screened from the best start: where the regression's model does
+    # not hold (its lag below zero), its offset and zero, each with lags over the span of
+    # a tachometer's (a slow second-order sensor's fit has its own basin); else, with an
+    # offset, zero too (the regression's offset is what a sensor slower than the stick
+    # phases throws far off, its output there still carrying the slip before, and through
+    # the drive angles it moves the whole baseline). Where a trial costs less, or the
+    # model does not hold, the offset is fitted from the least cost's
+    here = one.split(best.values)[0]
+    holds = prep.sensor.consistent()
+    if not holds:
+        trials = [
+            {SPEED_LAG.name: tau, SPEED_OFFSET.name: offset}
+            for offset in {here[SPEED_OFFSET.name], 0.0}
+            for tau in _LAG_STARTS
+        ]
+    else:
+        trials = [{SPEED_OFFSET.name: 0.0}] if sensor[SPEED_OFFSET.name] != 0.0 else []
+    regressed = best
+    best = _least_cost(one, [{**here, **t} for t in trials], policy, best)
+    offset_set_aside = not holds or best is not regressed
+    chosen = one.split(best.values)[0]
+    if offset_set_aside:
         say(
-            f'speed sensor fitted from lag {sensor[SPEED_LAG.name]:.3g} s, '
-            f'offset {sensor[SPEED_OFFSET.name]:.4g} rad/s (the stick regression does not hold)'
+            f'speed sensor fitted from lag {chosen[SPEED_LAG.name]:.3g} s, offset '
+            f'{chosen[SPEED_OFFSET.name]:.4g} rad/s (stick regression: lag '
+            f'{sensor[SPEED_LAG.name]:.3g} s, offset {sensor[SPEED_OFFSET.name]:.4g} rad/s)'
         )
-    elif sensor[SPEED_OFFSET.name] != 0.0:
-        # the stick regression's offset is what a sensor slower than the stick phases
-        # throws far off (its output there still carries the slip before), and through
-        # the drive angles it moves the whole baseline: the best start is screened with
-        # the calibrated zero too; where that costs less, the offset is fitted
-        zero = {**one.split(best.values)[0], SPEED_OFFSET.name: 0.0}
-        fo = one.fit(one.specs(), one.join([zero]), max_nfev=policy.screen_nfev, fold=0)
-        if fo.cost < best.cost:
-            best, offset_set_aside = fo, True
-            say(f'speed offset fitted from 0 (stick regression {sensor[SPEED_OFFSET.name]:.4g})')
+    sensor = {n: chosen[n] for n in (SPEED_LAG.name, SPEED_OFFSET.name)}
     fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
     values = one.split(fo.values)[0]
     # the durations of the drive's steps that its angles leave open, by this model
@@ -373,6 +366,23 @@ def fit_record_baseline(
         f'({pb.segments.n} segments)'
     )
     return values
+
+
+def _least_cost(
+    one: Ensemble, starts: list[dict[str, float]], policy: Policy, best: Fit | None = None
+) -> Fit:
+    """Screen a record's baseline from each start; return the least cost's fit.
+
+    Each start is fitted with the screening budget (``policy.screen_nfev``) on the
+    first fold; ``best`` (an earlier screen's) is kept unless a start costs less.
+    """
+    for s in starts:
+        fo = one.fit(one.specs(), one.join([s]), max_nfev=policy.screen_nfev, fold=0)
+        if best is None or fo.cost < best.cost:
+            best = fo
+    if best is None:
+        raise EstimationError('no start to screen the baseline from')
+    return best
 
 
 #: Start lags of a speed sensor the stick regression cannot describe [s]: a factor 4
