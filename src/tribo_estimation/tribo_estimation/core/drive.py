@@ -6,9 +6,15 @@ stick-slip period the shaft follows the drive (the belt deflection of Equ. 2
 stays bounded), so the shaft speed channel w2, averaged over
 :data:`SMOOTH_TIME`, is the drive speed w0. The profile is a continuous
 piecewise-linear function of time: its knots are placed top-down (split where
-the smoothed speed departs most from the chord, while that departure exceeds
-:func:`tolerance`), and the knot speeds are then a least-squares fit to the
-speed averaged in short bins. A speed-sensor lag (ms) or offset-free gain
+the smoothed speed departs most from the chord, the largest departure first,
+while it exceeds :func:`tolerance`), and the knot speeds are then a
+least-squares fit to the speed averaged in short bins. A stick-slip cycle
+longer than :data:`SMOOTH_TIME` (a slow drive) leaves part of its oscillation
+in that average; averaged over whole cycles (:func:`cycle_groups`) it leaves
+none, since the belt deflection is the same at both ends of a cycle. The same
+split of the cycle means gives a second profile, and the one that fits the
+cycle means better, by the Bayesian information criterion with two parameters
+per knot, is the estimate. A speed-sensor lag (ms) or offset-free gain
 error moves this by far less than the tolerance; a sensor offset moves it by
 the offset.
 
@@ -24,6 +30,7 @@ Units: time s, speed rad/s, rate rad/s^2.
 from __future__ import annotations
 
 import functools
+import heapq
 import math
 from dataclasses import dataclass, replace
 
@@ -31,9 +38,10 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from .signal import moving_average
+from .signal import moving_average, noise_level
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 #: Knot times [s] and speeds [rad/s] of a profile the angle fit is pulled toward.
 Prior = tuple[FloatArray, FloatArray]
 
@@ -153,21 +161,126 @@ def tolerance(level: float, noise: float) -> float:
 
 
 def _split(t: FloatArray, y: FloatArray, tol: float) -> list[int]:
-    """Top-down piecewise-linear segmentation: knot indices into t."""
+    """Top-down piecewise-linear segmentation, largest departure first: knot indices into t."""
     knots = [0, t.size - 1]
-    stack = [(0, t.size - 1)]
-    while stack and len(knots) < _MAX_KNOTS:
-        a, b = stack.pop()
-        if b - a < 3:
-            continue
+    heap: list[tuple[float, int, int, int]] = []
+
+    def push(a: int, b: int) -> None:
+        if b - a < 2:
+            return
         chord = y[a] + (y[b] - y[a]) * (t[a : b + 1] - t[a]) / (t[b] - t[a])
         dev = np.abs(y[a : b + 1] - chord)
-        j = int(np.argmax(dev))
-        if dev[j] > tol and 0 < j < b - a:
-            m = a + j
-            knots.append(m)
-            stack.extend(((a, m), (m, b)))
+        j = int(np.argmax(dev[1:-1])) + 1
+        if dev[j] > tol:
+            heapq.heappush(heap, (-float(dev[j]), a, a + j, b))
+
+    push(0, t.size - 1)
+    while heap and len(knots) < _MAX_KNOTS:
+        _, a, m, b = heapq.heappop(heap)
+        knots.append(m)
+        push(a, m)
+        push(m, b)
     return sorted(set(knots))
+
+
+#: Hysteresis of the cycle detector of :func:`cycle_groups`: white-noise standard
+#: deviations, and the fraction of the local rms oscillation, that the speed must
+#: pass on either side of its running mean [-].
+_CYCLE_NOISE = 2.0
+_CYCLE_FRACTION = 0.25
+#: Longest cycle of :func:`cycle_groups`, in units of its ``span`` [-].
+_CYCLE_LONGEST = 3.0
+
+
+def cycle_groups(
+    time: FloatArray, speed: FloatArray, span: float = SMOOTH_TIME
+) -> tuple[IntArray, npt.NDArray[np.bool_]]:
+    """Return the edges of groups of whole oscillation cycles of the shaft speed.
+
+    A cycle begins where the speed rises through its running mean (over
+    3 x ``span``) past a hysteresis band (:data:`_CYCLE_NOISE` white-noise
+    deviations, at least :data:`_CYCLE_FRACTION` of the local rms oscillation);
+    consecutive cycles are grouped until each group lasts at least ``span``. A
+    stretch without a cycle for :data:`_CYCLE_LONGEST` x ``span`` (no oscillation,
+    or a ramp the running mean lags) is cut into groups of ``span``.
+
+    Parameters
+    ----------
+    time : FloatArray
+        Sample times [s], uniform.
+    speed : FloatArray
+        Shaft speed w2 [rad/s], finite.
+    span : float
+        Shortest group [s].
+
+    Returns
+    -------
+    edges : IntArray
+        Sample indices: group ``g`` is ``edges[g]:edges[g + 1]``.
+    whole : numpy.ndarray of bool
+        Per group: it holds whole cycles (False for the part of a cycle cut by the
+        record's start or end).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(0.0, 2.0, 1e-3)
+    >>> w = 1.0 + 2.0 * np.sin(2.0 * np.pi * 7.3 * t) ** 9
+    >>> e, whole = cycle_groups(t, w)
+    >>> means = np.add.reduceat(w, e[:-1]) / np.diff(e)
+    >>> bool(np.all(np.abs(means[whole] - 1.0) < 0.01)), int(whole.size - whole.sum())
+    (True, 2)
+    """
+    t = np.asarray(time, dtype=np.float64)
+    w = np.asarray(speed, dtype=np.float64)
+    n = t.size
+    dt = float((t[-1] - t[0]) / (n - 1))
+    width = max(1, round(3.0 * span / dt))
+    r = w - moving_average(w, width)
+    sigma = noise_level(w)
+    band = np.maximum(
+        _CYCLE_NOISE * (sigma if math.isfinite(sigma) else 0.0),
+        _CYCLE_FRACTION * np.sqrt(moving_average(r * r, width)),
+    )
+    side = np.where(r > band, 1, np.where(r < -band, -1, 0))
+    last = np.maximum.accumulate(np.where(side != 0, np.arange(n), 0))
+    held = side[last]
+    ups = np.flatnonzero((held[1:] == 1) & (held[:-1] == -1)) + 1
+    step = max(1, round(span / dt))
+    longest = _CYCLE_LONGEST * span
+    bounds = [0]
+    cycle = [False]  # the bound is a cycle's start
+    for b in [*ups.tolist(), n]:
+        while t[min(b, n - 1)] - t[bounds[-1]] > longest:
+            bounds.append(bounds[-1] + step)
+            cycle.append(False)
+        if b < n and t[b] - t[bounds[-1]] >= span:
+            bounds.append(b)
+            cycle.append(True)
+    if len(bounds) > 1 and t[-1] - t[bounds[-1]] < span:
+        bounds.pop()
+        cycle.pop()
+    bounds.append(n)
+    cycle.append(False)
+    whole = np.ones(len(bounds) - 1, dtype=bool)
+    whole[0] = not cycle[1]
+    whole[-1] = whole[-1] and not cycle[-2]
+    return np.asarray(bounds, dtype=np.int64), whole
+
+
+def _group_misfit(
+    t: FloatArray, lo: IntArray, hi: IntArray, means: FloatArray, d: DriveEstimate
+) -> float:
+    """Return the BIC of a profile against the means of groups ``lo:hi`` [-].
+
+    Two parameters per knot (its time and speed).
+    """
+    p = d.speed(t)
+    c = np.concatenate(([0.0], np.cumsum(p)))
+    pm = (c[hi] - c[lo]) / (hi - lo)
+    g = means.size
+    sse = float(np.sum((pm - means) ** 2))
+    return g * math.log(max(sse / g, 1e-300)) + 2.0 * d.knot_time.size * math.log(g)
 
 
 def _fit_knots(tk: FloatArray, tb: FloatArray, yb: FloatArray) -> FloatArray:
@@ -218,11 +331,35 @@ def estimate_drive(
     if not ok.all():
         w = np.interp(t, t[ok], w[ok])
     dt = float((t[-1] - t[0]) / (t.size - 1))
-    span = float(t[-1] - t[0])
-    width = max(1, round(min(SMOOTH_TIME, 0.5 * span) / dt))
-    ws = moving_average(w, width)
-    # decimate to bins (the knot search and the least squares work on the bins)
-    nb = max(1, round(_BIN_TIME / dt))
+    span = min(SMOOTH_TIME, 0.5 * float(t[-1] - t[0]))
+    width = max(1, round(span / dt))
+    smoothed = _profile(t, w, moving_average(w, width), nom, dt)
+    edges, whole = cycle_groups(t, w, span)
+    if int(whole.sum()) < 3:
+        return smoothed
+    tc = (0.5 * (t[edges[:-1]] + t[edges[1:] - 1]))[whole]
+    yc = (np.add.reduceat(w, edges[:-1]) / np.diff(edges))[whole]
+    cycles = _profile(tc, yc, yc, nom, dt, ends=(float(t[0]), float(t[-1])))
+    lo, hi = edges[:-1][whole], edges[1:][whole]
+    if _group_misfit(t, lo, hi, yc, cycles) < _group_misfit(t, lo, hi, yc, smoothed):
+        return cycles
+    return smoothed
+
+
+def _profile(
+    t: FloatArray,
+    w: FloatArray,
+    ws: FloatArray,
+    nom: float,
+    dt: float,
+    ends: tuple[float, float] | None = None,
+) -> DriveEstimate:
+    """Return the profile split on ``ws`` and fitted to ``w`` in bins of :data:`_BIN_TIME`.
+
+    ``t`` may be irregular (cycle means, fitted unbinned); ``ends`` are the record's
+    first and last instants [s] (default: those of ``t``).
+    """
+    nb = max(1, round(_BIN_TIME / dt)) if ends is None else 1
     m = (t.size // nb) * nb
     if m < 2 * nb:
         tb, yb, ysb = t, w, ws
@@ -230,16 +367,17 @@ def estimate_drive(
         tb = t[:m].reshape(-1, nb).mean(axis=1)
         yb = w[:m].reshape(-1, nb).mean(axis=1)
         ysb = ws[:m].reshape(-1, nb).mean(axis=1)
+    t0, t1 = ends if ends is not None else (float(t[0]), float(t[-1]))
     level_guess = float(np.median(ysb))
     scatter = float(np.median(np.abs(np.diff(ysb)))) * 1.4826 if ysb.size > 2 else 0.0
     tol = tolerance(level_guess, scatter)
     idx = _split(tb, ysb, tol)
     tk = tb[idx].copy()
-    tk[0], tk[-1] = float(t[0]), float(t[-1])
+    tk[0], tk[-1] = t0, t1
     if tk.size >= 2 and tk[-1] > tk[0]:
         vk = _fit_knots(tk, tb, yb)
     else:
-        tk = np.array([float(t[0]), float(t[-1])])
+        tk = np.array([t0, t1])
         vk = np.full(2, level_guess)
     # time-weighted median of the profile
     grid = np.linspace(tk[0], tk[-1], 512)
@@ -254,6 +392,7 @@ __all__ = [
     'SMOOTH_TIME',
     'TRANSITION_MAX',
     'DriveEstimate',
+    'cycle_groups',
     'estimate_drive',
     'tolerance',
     'untimed_transitions',
@@ -344,12 +483,14 @@ def _fill_angle_basis(tk: FloatArray, tt: FloatArray, out: FloatArray) -> None:
 def _pull_weights(tk: FloatArray, tt: FloatArray, tt_sorted: bool = False) -> FloatArray:
     """Return the weight of each knot's pull toward the prior profile [s].
 
-    A knot with angles on its hat function's support is pinned by them: a weak pull
-    (:data:`_KNOT_SMOOTH`). A knot without (sliding, or stick phases too short to
-    sample, before, between or after the stick phases that give angles) has only
-    the prior: its pull weighs the half width of its support, the angle error [rad]
-    one rad/s of speed error makes over it, so it keeps the speed channel's value
-    unless the angles around its gap say otherwise.
+    The angles fix a knot's speed over the part of its hat function's support they
+    span (the fit's constant takes the angle before the first of them). The rest of
+    the support (sliding, or stick phases too short to sample, before, between or
+    after the stick phases that give angles) has only the prior: the pull weighs
+    half the width of the support the angles leave uncovered, the angle error [rad]
+    one rad/s of speed error makes over it, so a knot keeps the speed channel's
+    value unless the angles around its gap say otherwise; a knot whose support the
+    angles span gets a weak pull (:data:`_KNOT_SMOOTH`).
 
     Parameters
     ----------
@@ -368,8 +509,15 @@ def _pull_weights(tk: FloatArray, tt: FloatArray, tt_sorted: bool = False) -> Fl
     ts = tt if tt_sorted else np.sort(tt)
     lo = np.concatenate((tk[:1], tk[:-1]))
     hi = np.concatenate((tk[1:], tk[-1:]))
-    n_in = np.searchsorted(ts, hi, side='right') - np.searchsorted(ts, lo, side='left')
-    return np.where(n_in > 0, _KNOT_SMOOTH, np.maximum(0.5 * (hi - lo), _KNOT_SMOOTH))
+    i0 = np.searchsorted(ts, lo, side='left')
+    i1 = np.searchsorted(ts, hi, side='right')
+    inside = i1 > i0
+    covered = np.zeros(tk.size)
+    if ts.size:
+        first = ts[np.minimum(i0, ts.size - 1)]
+        last = ts[np.maximum(i1 - 1, 0)]
+        covered = np.where(inside, last - first, 0.0)
+    return np.maximum(0.5 * (hi - lo - covered), _KNOT_SMOOTH)
 
 
 def _solve_speeds(
