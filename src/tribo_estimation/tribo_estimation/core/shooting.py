@@ -180,39 +180,87 @@ def shoot(
         max_len = max(max_len, stops[k] - starts[k])
     buf = np.empty((kn.N_CH, max_len))
     n_ev = 0
-    nk = tk.shape[0]
     for k in range(starts.shape[0]):
-        n_left = stops[k] - starts[k]
-        if n_left <= 0:
-            continue
         s = states[k].copy()
-        pos = starts[k]
-        j = _piece(tk, vk, s[kn.S_T])
-        while n_left > 0:
-            q = _piece_params(p, tk, vk, j)
-            # samples until the next knot (the piece changes at the first sample after it)
-            n = n_left
-            t_next = math.inf
-            if j < nk - 1:
-                t_next = tk[j + 1] if j >= 0 else tk[0]
-                m = math.ceil((t_next - s[kn.S_T]) / dt - 1e-9)
-                if 1 <= m < n:
-                    n = m
-            n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
-            for c in range(kn.N_CH):
-                for i in range(n):
-                    out[c, pos + i] = buf[c, i]
-            pos += n
-            n_left -= n
-            if n_left > 0:
-                # the state's time is the knot's up to rounding (a knot on a sample
-                # instant, e.g. the start-up ramp's end): it belongs to the new piece
-                j_new = _piece(tk, vk, max(s[kn.S_T], t_next if t_next < math.inf else -math.inf))
-                if j_new != j:
-                    q_new = _piece_params(p, tk, vk, j_new)
-                    t = s[kn.S_T]
-                    s[kn.S_PHI2] += kn.drive_angle(q_new, t) - kn.drive_angle(q, t)
-                    j = j_new
+        n_ev += shoot_on(p, s, starts[k], stops[k], tk, vk, dt, n_sub, out, buf)
+    return n_ev
+
+
+@njit(cache=True, nogil=True)
+def shoot_on(
+    p: np.ndarray,
+    s: np.ndarray,
+    start: int,
+    stop: int,
+    tk: np.ndarray,
+    vk: np.ndarray,
+    dt: float,
+    n_sub: int,
+    out: np.ndarray,
+    buf: np.ndarray,
+) -> int:
+    """Integrate one stretch from state ``s`` (advanced in place) over ``start:stop``.
+
+    The body of :func:`shoot` for one segment: a caller that changes the parameters
+    between stretches (friction levels that change with test time) carries the state
+    from one to the next.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Packed kernel parameters.
+    s : numpy.ndarray
+        Kernel state at ``start`` (``kernel.S_*``); the state at ``stop`` on return.
+    start, stop : int
+        First and stop (exclusive) sample.
+    tk, vk : numpy.ndarray
+        Drive knot times [s] and speeds [rad/s].
+    dt : float
+        Sample interval [s].
+    n_sub : int
+        RK4 steps per sample.
+    out : numpy.ndarray
+        Output channels (``kernel.N_CH`` x record length).
+    buf : numpy.ndarray
+        Work space (``kernel.N_CH`` x at least ``stop - start``).
+
+    Returns
+    -------
+    int
+        Number of switching events.
+    """
+    n_left = stop - start
+    if n_left <= 0:
+        return 0
+    n_ev = 0
+    nk = tk.shape[0]
+    pos = start
+    j = _piece(tk, vk, s[kn.S_T])
+    while n_left > 0:
+        q = _piece_params(p, tk, vk, j)
+        # samples until the next knot (the piece changes at the first sample after it)
+        n = n_left
+        t_next = math.inf
+        if j < nk - 1:
+            t_next = tk[j + 1] if j >= 0 else tk[0]
+            m = math.ceil((t_next - s[kn.S_T]) / dt - 1e-9)
+            if 1 <= m < n:
+                n = m
+        n_ev += kn.integrate(q, s, n, dt, n_sub, buf)
+        for c in range(kn.N_CH):
+            for i in range(n):
+                out[c, pos + i] = buf[c, i]
+        pos += n
+        n_left -= n
+        if n_left > 0:
+            # the state's time is the knot's up to rounding (a knot on a sample
+            # instant, e.g. the start-up ramp's end): it belongs to the new piece
+            j_new = _piece(tk, vk, max(s[kn.S_T], t_next if t_next < math.inf else -math.inf))
+            if j_new != j:
+                q_new = _piece_params(p, tk, vk, j_new)
+                t = s[kn.S_T]
+                s[kn.S_PHI2] += kn.drive_angle(q_new, t) - kn.drive_angle(q, t)
+                j = j_new
     return n_ev
 
 
@@ -795,6 +843,7 @@ __all__ = [
     'local_cubic',
     'second_order_lag',
     'shoot',
+    'shoot_on',
     'sliding_states',
     'stuck_kinematics',
     'stuck_states',

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -255,3 +256,24 @@ def test_a_short_speed_step_is_timed_by_the_torsion_moment(
     r = rec.torsion_moment - sim.torsion_moment
     near = (rec.time > 1.15) & (rec.time < 1.3) & np.isfinite(r)
     assert np.sqrt(np.mean(r[near] ** 2)) < 1.5 * pb.torque_rms(sim)
+
+
+def test_a_continuous_simulation_follows_a_saturating_drift_not_its_first_tangent() -> None:
+    # mu0 rises by 0.01 with a 0.5 s time constant; the replicas of the null law are
+    # simulated as one motion, whose breakaway moments must follow mu0(t) to the end
+    rec, rig, drv = record(2, constant(rpm(25)), duration=3.0, fs=5000.0)
+    pb = Problem(rec, rig, drv, k=TRUTH['k'])
+    vals = {**TRUTH, 'drift_sat_mu0': 0.01, 'drift_sat_mu_inf': 0.0, 'drift_sat_tau': 0.5}
+    sim = pb.simulate(vals, continuous=True)
+    m = sim.torsion_moment
+    t = rec.time - rec.time[0]
+
+    def peak(a: float, b: float) -> float:
+        sel = (t >= a) & (t < b) & np.isfinite(m)
+        return float(np.max(m[sel]))
+
+    rise = peak(2.5, 3.0) - peak(0.2, 0.5)
+    # breakaway at mu0(t)*F_N*R: from ~0.45 s to ~2.75 s mu0 gains 0.01*(e^-0.9 - e^-5.5)
+    want = 0.01 * (math.exp(-0.45 / 0.5) - math.exp(-2.75 / 0.5)) * rig.F_N * rig.R
+    # the first tangent held to the end would give 0.01/0.5*2.3 s: 5.7x as much
+    assert rise == pytest.approx(want, rel=0.3)

@@ -72,3 +72,16 @@ def test_a_pooled_law_keeps_its_own_replicas_and_the_newest_earlier_ones() -> No
     assert law.drifts == (0.1, 0.2, 0.3, 0.3, 0.3) and law.alpha == 0.01
     # never fewer than its own replicas
     assert new.pooled(old, 1).samples == new.samples
+
+
+@pytest.mark.parametrize(('own_error', 'usable'), [(0.0, True), (0.9, True), (1.1, False)])
+def test_a_law_whose_replicas_refit_beyond_their_noise_is_not_self_consistent(
+    own_error: float, usable: bool
+) -> None:
+    # replicas refitted to sqrt(1 + e^2) x their noise for the workflow's own error e
+    # [noise units]: usable while e is below the noise
+    rng = np.random.default_rng(5)
+    centre = math.sqrt(1.0 + own_error**2)
+    tq = tuple(centre * (1.0 + 0.005 * rng.standard_normal(8)))
+    law = NullLaw({'torsion_moment': tq, 'speed': tq, 'blocks': tq}, 0.01)
+    assert law.self_consistent() is usable

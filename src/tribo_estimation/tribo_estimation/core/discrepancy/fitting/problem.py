@@ -45,6 +45,7 @@ from tribo_estimation.core.shooting import (
     DriveKnots,
     local_cubic,
     shoot,
+    shoot_on,
     stuck_kinematics,
     stuck_states_averaged,
     stuck_windows,
@@ -551,21 +552,38 @@ class Problem:
         if hooks:
             # friction levels that change with test time: per segment, their tangent at
             # its start (the kernel's linear drift of mu0 and mu_inf)
-            starts = seg.start[sel]
-            t_k = rec.time[starts]
-            for j, b in enumerate(stops):
+            def levelled(t_k: float) -> np.ndarray:
                 p_k = p.copy()
                 for c in hooks:
                     assert c.levels is not None
-                    d0, r0, di, ri = c.levels(values, t_k[j : j + 1])
-                    p_k[kn.P_MU0] += float(d0[0]) - float(r0[0]) * float(t_k[j])
+                    d0, r0, di, ri = c.levels(values, np.full(1, t_k))
+                    p_k[kn.P_MU0] += float(d0[0]) - float(r0[0]) * t_k
                     p_k[kn.P_DRIFT_MU0] += float(r0[0])
-                    p_k[kn.P_MUINF] += float(di[0]) - float(ri[0]) * float(t_k[j])
+                    p_k[kn.P_MUINF] += float(di[0]) - float(ri[0]) * t_k
                     p_k[kn.P_DRIFT_MUINF] += float(ri[0])
-                shoot(
-                    p_k, states[j : j + 1], starts[j : j + 1], np.full(1, b, np.int64),
-                    dk.time, dk.speed, rec.dt, n_sub, out,
-                )  # fmt: skip
+                return p_k
+
+            starts = seg.start[sel]
+            if continuous:
+                # one motion, its state carried; the levels' tangent renewed at every
+                # segment start (the fit's own pieces), not held over the whole record
+                a = int(starts[0])
+                cuts = [*np.unique(seg.start[seg.start > a]).tolist(), n]
+                buf = np.empty((kn.N_CH, int(np.max(np.diff([a, *cuts])))))
+                s_run = states[0].copy()
+                for b in cuts:
+                    shoot_on(
+                        levelled(float(rec.time[a])), s_run, a, int(b), dk.time, dk.speed,
+                        rec.dt, n_sub, out, buf,
+                    )  # fmt: skip
+                    a = int(b)
+            else:
+                for j, b in enumerate(stops):
+                    shoot(
+                        levelled(float(rec.time[starts[j]])), states[j : j + 1],
+                        starts[j : j + 1], np.full(1, b, np.int64), dk.time, dk.speed,
+                        rec.dt, n_sub, out,
+                    )  # fmt: skip
         else:
             shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, rec.dt, n_sub, out)
         self.n_evals += 1

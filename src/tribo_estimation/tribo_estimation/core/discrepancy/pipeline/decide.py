@@ -20,6 +20,10 @@ this record (:mod:`.null`); no threshold is tuned:
   explanations are never names; those whose statistics lie within the null law's
   tolerance of the best are one set ("explains the same part").
 - **Unexplained**: the current model is inadequate and no family is adequate.
+
+None of these is applied when a record's null law is not self-consistent
+(:meth:`.null.NullLaw.self_consistent`: its replicas are refitted beyond their own
+noise); the record is then unexplained, by the caller (:mod:`.run`).
 """
 
 from __future__ import annotations

@@ -45,6 +45,11 @@ FloatArray = np.ndarray
 STATISTICS: tuple[str, ...] = ('torsion_moment', 'speed', 'blocks')
 
 
+#: Largest torsion-moment centre of a usable null law [-]: sqrt(2), where the
+#: workflow's own error on its replicas equals their noise (:meth:`NullLaw.self_consistent`).
+SELF_ERROR_LIMIT = math.sqrt(2.0)
+
+
 @dataclass(frozen=True)
 class Adequacy:
     """Adequacy statistics of one fit (see the module docstring) [-].
@@ -245,6 +250,25 @@ class NullLaw:
         half = q * float(np.std(x, ddof=1)) * math.sqrt(1.0 + 1.0 / x.size)
         return abs(drift - float(np.mean(x))) > half
 
+    def self_consistent(self) -> bool:
+        """Tell whether the replicas are refitted to within the noise of their own model.
+
+        A replica is the fitted model plus the record's white noise s; refitted, it
+        leaves ``sqrt(1 + (e/s)**2)`` of the torsion-moment statistic, where e [N m rms]
+        is the workflow's own error on a record of known model (drive profile, segment
+        states and instruments identified from noisy data). Beyond
+        :data:`SELF_ERROR_LIMIT` that error exceeds the noise, and the law describes the
+        fit's failure rather than the noise: no decision may rest on it
+        (docs/physics.md, section 8). A law without replicas is not judged here.
+
+        Returns
+        -------
+        bool
+            False when the replicas' torsion-moment centre exceeds the limit.
+        """
+        c = self.centre('torsion_moment')
+        return not c > SELF_ERROR_LIMIT
+
     def centre(self, name: str) -> float:
         """Return the replicas' geometric mean of one statistic [-]."""
         x = np.log(np.asarray([v for v in self.samples[name] if v > 0 and math.isfinite(v)]))
@@ -357,6 +381,7 @@ def null_law(
 
 
 __all__ = [
+    'SELF_ERROR_LIMIT',
     'STATISTICS',
     'Adequacy',
     'NullLaw',
