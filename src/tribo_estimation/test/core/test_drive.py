@@ -205,3 +205,24 @@ def test_a_knot_the_angles_barely_reach_keeps_the_channels_speed() -> None:
     out = refine_with_angles(drive, tt, phi)
     assert out.speed(np.array([0.0]))[0] == pytest.approx(5.0, abs=0.1)
     assert out.speed(np.array([2.0]))[0] == pytest.approx(3.0, abs=0.01)
+
+
+def test_a_start_from_rest_is_kept_where_the_first_stick_is_no_whole_cycle() -> None:
+    # the drive starts from rest at t = 0; the discs stick while the belt winds up
+    # (0.15 s), then 12 ms stick-slip cycles at 3 rad/s: the part before the first
+    # cycle is no cycle mean, but the profile must not begin at speed
+    rng = np.random.default_rng(12)
+    t = np.arange(0.0, 3.0, 1e-4)
+    speed = rng.normal(0.0, 0.01, t.size)
+    after = t >= 0.15
+    w = np.zeros(int(after.sum()))
+    t0 = 0.0
+    ta = t[after] - 0.15
+    while t0 < ta[-1]:
+        i = (ta >= t0) & (ta < t0 + 0.012)
+        s = (ta[i] - t0) / 0.0036
+        w[i] = np.where(s < 1.0, 0.5 * np.pi * 3.0 / 0.3 * np.sin(np.pi * np.clip(s, 0, 1)), 0.0)
+        t0 += 0.012
+    speed[after] += w
+    est = estimate_drive(t, speed, 3.0)
+    assert float(est.speed(np.array([0.0]))[0]) < 1.5

@@ -12,9 +12,10 @@ least-squares fit to the speed averaged in short bins. A stick-slip cycle
 longer than :data:`SMOOTH_TIME` (a slow drive) leaves part of its oscillation
 in that average; averaged over whole cycles (:func:`cycle_groups`) it leaves
 none, since the belt deflection is the same at both ends of a cycle. The same
-split of the cycle means gives a second profile, and the one that fits the
-cycle means better, by the Bayesian information criterion with two parameters
-per knot, is the estimate. A speed-sensor lag (ms) or offset-free gain
+split of the whole cycles' means gives a second profile, and the one that fits
+the means of all groups better (the parts of a cycle at the record's ends
+included: a start from rest), by the Bayesian information criterion with two
+parameters per knot, is the estimate. A speed-sensor lag (ms) or offset-free gain
 error moves this by far less than the tolerance; a sensor offset moves it by
 the offset.
 
@@ -340,8 +341,11 @@ def estimate_drive(
     tc = (0.5 * (t[edges[:-1]] + t[edges[1:] - 1]))[whole]
     yc = (np.add.reduceat(w, edges[:-1]) / np.diff(edges))[whole]
     cycles = _profile(tc, yc, yc, nom, dt, ends=(float(t[0]), float(t[-1])))
-    lo, hi = edges[:-1][whole], edges[1:][whole]
-    if _group_misfit(t, lo, hi, yc, cycles) < _group_misfit(t, lo, hi, yc, smoothed):
+    # judged on every group: the parts of a cycle at the record's ends hold what the
+    # cycle means leave out (a start from rest)
+    lo, hi = edges[:-1], edges[1:]
+    means = np.add.reduceat(w, lo) / (hi - lo)
+    if _group_misfit(t, lo, hi, means, cycles) < _group_misfit(t, lo, hi, means, smoothed):
         return cycles
     return smoothed
 

@@ -275,5 +275,5 @@ def test_a_continuous_simulation_follows_a_saturating_drift_not_its_first_tangen
     rise = peak(2.5, 3.0) - peak(0.2, 0.5)
     # breakaway at mu0(t)*F_N*R: from ~0.45 s to ~2.75 s mu0 gains 0.01*(e^-0.9 - e^-5.5)
     want = 0.01 * (math.exp(-0.45 / 0.5) - math.exp(-2.75 / 0.5)) * rig.F_N * rig.R
-    # the first tangent held to the end would give 0.01/0.5*2.3 s: 5.7x as much
+    # the first tangent held to the end would give 0.01/0.5*2.3 s: 11x as much
     assert rise == pytest.approx(want, rel=0.3)
