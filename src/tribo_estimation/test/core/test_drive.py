@@ -226,3 +226,19 @@ def test_a_start_from_rest_is_kept_where_the_first_stick_is_no_whole_cycle() -> 
     speed[after] += w
     est = estimate_drive(t, speed, 3.0)
     assert float(est.speed(np.array([0.0]))[0]) < 1.5
+
+
+def test_a_start_from_rest_gets_the_ramps_end_as_a_corner_without_a_knot_near_it() -> None:
+    # the drive ramps 0 -> 0.4 rad/s over 0.105 s (RIG.yaml's ramp) and steps to
+    # 0.8 rad/s at 2.5 s; the profile to refine has no knot near the ramp's end
+    t = np.arange(0.0, 4.0, 1.0 / FS)
+    truth = np.interp(t, [0.0, 0.105, 2.5, 2.56, 4.0], [0.0, 0.4, 0.4, 0.8, 0.8])
+    drive = DriveEstimate(
+        np.array([0.0, 2.45, 2.6, 4.0]), np.array([0.36, 0.36, 0.78, 0.78]), 0.4, 0.4, 0.0, True
+    )
+    tt = np.arange(0.01, 3.99, 0.002)
+    phi = np.interp(tt, t, np.cumsum(truth) / FS)
+    out = refine_with_angles(drive, tt, phi, np.array([0.0, 0.105]), start_speed=0.0)
+    assert np.min(np.abs(out.knot_time - 0.105)) < 1e-9
+    # the plateau between the ramp and the step keeps the drive's 0.4 rad/s
+    assert np.max(np.abs(out.speed(np.arange(0.2, 2.4, 0.01)) - 0.4)) < 0.01

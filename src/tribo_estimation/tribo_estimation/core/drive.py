@@ -810,7 +810,9 @@ def refine_with_angles(
         Drive angles [rad].
     hint_knots : FloatArray, optional
         Corners known in advance [s] (RIG.yaml's start-up ramp end); a detected
-        knot within :data:`SMOOTH_TIME` of one moves onto it and stays there.
+        knot within :data:`SMOOTH_TIME` of one moves onto it and stays there. With a
+        ``start_speed`` (the record begins at the drive's start) each is a knot,
+        detected or not.
     place : bool
         Search the corner times: the smoothing of :func:`estimate_drive` blurs
         each corner (a 50 ms speed step spreads over 150 ms), so its interior
@@ -856,6 +858,10 @@ def refine_with_angles(
             inner = inner[~hinted]
         else:
             moved = np.zeros(0)
+        if start_speed is not None:
+            # the record begins at the drive's start: the ramp's end is a corner whether
+            # or not the speed channel's profile put a knot near it
+            moved = np.unique(np.concatenate((moved, hints)))
         corners = inner.copy() if keep_corners else _corners(inner)
         corners = corners[(corners > t_lo + MIN_PIECE) & (corners < t_hi - MIN_PIECE)]
         # a corner without angles near it has nothing to place it by: its transition
