@@ -334,17 +334,16 @@ def estimate_drive(
     dt = float((t[-1] - t[0]) / (t.size - 1))
     span = min(SMOOTH_TIME, 0.5 * float(t[-1] - t[0]))
     width = max(1, round(span / dt))
-    smoothed = _profile(t, w, moving_average(w, width), nom, dt)
+    smoothed = _profile(t, w, moving_average(w, width), nom, max(1, round(_BIN_TIME / dt)))
     edges, whole = cycle_groups(t, w, span)
     if int(whole.sum()) < 3:
         return smoothed
-    tc = (0.5 * (t[edges[:-1]] + t[edges[1:] - 1]))[whole]
-    yc = (np.add.reduceat(w, edges[:-1]) / np.diff(edges))[whole]
-    cycles = _profile(tc, yc, yc, nom, dt, ends=(float(t[0]), float(t[-1])))
-    # judged on every group: the parts of a cycle at the record's ends hold what the
-    # cycle means leave out (a start from rest)
     lo, hi = edges[:-1], edges[1:]
     means = np.add.reduceat(w, lo) / (hi - lo)
+    tc = (0.5 * (t[lo] + t[hi - 1]))[whole]
+    cycles = _profile(tc, means[whole], means[whole], nom, 1, (float(t[0]), float(t[-1])))
+    # judged on every group: the parts of a cycle at the record's ends hold what the
+    # cycle means leave out (a start from rest)
     if _group_misfit(t, lo, hi, means, cycles) < _group_misfit(t, lo, hi, means, smoothed):
         return cycles
     return smoothed
@@ -355,15 +354,14 @@ def _profile(
     w: FloatArray,
     ws: FloatArray,
     nom: float,
-    dt: float,
+    nb: int,
     ends: tuple[float, float] | None = None,
 ) -> DriveEstimate:
-    """Return the profile split on ``ws`` and fitted to ``w`` in bins of :data:`_BIN_TIME`.
+    """Return the profile split on ``ws`` and fitted to ``w``, both in bins of ``nb`` samples.
 
-    ``t`` may be irregular (cycle means, fitted unbinned); ``ends`` are the record's
-    first and last instants [s] (default: those of ``t``).
+    ``t`` may be irregular (cycle means, ``nb`` = 1); ``ends`` are the record's first
+    and last instants [s] (default: those of ``t``).
     """
-    nb = max(1, round(_BIN_TIME / dt)) if ends is None else 1
     m = (t.size // nb) * nb
     if m < 2 * nb:
         tb, yb, ysb = t, w, ws
