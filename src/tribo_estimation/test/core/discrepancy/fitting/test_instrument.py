@@ -121,14 +121,24 @@ def test_a_speed_gain_beyond_the_physical_bound_is_reported_not_used(
 
 
 @pytest.mark.parametrize(
-    ('tau_raw', 'tau_se', 'holds'),
-    [(-1e-3, 1e-4, False), (-2e-4, 1e-4, True), (2e-3, 1e-4, True), (-1e-3, math.nan, True)],
+    ('tau_raw', 'tau_se', 'rejected', 'holds'),
+    [
+        (-1e-3, 1e-4, math.nan, False),
+        (-2e-4, 1e-4, math.nan, True),
+        (2e-3, 1e-4, math.nan, True),
+        (2e-3, 1e-4, 1.5, False),
+        (0.0, math.nan, math.nan, False),
+    ],
 )
-def test_a_significantly_negative_lag_says_the_sensor_model_does_not_hold(
-    tau_raw: float, tau_se: float, holds: bool
+def test_the_sensor_model_holds_only_where_the_regression_describes_the_sticks(
+    tau_raw: float, tau_se: float, rejected: float, holds: bool
 ) -> None:
     # no sensor lags by a negative time: a regression lag over 3 standard errors below
     # zero says the stick phases are not described by the first-order model (its offset
-    # is then no estimate); within 3 SE, or without a standard error, it holds
-    sensor = SpeedSensor(max(tau_raw, 0.0), tau_se, 0.5, 0.01, 100, tau_raw=tau_raw)
+    # is then no estimate); within 3 SE it holds; a gain beyond the physical bound says
+    # the same, and a regression without a standard error had no stick samples at all
+    sensor = SpeedSensor(
+        max(tau_raw, 0.0), tau_se, 0.5, 0.01, 100, gain_rejected=rejected, tau_raw=tau_raw
+    )
+    assert sensor.identified() is math.isfinite(tau_se)
     assert sensor.consistent() is holds

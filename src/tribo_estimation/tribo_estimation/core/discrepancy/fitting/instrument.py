@@ -316,20 +316,40 @@ class SpeedSensor:
     gain_rejected: float = math.nan
     tau_raw: float = math.nan
 
-    def consistent(self) -> bool:
-        """Tell whether the regression's sensor model holds on the stick phases.
+    def identified(self) -> bool:
+        """Tell whether the stick phases gave the regression anything to estimate.
 
-        A lag more than 3 standard errors below zero is no sensor's: the phases are
-        not described by ``y = w - tau*y' + offset`` (a sensor slower than the stick
-        phases, whose output there still carries the slip before; an uncompensated
-        torsion lag), and its offset is no estimate either.
+        Stick phases shorter than twice the guard (:func:`stick_guard`) leave no
+        samples, and without samples the lag has no standard error: the sensor is
+        then unknown, not free of a lag and an offset.
 
         Returns
         -------
         bool
-            False if the raw lag is significantly negative.
+            True if the lag has a finite standard error.
         """
-        return not (math.isfinite(self.tau_se) and self.tau_raw < -3.0 * self.tau_se)
+        return math.isfinite(self.tau_se)
+
+    def consistent(self) -> bool:
+        """Tell whether the regression's sensor model holds on the stick phases.
+
+        It does not when the regression had nothing to estimate on
+        (:meth:`identified`), when its lag is more than 3 standard errors below zero
+        (no sensor's: the phases are not described by ``y = w - tau*y' + offset``, a
+        sensor slower than the stick phases, whose output there still carries the
+        slip before, or an uncompensated torsion lag) or when its gain lies beyond
+        :data:`SPEED_GAIN_BOUND` (no tachometer's calibration: the same misfit,
+        typically on sticks of a few ms behind a lag of as many). Its lag and offset
+        are then no estimates either.
+
+        Returns
+        -------
+        bool
+            False if the regression's model does not hold.
+        """
+        if not self.identified() or math.isfinite(self.gain_rejected):
+            return False
+        return not self.tau_raw < -3.0 * self.tau_se
 
     def drifting(self) -> bool:
         """Tell whether the stick-phase kinematics drift during the record.

@@ -294,12 +294,13 @@ def fit_record_baseline(
         starts.append({n: previous[n] for n in ('mu0', 'mu_inf', 'k')})
     best = _least_cost(one, [{**s, **sensor} for s in starts], policy)
     # the speed sensor, screened from the best start: where the regression's model does
-    # not hold (its lag below zero), its offset and zero, each with lags over the span of
-    # a tachometer's (a slow second-order sensor's fit has its own basin); else, with an
-    # offset, zero too (the regression's offset is what a sensor slower than the stick
-    # phases throws far off, its output there still carrying the slip before, and through
-    # the drive angles it moves the whole baseline). Where a trial costs less, or the
-    # model does not hold, the offset is fitted from the least cost's
+    # not hold (no stick samples, its lag below zero, its gain beyond the bound), its
+    # offset and zero, each with lags over the span of a tachometer's (a slow
+    # second-order sensor's fit has its own basin); else, with an offset, zero too (the
+    # regression's offset is what a sensor slower than the stick phases throws far off,
+    # its output there still carrying the slip before, and through the drive angles it
+    # moves the whole baseline). Where a trial costs less, or the model does not hold,
+    # the offset is fitted from the least cost's
     here = one.split(best.values)[0]
     holds = prep.sensor.consistent()
     if not holds:
@@ -313,16 +314,27 @@ def fit_record_baseline(
     regressed = best
     best = _least_cost(one, [{**here, **t} for t in trials], policy, best)
     offset_set_aside = not holds or best is not regressed
-    chosen = one.split(best.values)[0]
-    if offset_set_aside:
-        say(
-            f'speed sensor fitted from lag {chosen[SPEED_LAG.name]:.3g} s, offset '
-            f'{chosen[SPEED_OFFSET.name]:.4g} rad/s (stick regression: lag '
-            f'{sensor[SPEED_LAG.name]:.3g} s, offset {sensor[SPEED_OFFSET.name]:.4g} rad/s)'
-        )
-    sensor = {n: chosen[n] for n in (SPEED_LAG.name, SPEED_OFFSET.name)}
-    fo = one.fit(one.specs(), best.values, max_nfev=policy.fit_nfev)
+    # a sensor the sticks did not identify is unknown, not absent: the screen's least
+    # cost (its budget is short) and the sensor-free start are both fitted in full
+    unknown = not prep.sensor.identified()
+    firsts = [best, regressed] if unknown and best is not regressed else [best]
+    fo = min(
+        (one.fit(one.specs(), f.values, max_nfev=policy.fit_nfev) for f in firsts),
+        key=lambda f: f.cost,
+    )
     values = one.split(fo.values)[0]
+    if offset_set_aside:
+        regression = (
+            f'stick regression: lag {sensor[SPEED_LAG.name]:.3g} s, offset '
+            f'{sensor[SPEED_OFFSET.name]:.4g} rad/s'
+            if not unknown
+            else 'no stick phase long enough for the stick regression'
+        )
+        say(
+            f'speed sensor fitted from lag {values[SPEED_LAG.name]:.3g} s, offset '
+            f'{values[SPEED_OFFSET.name]:.4g} rad/s ({regression})'
+        )
+    sensor = {n: values[n] for n in (SPEED_LAG.name, SPEED_OFFSET.name)}
     # the durations of the drive's steps that its angles leave open, by this model
     pb.set_transition_durations(values)
     sim = pb.simulate(values)
@@ -330,7 +342,7 @@ def fit_record_baseline(
     # the chamber's inertia is free from here on, with the speed sensor's lag, offset and
     # second order when the lag is significant, its offset alone when the regression's
     # was set aside
-    lagged = sensor['speed_lag_tau'] > 0.0
+    lagged = sensor['speed_lag_tau'] > 0.0 or unknown
     free_sensor = (
         (SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE) if lagged
         else (SPEED_OFFSET,) if offset_set_aside else ()
