@@ -41,7 +41,7 @@ from numba import njit
 
 from . import kernel as kn
 from .drive import DriveEstimate
-from .signal import CHAMBER_HALF
+from .signal import CHAMBER_HALF, second_order_lag
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -505,48 +505,6 @@ def lag_segments(
             out[i] = y
 
 
-def second_order_lag(a1: float, a2: float, dt: float) -> FloatArray:
-    """Return the exact step of a second-order sensor for an input linear between samples.
-
-    The sensor ``a2*y'' + a1*y' + y = x`` (``a1 = 2*zeta/omega`` [s], ``a2 = 1/omega^2``
-    [s^2]) with state ``s = (y, y')``: over one sample interval, with ``x`` linear
-    between samples, ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])``, from the
-    matrix exponential of the system augmented by the input and its slope.
-
-    Parameters
-    ----------
-    a1 : float
-        First-order coefficient [s] (> 0).
-    a2 : float
-        Second-order coefficient [s^2] (> 0).
-    dt : float
-        Sample interval [s].
-
-    Returns
-    -------
-    FloatArray
-        ``(Phi00, Phi01, Phi10, Phi11, g0_0, g0_1, g1_0, g1_1)``, the units of ``s``.
-
-    Examples
-    --------
-    >>> c = second_order_lag(2e-3, 1e-6, 1e-4)
-    >>> bool(abs(c[0] + c[4] - 1.0) < 1e-12)  # a constant input is kept
-    True
-    """
-    from scipy.linalg import expm
-
-    m = np.zeros((4, 4))
-    m[0, 1] = 1.0
-    m[1, 0] = -1.0 / a2
-    m[1, 1] = -a1 / a2
-    m[1, 2] = 1.0 / a2
-    m[2, 3] = 1.0
-    e = expm(m * dt)
-    return np.array(
-        [e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2], e[0, 3] / dt, e[1, 3] / dt]
-    )
-
-
 @njit(cache=True, nogil=True)
 def lag2_segments(
     x: np.ndarray,
@@ -561,7 +519,8 @@ def lag2_segments(
     """Apply a second-order sensor per segment, each from its own filter state.
 
     ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])`` with ``s = (y, y')`` and
-    the coefficients of :func:`second_order_lag`; before a segment the input is held
+    the coefficients of :func:`~tribo_estimation.core.signal.second_order_lag`; before a
+    segment the input is held
     at its first sample (as :func:`lag_segments`).
 
     Parameters
@@ -573,7 +532,7 @@ def lag2_segments(
     y_prev, yd_prev : numpy.ndarray
         Filter output [unit] and its slope [unit/s] before each segment's first sample.
     c : numpy.ndarray
-        The eight coefficients of :func:`second_order_lag`.
+        The eight coefficients of :func:`~tribo_estimation.core.signal.second_order_lag`.
     out, out_d : numpy.ndarray
         Sensor output [unit] and its slope [unit/s], written per segment.
     """

@@ -272,6 +272,11 @@ def iir1(b0: float, b1: float, a1: float, x: FloatArray, z: float) -> tuple[Floa
     return y, float(zf)
 
 
+#: Ratio of the sample interval to a lag beyond which the lag is none [-]: the
+#: discrete filter's pole exp(-dt/tau) is then below 1e-304 (a numerical bound).
+_NO_LAG = 700.0
+
+
 def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = None) -> FloatArray:
     """First-order sensor lag ``tau*y' = x - y`` of samples ``x`` at period ``dt`` [s].
 
@@ -285,8 +290,8 @@ def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = Non
     it shares no code with the fits.)
     """
     xx = np.asarray(x, dtype=np.float64)
-    if tau <= 0.0 or xx.size == 0:
-        return xx.copy()
+    if tau <= 0.0 or xx.size == 0 or dt > _NO_LAG * tau:
+        return xx.copy()  # (a lag of under 1/700 of a sample: exp(-dt/tau) is 0)
     a = math.exp(-dt / tau)
     c = (1.0 - a) * tau / dt
     y_first = float(xx[0]) if y0 is None else float(y0)
@@ -294,6 +299,100 @@ def first_order_lag(x: FloatArray, dt: float, tau: float, y0: float | None = Non
     y_prev = (y_first - (1.0 - a) * xx[0]) / a
     y, _ = iir1(1.0 - c, c - a, -a, xx, a * y_prev + (c - a) * float(xx[0]))
     return y
+
+
+def second_order_lag(a1: float, a2: float, dt: float) -> FloatArray:
+    """Return the exact step of a second-order sensor for an input linear between samples.
+
+    The sensor ``a2*y'' + a1*y' + y = x`` (``a1 = 2*zeta/omega`` [s], ``a2 = 1/omega^2``
+    [s^2]) with state ``s = (y, y')``: over one sample interval, with ``x`` linear
+    between samples, ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])``, from the
+    matrix exponential of the system augmented by the input and its slope.
+
+    Parameters
+    ----------
+    a1 : float
+        First-order coefficient [s] (> 0).
+    a2 : float
+        Second-order coefficient [s^2] (> 0).
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    FloatArray
+        ``(Phi00, Phi01, Phi10, Phi11, g0_0, g0_1, g1_0, g1_1)``, the units of ``s``.
+
+    Examples
+    --------
+    >>> c = second_order_lag(2e-3, 1e-6, 1e-4)
+    >>> bool(abs(c[0] + c[4] - 1.0) < 1e-12)  # a constant input is kept
+    True
+    """
+    from scipy.linalg import expm
+
+    m = np.zeros((4, 4))
+    m[0, 1] = 1.0
+    m[1, 0] = -1.0 / a2
+    m[1, 1] = -a1 / a2
+    m[1, 2] = 1.0 / a2
+    m[2, 3] = 1.0
+    e = expm(m * dt)
+    return np.array(
+        [e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2], e[0, 3] / dt, e[1, 3] / dt]
+    )
+
+
+@njit(cache=True)
+def _lag2(x: FloatArray, c: FloatArray) -> FloatArray:
+    y = np.empty_like(x)
+    s0 = x[0]
+    s1 = 0.0
+    x_prev = x[0]
+    for i in range(x.size):
+        dx = x[i] - x_prev
+        s0, s1 = (
+            c[0] * s0 + c[1] * s1 + c[4] * x_prev + c[6] * dx,
+            c[2] * s0 + c[3] * s1 + c[5] * x_prev + c[7] * dx,
+        )
+        x_prev = x[i]
+        y[i] = s0
+    return y
+
+
+def second_order_filter(x: FloatArray, dt: float, a1: float, a2: float) -> FloatArray:
+    """Second-order sensor ``a2*y'' + a1*y' + y = x`` of samples ``x`` at period ``dt`` [s].
+
+    Exact for an input linear between samples (:func:`second_order_lag`), from the
+    settled state at the first sample (``y = x[0]``, ``y' = 0``). ``a2 <= 0`` is the
+    first-order lag ``a1`` (:func:`first_order_lag`).
+
+    Parameters
+    ----------
+    x : FloatArray
+        Input samples [unit].
+    dt : float
+        Sample interval [s].
+    a1 : float
+        First-order coefficient [s] (``2*zeta/omega``).
+    a2 : float
+        Second-order coefficient [s^2] (``1/omega^2``).
+
+    Returns
+    -------
+    FloatArray
+        The sensor output [unit].
+
+    Examples
+    --------
+    >>> y = second_order_filter(np.ones(5), 1e-4, 2e-3, 1e-6)
+    >>> bool(np.allclose(y, 1.0))  # a settled constant stays
+    True
+    """
+    xx = np.ascontiguousarray(x, dtype=np.float64)
+    if a2 <= 0.0 or xx.size == 0 or dt * dt > _NO_LAG * a2:
+        return first_order_lag(xx, dt, a1)
+    return np.asarray(_lag2(xx, second_order_lag(a1, a2, dt)))
 
 
 def running_max(x: FloatArray, width: int) -> FloatArray:

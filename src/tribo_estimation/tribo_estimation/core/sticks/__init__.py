@@ -85,8 +85,10 @@ from .detect import (
 )
 from .lag import (
     MAX_TORSION_LAG,
+    TORSION_LAG_SHAPES,
     chamber_speed_integral,
     estimate_torsion_lag,
+    fit_torsion_lag,
     kinematic_half,
     kinematic_pair,
     torsion_lag_compensated,
@@ -102,6 +104,7 @@ __all__ = [
     'MAX_TORSION_LAG',
     'MIN_STICK',
     'MOTION_TYPES',
+    'TORSION_LAG_SHAPES',
     'StickPhase',
     'StickReport',
     'chamber_speed_integral',
@@ -110,6 +113,7 @@ __all__ = [
     'drive_speed_level',
     'estimate_torsion_lag',
     'find_sticks',
+    'fit_torsion_lag',
     'kinematic_half',
     'kinematic_pair',
     'slip_speed',

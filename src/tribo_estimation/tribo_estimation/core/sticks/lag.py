@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tribo_estimation.core.signal import first_order_lag, rig_half
+from tribo_estimation.core.signal import first_order_lag, rig_half, second_order_filter
 
 FloatArray = NDArray[np.float64]
 
@@ -112,6 +112,54 @@ def estimate_torsion_lag(
     steps down to 0.1 ms, then a parabola. Within about 2 % (+-20 us) of lags up to
     2 ms at the noise of config/rig.yaml from 2 to 20 kHz.
     """
+    return fit_torsion_lag(torsion, accel, fs, c1, f_max, max_lag, min_lag)[0]
+
+
+#: Shapes ``q = a2/a1**2`` of a second-order torsion amplifier searched by
+#: :func:`fit_torsion_lag` [-]: 0 is the first-order lag, 1 a damping ratio of 0.5
+#: (``q = 1/(4*zeta**2)``; an amplifier's filter rings less: Bessel 0.87, Butterworth
+#: 0.71, critically damped 1); a grid, refined by a parabola, not a threshold.
+TORSION_LAG_SHAPES = (0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0)
+
+
+def fit_torsion_lag(
+    torsion: np.ndarray,
+    accel: np.ndarray,
+    fs: float,
+    c1: float,
+    f_max: float,
+    max_lag: float = MAX_TORSION_LAG,
+    min_lag: float = 0.0,
+    shapes: tuple[float, ...] = (0.0,),
+) -> tuple[float, float]:
+    """Lag of the torsion channel relative to the accelerometer, first or second order.
+
+    As :func:`estimate_torsion_lag`, with the torsion channel a second-order sensor
+    ``a2*y'' + a1*y' + y = M_t`` of shape ``q = a2/a1**2``: ``a1`` is searched at
+    every shape of ``shapes`` (0: first order), the least residual's shape refined by
+    a parabola through its neighbours and ``a1`` searched again there. A negative
+    lag (the accelerometer's) is first order.
+
+    Parameters
+    ----------
+    torsion, accel : numpy.ndarray
+        Torsion moment [N m] and chamber acceleration [rad/s^2].
+    fs : float
+        Sample rate [Hz].
+    c1 : float
+        Torsion stiffness [N m/rad].
+    f_max : float
+        The rig's fastest mode [Hz].
+    max_lag, min_lag : float
+        Range of ``a1`` [s] (below 0: the accelerometer's lag).
+    shapes : tuple of float
+        Shapes ``q`` to search [-] (ascending; :data:`TORSION_LAG_SHAPES`).
+
+    Returns
+    -------
+    tuple of float
+        ``a1`` [s] (NaN: too short a record) and ``q`` [-].
+    """
     dt = 1.0 / fs
     d, k_a = kinematic_pair(np.asarray(torsion, float), np.asarray(accel, float), fs, c1,
                             kinematic_half(fs, f_max))  # fmt: skip
@@ -119,7 +167,7 @@ def estimate_torsion_lag(
     m = max(8, min(n, round(_LAG_WIN * fs)))
     nw = n // m
     if nw < 1:
-        return float('nan')
+        return float('nan'), 0.0
     k_slope = np.gradient(k_a, dt)
 
     def windows(x: np.ndarray) -> np.ndarray:
@@ -129,45 +177,82 @@ def estimate_torsion_lag(
     y = windows(d)
     syy = float(np.sum(y * y))
 
-    def rss(tau: float) -> float:
-        x = windows(k_a + (-tau) * k_slope if tau < 0.0 else first_order_lag(k_a, dt, tau))
+    def rss(tau: float, q: float) -> float:
+        if tau < 0.0:
+            x = windows(k_a + (-tau) * k_slope)
+        else:
+            x = windows(second_order_filter(k_a, dt, tau, q * tau * tau))
         sxx = np.sum(x * x, axis=1)
         sxy = np.sum(x * y, axis=1)
         ok = sxx > 0.0
         return syy - float(np.sum(sxy[ok] ** 2 / sxx[ok]))
 
-    cache: dict[float, float] = {}
+    cache: dict[tuple[float, float], float] = {}
 
-    def f(tau: float) -> float:
+    def f(tau: float, q: float) -> float:
         tau = min(max(round(tau, 9), min_lag), max_lag)
-        if tau not in cache:
-            cache[tau] = rss(tau)
-        return cache[tau]
+        key = (tau, 0.0 if tau <= 0.0 else q)
+        if key not in cache:
+            cache[key] = rss(*key)
+        return cache[key]
 
-    # coarse grid, then halving steps around the best point, then a parabola
-    step = 5.0 * _LAG_STEP
-    best = min(np.arange(min_lag, max_lag + 0.5 * step, step).tolist(), key=f)
-    while step > 1.01 * _LAG_STEP:
-        step = max(_LAG_STEP, 0.5 * step)
-        best = min((best - step, best, best + step), key=f)
-    best = min(max(round(best, 9), min_lag), max_lag)
-    a, b, c = f(best - _LAG_STEP), f(best), f(best + _LAG_STEP)
-    den = a - 2.0 * b + c
-    if min_lag < best < max_lag and den > 0.0:
-        return float(best + 0.5 * (a - c) / den * _LAG_STEP)
-    return float(best)
+    def search(q: float) -> tuple[float, float]:
+        # coarse grid, then halving steps around the best point, then a parabola
+        step = 5.0 * _LAG_STEP
+        best = min(np.arange(min_lag, max_lag + 0.5 * step, step).tolist(), key=lambda t: f(t, q))
+        while step > 1.01 * _LAG_STEP:
+            step = max(_LAG_STEP, 0.5 * step)
+            best = min((best - step, best, best + step), key=lambda t: f(t, q))
+        best = min(max(round(best, 9), min_lag), max_lag)
+        a, b, c = f(best - _LAG_STEP, q), f(best, q), f(best + _LAG_STEP, q)
+        den = a - 2.0 * b + c
+        if min_lag < best < max_lag and den > 0.0:
+            best = best + 0.5 * (a - c) / den * _LAG_STEP
+        return float(best), float(rss(best, q) if best > 0.0 else rss(best, 0.0))
+
+    found = [search(q) for q in shapes]
+    i = min(range(len(shapes)), key=lambda j: found[j][1])
+    tau, q = found[i][0], shapes[i]
+    if tau <= 0.0:
+        return tau, 0.0
+    if 0 < i < len(shapes) - 1:
+        ra, rb, rc = found[i - 1][1], found[i][1], found[i + 1][1]
+        den = ra - 2.0 * rb + rc
+        h = shapes[i + 1] - shapes[i]
+        if den > 0.0:
+            q_v = shapes[i] + 0.5 * (ra - rc) / den * h
+            t_v, r_v = search(q_v)
+            if r_v < rb and t_v > 0.0:
+                tau, q = t_v, q_v
+    return float(tau), float(q)
 
 
 def torsion_lag_compensated(
-    torsion: np.ndarray, w: np.ndarray, dt: float, tau: float, c1: float
+    torsion: np.ndarray,
+    w: np.ndarray,
+    dt: float,
+    tau: float,
+    c1: float,
+    *,
+    a2: float = 0.0,
+    accel: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Torsion moment [N m] before a first-order sensor lag of ``tau`` [s], up to a constant.
+    """Torsion moment [N m] before a sensor lag of ``tau`` [s], up to a constant.
 
     With ``y = lag(M_t)``: ``M_t - y = tau*y' = tau*lag(M_t') = tau*C1*lag(w1)``
     (Equ. 1 kinematics, ``M_t' = C1*w1``), so ``M_t = y + tau*C1*lag(w)`` with ``w``
     the integrated acceleration (:func:`chamber_speed_integral`, the chamber speed
     up to a constant): exact, no differentiation of the noisy signal. The lag uses
     the first-order-hold discretisation (a zero-order hold's half-sample delay
-    would move stick starts by ~0.5 ms at 10 rpm).
+    would move stick starts by ~0.5 ms at 10 rpm). A second-order sensor
+    ``a2*y'' + tau*y' + y = M_t`` (``a2`` > 0 [s^2], ``accel`` the chamber
+    acceleration [rad/s^2]) adds ``a2*y'' = a2*C1*lag(a)``, with ``lag`` the sensor's
+    own second order (:func:`~tribo_estimation.core.signal.second_order_filter`).
     """
+    if a2 > 0.0 and accel is not None:
+        return np.asarray(
+            torsion
+            + tau * c1 * second_order_filter(w, dt, tau, a2)
+            + a2 * c1 * second_order_filter(np.asarray(accel, float), dt, tau, a2)
+        )
     return torsion + tau * c1 * first_order_lag(w, dt, tau)

@@ -17,19 +17,22 @@ import numpy.typing as npt
 
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
-from tribo_estimation.core.shooting import lag2_segments, lag_segments, second_order_lag
+from tribo_estimation.core.shooting import lag2_segments, lag_segments
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
     local_slope,
     mad_sigma,
     rig_half,
+    second_order_filter,
+    second_order_lag,
 )
 from tribo_estimation.core.sticks import (
     MAX_TORSION_LAG,
+    TORSION_LAG_SHAPES,
     chamber_speed_integral,
     drive_speed_level,
-    estimate_torsion_lag,
+    fit_torsion_lag,
     kinematic_half,
     kinematic_pair,
     speed_mismatch,
@@ -124,25 +127,41 @@ MAX_ACCEL_LAG = 1e-3
 
 @dataclass(frozen=True)
 class TorsionLag:
-    """Identified first-order lag of the torsion amplifier.
+    """Identified lag of the torsion amplifier, first or second order.
 
     Parameters
     ----------
     tau : float
-        The lag of the torsion channel relative to the accelerometer [s] (NaN: not
-        estimated); negative: the accelerometer lags the torsion moment by ``-tau``.
+        The lag of the torsion channel relative to the accelerometer [s] (its
+        first-order coefficient ``a1``; NaN: not estimated); negative: the
+        accelerometer lags the torsion moment by ``-tau``.
     se : float
         Its standard error [s] (spread of the estimates on the record pieces).
     n : int
         Number of record pieces estimated on.
     used : float
         The lag compensated [s] (0 = none; negative: the accelerometer's).
+    shape : float
+        The second order's shape ``q = a2/tau**2`` [-] (0: first order;
+        ``1/(4*zeta**2)`` of a damping ratio zeta).
+    shape_se : float
+        Its standard error [-].
+    shape_used : float
+        The shape compensated [-] (0: first order).
     """
 
     tau: float
     se: float
     n: int
     used: float
+    shape: float = 0.0
+    shape_se: float = math.nan
+    shape_used: float = 0.0
+
+    @property
+    def a2(self) -> float:
+        """The compensated second-order coefficient ``a2 = q*tau**2`` [s^2]."""
+        return self.shape_used * self.used * self.used if self.used > 0.0 else 0.0
 
     def report(self) -> dict[str, float | int | str]:
         """Return the ``instrument`` entry of discrepancy.json.
@@ -150,20 +169,37 @@ class TorsionLag:
         Returns
         -------
         dict
-            ``value`` [s], ``se`` [s], ``unit``, ``used`` [s] and ``pieces``.
+            ``value`` [s], ``se`` [s], ``unit``, ``used`` [s], ``pieces`` and the
+            second order's ``shape``, ``shape_se`` and ``shape_used`` [-].
         """
-        return {'value': self.tau, 'se': self.se, 'unit': 's', 'used': self.used, 'pieces': self.n}
+        return {
+            'value': self.tau, 'se': self.se, 'unit': 's', 'used': self.used,
+            'pieces': self.n, 'shape': self.shape, 'shape_se': self.shape_se,
+            'shape_used': self.shape_used,
+        }  # fmt: skip
+
+
+def _median_se(arr: FloatArray) -> tuple[float, float]:
+    """Return the median of piece estimates and its standard error from their MAD."""
+    # a piece at rest carries no kinematics: its estimate is arbitrary and must not
+    # inflate the spread (the median absolute deviation, not the standard deviation)
+    med = float(np.median(arr))
+    se = float(1.2533 * mad_sigma(arr) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    return med, se
 
 
 def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True) -> TorsionLag:
-    """Identify the torsion amplifier's first-order lag from the record, friction-free.
+    """Identify the torsion amplifier's lag from the record, friction-free.
 
-    :func:`sticks.estimate_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
-    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s; the median is the lag, the
-    pieces' robust spread (MAD) its standard error. Used (compensated) when at least
-    :data:`MIN_TORSION_LAG`, beyond 3 standard errors and inside the estimator's
-    range (an estimate at the range's end, 3 ms, is left to the workflow's
-    ``torque_sensor_lag`` candidate).
+    :func:`sticks.fit_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
+    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s over the shapes of a second-order
+    amplifier (:data:`sticks.TORSION_LAG_SHAPES`); the medians are the lag and its
+    shape, the pieces' robust spread (MAD) their standard errors. A shape within 3
+    standard errors of 0 is a first-order lag: the lag is then estimated first-order
+    (:func:`sticks.estimate_torsion_lag`, the accelerometer's lag below zero). Used
+    (compensated) when at least :data:`MIN_TORSION_LAG`, beyond 3 standard errors
+    and inside the estimator's range (an estimate at the range's end, 3 ms, is left
+    to the workflow's ``torque_sensor_lag`` candidate).
 
     Parameters
     ----------
@@ -186,41 +222,47 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     # ~1 s pieces; at least 4 (of >= 0.2 s) on a shorter record for the spread
     m = max(1, int(n // round(_TQ_LAG_PIECE * fs)), min(4, int(n // round(0.2 * fs))))
     edges = np.linspace(0, n, m + 1).astype(int)
-    est: list[float] = []
-    for a, b in itertools.pairwise(edges.tolist()):
-        try:
-            tau = float(
-                estimate_torsion_lag(
-                    record.torsion_moment[a:b],
-                    record.angular_acceleration[a:b],
-                    fs,
-                    rig.C1,
-                    rig.fastest_mode_hz,
-                    min_lag=-MAX_ACCEL_LAG,
-                )
-            )
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-        if math.isfinite(tau):
-            est.append(tau)
-    if not est:
+    pieces = list(itertools.pairwise(edges.tolist()))
+
+    def each(shapes: tuple[float, ...]) -> tuple[FloatArray, FloatArray]:
+        taus: list[float] = []
+        qs: list[float] = []
+        for a, b in pieces:
+            try:
+                tau, q = fit_torsion_lag(
+                    record.torsion_moment[a:b], record.angular_acceleration[a:b], fs,
+                    rig.C1, rig.fastest_mode_hz, min_lag=-MAX_ACCEL_LAG, shapes=shapes,
+                )  # fmt: skip
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+            if math.isfinite(tau):
+                taus.append(tau)
+                qs.append(q)
+        return np.asarray(taus), np.asarray(qs)
+
+    taus, qs = each(TORSION_LAG_SHAPES)
+    if taus.size == 0:
         return TorsionLag(math.nan, math.nan, 0, 0.0)
-    arr = np.asarray(est)
-    tau = float(np.median(arr))
-    # the median's standard error from the pieces' robust spread (a piece at rest
-    # carries no kinematics: its estimate is arbitrary and must not inflate it)
-    spread = mad_sigma(arr)
-    se = float(1.2533 * spread / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    q, q_se = _median_se(qs)
+    second = q > 0.0 and math.isfinite(q_se) and q > 3.0 * q_se
+    if not second:
+        taus, _ = each((0.0,))
+        if taus.size == 0:
+            return TorsionLag(math.nan, math.nan, 0, 0.0)
+    tau, se = _median_se(taus)
     ok = (
         abs(tau) >= MIN_TORSION_LAG
         and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
         and (not math.isfinite(se) or abs(tau) > 3.0 * se)
     )
-    return TorsionLag(tau, se, arr.size, tau if ok else 0.0)
+    used = tau if ok else 0.0
+    return TorsionLag(tau, se, taus.size, used, q, q_se, q if second and used > 0.0 else 0.0)
 
 
-def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Record:
-    """Return the record with the torsion amplifier's first-order lag taken out.
+def torsion_compensated_record(
+    record: Record, rig: RigParams, tau: float, *, a2: float = 0.0
+) -> Record:
+    """Return the record with the torsion amplifier's lag taken out.
 
     :func:`sticks.torsion_lag_compensated` is exact: ``M_t = y + tau*C1*lag(w1)``
     (Equ. 4). The integrated acceleration gives ``w1`` up to a constant and a
@@ -228,7 +270,9 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     local mean (5 ms: shorter than the stick and slip phases between the jumps)
     is therefore replaced by its true value, the local mean of ``tau*y'`` (a
     difference quotient of the measured ``y``: noise ~0.015 N m for a 1 ms lag
-    at config/rig.yaml).
+    at config/rig.yaml). A second-order amplifier (``a2`` > 0) adds
+    ``a2*y'' = a2*C1*lag(a)``, which the measured acceleration gives without a
+    constant.
 
     Parameters
     ----------
@@ -237,8 +281,10 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     rig : RigParams
         Rig parameters (C1, Tab. 1).
     tau : float
-        Lag to take out [s] (0: the record unchanged; negative: the accelerometer's
-        lag ``-tau``, inverted on the acceleration).
+        Lag to take out [s] (its first-order coefficient; 0: the record unchanged;
+        negative: the accelerometer's lag ``-tau``, inverted on the acceleration).
+    a2 : float
+        The amplifier's second-order coefficient [s^2] (0: first order).
 
     Returns
     -------
@@ -256,8 +302,12 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     fs = record.fs
     dt = record.dt
     y = record.torsion_moment
-    w = chamber_speed_integral(record.angular_acceleration, dt)
-    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1) - y
+    acc = record.angular_acceleration
+    w = chamber_speed_integral(acc, dt)
+    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1, a2=a2, accel=acc) - y
+    # the second-order term a2*C1*lag(a) carries no integration constant: kept whole
+    known = a2 * rig.C1 * second_order_filter(acc, dt, tau, a2) if a2 > 0.0 else 0.0
+    corr = corr - known
     n = y.size
     # the mean's window stays shorter than the stick and slip phases between the
     # jumps: at most a quarter period of the rig's fastest mode
@@ -267,7 +317,7 @@ def torsion_compensated_record(record: Record, rig: RigParams, tau: float) -> Re
     lo = np.maximum(0, i - h)
     hi = np.minimum(n - 1, i + h)
     mean_slope = (y[hi] - y[lo]) / ((hi - lo) * dt)  # local mean of y' [N m/s]
-    corr = corr - drive_speed_level(corr, fs, 2 * h / fs) + tau * mean_slope
+    corr = corr - drive_speed_level(corr, fs, 2 * h / fs) + tau * mean_slope + known
     return replace(record, torsion_moment=np.asarray(y + corr, dtype=np.float64))
 
 
@@ -756,7 +806,7 @@ def stuck_sensor_states(
 
 #: A second-order term ``a2`` below this fraction of dt^2 is the first order [-]: its
 #: response differs from the first order's by about 1e-8 of a sample's change, and
-#: the matrix exponential of :func:`~tribo_estimation.core.shooting.second_order_lag`
+#: the matrix exponential of :func:`~tribo_estimation.core.signal.second_order_lag`
 #: is accurate to 1e-7 down to 1e-9 dt^2 (below, it loses digits). Kept this low so
 #: that a forward-difference step of ``speed_lag_shape`` from 0 (1e-5) reaches the
 #: second order for any lag above 0.1 dt.

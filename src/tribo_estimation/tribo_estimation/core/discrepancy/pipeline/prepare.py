@@ -114,7 +114,7 @@ def prepare(
         The record's fit problem and its instrument identification.
     """
     tq = identify_torsion_lag(record, rig, enabled=policy.torsion_lag)
-    rec = torsion_compensated_record(record, rig, tq.used)
+    rec = torsion_compensated_record(record, rig, tq.used, a2=tq.a2)
     pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
     sticks = pb.segments.stick_phases()
     accel = identify_accel_sensor(rec, rig)
