@@ -186,3 +186,25 @@ def test_a_first_order_torsion_amplifier_stays_first_order() -> None:
     # no second order: the compensation is the first-order lag, within 1 %
     assert tq.shape_used == 0.0
     assert tq.used == pytest.approx(1e-3, rel=0.01)
+
+
+def test_an_offset_beyond_the_physical_bound_is_reported_not_used() -> None:
+    # a regression offset of 1.5 rad/s at 7.6 rad/s (random record 24; true -0.01):
+    # beyond a tenth of the record's mean speed it is no tachometer's zero
+    ok = SpeedSensor(2e-3, 1e-5, 0.05, 1e-3, 100)
+    bad = dataclasses.replace(ok, offset=1.5, offset_rejected=1.5)
+    assert ok.consistent() and ok.values()['speed_offset'] == 0.05
+    assert not bad.consistent()
+    assert bad.values()['speed_offset'] == 0.0
+
+
+def test_the_regression_rejects_an_offset_beyond_a_tenth_of_the_mean_speed() -> None:
+    rec, rig = _scenario_record(0, 0.0, 0.0)  # Tab. 1 at 20 rpm (2.09 rad/s)
+    level = float(np.mean(np.abs(rec.speed)))
+    for off, rejected in ((0.05, False), (0.5, True)):
+        shifted = dataclasses.replace(rec, speed=rec.speed + off)
+        sensor = identify_speed_sensor(shifted, rig)
+        # the regression finds the offset within 0.01 rad/s; it is rejected beyond
+        # 0.1 x the mean speed (0.21 rad/s here)
+        assert sensor.offset == pytest.approx(off, abs=0.01)
+        assert math.isfinite(sensor.offset_rejected) is rejected, (off, level)

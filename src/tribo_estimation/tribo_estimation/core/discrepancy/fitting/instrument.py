@@ -352,6 +352,9 @@ class SpeedSensor:
         used (NaN: none).
     tau_raw : float
         The regression's lag before it is limited to [0, 20 ms] [s] (NaN: none).
+    offset_rejected : float
+        An offset the regression gave beyond :data:`SPEED_OFFSET_BOUND` of the
+        record's mean speed [rad/s]: not used (NaN: none).
     """
 
     tau: float
@@ -365,6 +368,7 @@ class SpeedSensor:
     gain_se: float = math.nan
     gain_rejected: float = math.nan
     tau_raw: float = math.nan
+    offset_rejected: float = math.nan
 
     def identified(self) -> bool:
         """Tell whether the stick phases gave the regression anything to estimate.
@@ -387,17 +391,19 @@ class SpeedSensor:
         (:meth:`identified`), when its lag is more than 3 standard errors below zero
         (no sensor's: the phases are not described by ``y = w - tau*y' + offset``, a
         sensor slower than the stick phases, whose output there still carries the
-        slip before, or an uncompensated torsion lag) or when its gain lies beyond
-        :data:`SPEED_GAIN_BOUND` (no tachometer's calibration: the same misfit,
-        typically on sticks of a few ms behind a lag of as many). Its lag and offset
-        are then no estimates either.
+        slip before, or an uncompensated torsion lag) or when its gain or offset lies
+        beyond :data:`SPEED_GAIN_BOUND` or :data:`SPEED_OFFSET_BOUND` (no
+        tachometer's calibration: the same misfit, typically on sticks of a few ms
+        behind a lag of as many). Its lag and offset are then no estimates either.
 
         Returns
         -------
         bool
             False if the regression's model does not hold.
         """
-        if not self.identified() or math.isfinite(self.gain_rejected):
+        if not self.identified() or not (
+            math.isnan(self.gain_rejected) and math.isnan(self.offset_rejected)
+        ):
             return False
         return not self.tau_raw < -3.0 * self.tau_se
 
@@ -443,7 +449,7 @@ class SpeedSensor:
 
         A value within 3 standard errors of zero is not used (0): the model is
         very sensitive to a wrong speed offset (it shifts the drive speed), so
-        noise must not enter it.
+        noise must not enter it; nor is an offset beyond the physical bound.
 
         Returns
         -------
@@ -456,7 +462,11 @@ class SpeedSensor:
 
         return {
             'speed_lag_tau': significant(self.tau, self.tau_se),
-            'speed_offset': significant(self.offset, self.offset_se),
+            'speed_offset': (
+                significant(self.offset, self.offset_se)
+                if math.isnan(self.offset_rejected)
+                else 0.0
+            ),
         }
 
 
@@ -473,6 +483,11 @@ DRIFT_Z = 5.0
 #: the stick phases that gives more says its sensor model (lag and offset) does not
 #: hold there, and the gain is not used.
 SPEED_GAIN_BOUND = 0.1
+#: Largest zero offset of a speed channel that is identified, relative to the
+#: record's mean speed [-]: a tachometer's zero is calibrated as its gain is (the random
+#: bench draws +-0.05 rad/s); a regression that gives more says its sensor model does
+#: not hold on the stick phases (docs/physics.md section 9), and the offset is not used.
+SPEED_OFFSET_BOUND = 0.1
 #: Spread of the stick phases' mean speeds (p90 - p10 over the mean) [-] above which
 #: a sensor gain is fitted with the drift (a speed step tells a gain from a drift).
 _GAIN_SPREAD = 0.2
@@ -596,9 +611,11 @@ def identify_speed_sensor(
     coef, se = fit
     tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
+    level = float(np.mean(np.abs(record.speed)))
+    off_rejected = float(coef[0]) if abs(coef[0]) > SPEED_OFFSET_BOUND * level else math.nan
     return SpeedSensor(
         tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
-        gain, gain_se, rejected, float(coef[1]),
+        gain, gain_se, rejected, float(coef[1]), off_rejected,
     )  # fmt: skip
 
 

@@ -44,6 +44,7 @@ from ..fitting import (
     SPEED_GAIN_BOUND,
     SPEED_LAG,
     SPEED_OFFSET,
+    SPEED_OFFSET_BOUND,
     SPEED_SHAPE,
     Problem,
     Record,
@@ -148,6 +149,11 @@ def prepare(
             'se': sensor.offset_se,
             'unit': 'rad/s',
             'used': used['speed_offset'],
+            **(
+                {'rejected': sensor.offset_rejected, 'bound': SPEED_OFFSET_BOUND}
+                if math.isfinite(sensor.offset_rejected)
+                else {}
+            ),
         },
         'speed_mismatch_drift': {'value': sensor.drift, 'se': sensor.drift_se, 'unit': '-'},
         'speed_gain': report_gain,
@@ -326,8 +332,7 @@ def fit_record_baseline(
     values = one.split(fo.values)[0]
     if offset_set_aside:
         regression = (
-            f'stick regression: lag {sensor[SPEED_LAG.name]:.3g} s, offset '
-            f'{sensor[SPEED_OFFSET.name]:.4g} rad/s'
+            f'stick regression: lag {prep.sensor.tau:.3g} s, offset {prep.sensor.offset:.4g} rad/s'
             if not unknown
             else 'no stick phase long enough for the stick regression'
         )
