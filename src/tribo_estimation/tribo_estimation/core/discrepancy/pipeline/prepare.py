@@ -320,11 +320,10 @@ def fit_record_baseline(
     regressed = best
     best = _least_cost(one, [{**here, **t} for t in trials], policy, best)
     offset_set_aside = not holds or best is not regressed
-    # where the regression's model does not hold (a sensor the sticks did not identify
-    # is unknown, not absent), the screen's least cost (its budget is short) and the
-    # regression's start are both fitted in full: the lower cost is kept
+    # a sensor the sticks did not identify is unknown, not absent: the screen's least
+    # cost (its budget is short) and the sensor-free start are both fitted in full
     unknown = not prep.sensor.identified()
-    firsts = [best, regressed] if not holds and best is not regressed else [best]
+    firsts = [best, regressed] if unknown and best is not regressed else [best]
     fo = min(
         (one.fit(one.specs(), f.values, max_nfev=policy.fit_nfev) for f in firsts),
         key=lambda f: f.cost,
