@@ -354,7 +354,7 @@ class SpeedSensor:
         The regression's lag before it is limited to [0, 20 ms] [s] (NaN: none).
     offset_rejected : float
         An offset the regression gave beyond :data:`SPEED_OFFSET_BOUND` of the
-        record's mean speed [rad/s]: not used (NaN: none).
+        record's peak speed [rad/s]: not used (NaN: none).
     """
 
     tau: float
@@ -484,9 +484,10 @@ DRIFT_Z = 5.0
 #: hold there, and the gain is not used.
 SPEED_GAIN_BOUND = 0.1
 #: Largest zero offset of a speed channel that is identified, relative to the
-#: record's mean speed [-]: a tachometer's zero is calibrated as its gain is (the random
-#: bench draws +-0.05 rad/s); a regression that gives more says its sensor model does
-#: not hold on the stick phases (docs/physics.md section 9), and the offset is not used.
+#: record's peak speed (99th percentile of |speed|, a lower bound of the channel's full
+#: scale) [-]: a tachometer's zero is calibrated to a fraction of its range, as its gain
+#: is; a regression that gives more says its sensor model does not hold on the stick
+#: phases (docs/physics.md section 9), and the offset is not used.
 SPEED_OFFSET_BOUND = 0.1
 #: Spread of the stick phases' mean speeds (p90 - p10 over the mean) [-] above which
 #: a sensor gain is fitted with the drift (a speed step tells a gain from a drift).
@@ -611,8 +612,9 @@ def identify_speed_sensor(
     coef, se = fit
     tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
-    level = float(np.mean(np.abs(record.speed)))
-    off_rejected = float(coef[0]) if abs(coef[0]) > SPEED_OFFSET_BOUND * level else math.nan
+    # the channel's range covers at least the speeds it shows: their 99th percentile
+    scale = float(np.percentile(np.abs(record.speed), 99.0))
+    off_rejected = float(coef[0]) if abs(coef[0]) > SPEED_OFFSET_BOUND * scale else math.nan
     return SpeedSensor(
         tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
         gain, gain_se, rejected, float(coef[1]), off_rejected,
