@@ -192,11 +192,11 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     """Identify the torsion amplifier's lag from the record, friction-free.
 
     :func:`sticks.fit_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
-    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s over the shapes of a second-order
-    amplifier (:data:`sticks.TORSION_LAG_SHAPES`); the medians are the lag and its
-    shape, the pieces' robust spread (MAD) their standard errors. A shape within 3
-    standard errors of 0 is a first-order lag: the lag is then estimated first-order
-    (:func:`sticks.estimate_torsion_lag`, the accelerometer's lag below zero). Used
+    ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s, first order (the accelerometer's lag
+    below zero); a lag of the amplifier that is used is then searched over the shapes
+    of a second order (:data:`sticks.TORSION_LAG_SHAPES`). The medians are the lag and
+    its shape, the pieces' robust spread (MAD) their standard errors; a shape within
+    3 standard errors of 0 leaves the first-order lag. Used
     (compensated) when at least :data:`MIN_TORSION_LAG`, beyond 3 standard errors
     and inside the estimator's range (an estimate at the range's end, 3 ms, is left
     to the workflow's ``torque_sensor_lag`` candidate).
@@ -240,23 +240,30 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
                 qs.append(q)
         return np.asarray(taus), np.asarray(qs)
 
-    taus, qs = each(TORSION_LAG_SHAPES)
+    def used(tau: float, se: float) -> float:
+        ok = (
+            abs(tau) >= MIN_TORSION_LAG
+            and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
+            and (not math.isfinite(se) or abs(tau) > 3.0 * se)
+        )
+        return tau if ok else 0.0
+
+    taus, _ = each((0.0,))
     if taus.size == 0:
         return TorsionLag(math.nan, math.nan, 0, 0.0)
-    q, q_se = _median_se(qs)
-    second = q > 0.0 and math.isfinite(q_se) and q > 3.0 * q_se
-    if not second:
-        taus, _ = each((0.0,))
-        if taus.size == 0:
-            return TorsionLag(math.nan, math.nan, 0, 0.0)
     tau, se = _median_se(taus)
-    ok = (
-        abs(tau) >= MIN_TORSION_LAG
-        and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
-        and (not math.isfinite(se) or abs(tau) > 3.0 * se)
-    )
-    used = tau if ok else 0.0
-    return TorsionLag(tau, se, taus.size, used, q, q_se, q if second and used > 0.0 else 0.0)
+    first = TorsionLag(tau, se, taus.size, used(tau, se))
+    if not first.used > 0.0:
+        return first  # no lag of the amplifier's own to give a shape to
+    taus, qs = each(TORSION_LAG_SHAPES)
+    if taus.size == 0:
+        return first
+    q, q_se = _median_se(qs)
+    if not (q > 0.0 and math.isfinite(q_se) and q > 3.0 * q_se):
+        return replace(first, shape=q, shape_se=q_se)
+    tau, se = _median_se(taus)
+    lag = used(tau, se)
+    return TorsionLag(tau, se, taus.size, lag, q, q_se, q if lag > 0.0 else 0.0)
 
 
 def torsion_compensated_record(
