@@ -41,7 +41,7 @@ from numba import njit
 
 from . import kernel as kn
 from .drive import DriveEstimate
-from .signal import CHAMBER_HALF, second_order_lag
+from .signal import CHAMBER_HALF, lag2_segments, second_order_lag
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -503,52 +503,6 @@ def lag_segments(
             y = a * y + (1.0 - cc) * x[i] + (cc - a) * x_prev
             x_prev = x[i]
             out[i] = y
-
-
-@njit(cache=True, nogil=True)
-def lag2_segments(
-    x: np.ndarray,
-    starts: np.ndarray,
-    stops: np.ndarray,
-    y_prev: np.ndarray,
-    yd_prev: np.ndarray,
-    c: np.ndarray,
-    out: np.ndarray,
-    out_d: np.ndarray,
-) -> None:
-    """Apply a second-order sensor per segment, each from its own filter state.
-
-    ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])`` with ``s = (y, y')`` and
-    the coefficients of :func:`~tribo_estimation.core.signal.second_order_lag`; before a
-    segment the input is held
-    at its first sample (as :func:`lag_segments`).
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Sensor input [unit].
-    starts, stops : numpy.ndarray
-        First and stop (exclusive) sample of each segment.
-    y_prev, yd_prev : numpy.ndarray
-        Filter output [unit] and its slope [unit/s] before each segment's first sample.
-    c : numpy.ndarray
-        The eight coefficients of :func:`~tribo_estimation.core.signal.second_order_lag`.
-    out, out_d : numpy.ndarray
-        Sensor output [unit] and its slope [unit/s], written per segment.
-    """
-    for k in range(starts.shape[0]):
-        y = y_prev[k]
-        yd = yd_prev[k]
-        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
-        for i in range(starts[k], stops[k]):
-            dx = x[i] - x_prev
-            y, yd = (
-                c[0] * y + c[1] * yd + c[4] * x_prev + c[6] * dx,
-                c[2] * y + c[3] * yd + c[5] * x_prev + c[7] * dx,
-            )
-            x_prev = x[i]
-            out[i] = y
-            out_d[i] = yd
 
 
 # ------------------------------------------------------------- local polynomials

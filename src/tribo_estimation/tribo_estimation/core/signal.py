@@ -343,21 +343,49 @@ def second_order_lag(a1: float, a2: float, dt: float) -> FloatArray:
     )
 
 
-@njit(cache=True)
-def _lag2(x: FloatArray, c: FloatArray) -> FloatArray:
-    y = np.empty_like(x)
-    s0 = x[0]
-    s1 = 0.0
-    x_prev = x[0]
-    for i in range(x.size):
-        dx = x[i] - x_prev
-        s0, s1 = (
-            c[0] * s0 + c[1] * s1 + c[4] * x_prev + c[6] * dx,
-            c[2] * s0 + c[3] * s1 + c[5] * x_prev + c[7] * dx,
-        )
-        x_prev = x[i]
-        y[i] = s0
-    return y
+@njit(cache=True, nogil=True)
+def lag2_segments(
+    x: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    y_prev: np.ndarray,
+    yd_prev: np.ndarray,
+    c: np.ndarray,
+    out: np.ndarray,
+    out_d: np.ndarray,
+) -> None:
+    """Apply a second-order sensor per segment, each from its own filter state.
+
+    ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])`` with ``s = (y, y')`` and
+    the coefficients of :func:`second_order_lag`; before a segment the input is held at
+    its first sample (as :func:`tribo_estimation.core.shooting.lag_segments`).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Sensor input [unit].
+    starts, stops : numpy.ndarray
+        First and stop (exclusive) sample of each segment.
+    y_prev, yd_prev : numpy.ndarray
+        Filter output [unit] and its slope [unit/s] before each segment's first sample.
+    c : numpy.ndarray
+        The eight coefficients of :func:`second_order_lag`.
+    out, out_d : numpy.ndarray
+        Sensor output [unit] and its slope [unit/s], written per segment.
+    """
+    for k in range(starts.shape[0]):
+        y = y_prev[k]
+        yd = yd_prev[k]
+        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
+        for i in range(starts[k], stops[k]):
+            dx = x[i] - x_prev
+            y, yd = (
+                c[0] * y + c[1] * yd + c[4] * x_prev + c[6] * dx,
+                c[2] * y + c[3] * yd + c[5] * x_prev + c[7] * dx,
+            )
+            x_prev = x[i]
+            out[i] = y
+            out_d[i] = yd
 
 
 def second_order_filter(x: FloatArray, dt: float, a1: float, a2: float) -> FloatArray:
@@ -392,7 +420,13 @@ def second_order_filter(x: FloatArray, dt: float, a1: float, a2: float) -> Float
     xx = np.ascontiguousarray(x, dtype=np.float64)
     if a2 <= 0.0 or xx.size == 0 or dt * dt > _NO_LAG * a2:
         return first_order_lag(xx, dt, a1)
-    return np.asarray(_lag2(xx, second_order_lag(a1, a2, dt)))
+    y = np.empty_like(xx)
+    first = xx[:1].copy()
+    lag2_segments(
+        xx, np.zeros(1, np.int64), np.full(1, xx.size, np.int64), first, np.zeros(1),
+        second_order_lag(a1, a2, dt), y, np.empty_like(xx),
+    )  # fmt: skip
+    return y
 
 
 def running_max(x: FloatArray, width: int) -> FloatArray:

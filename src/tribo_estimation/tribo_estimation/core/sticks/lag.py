@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tribo_estimation.core.signal import first_order_lag, rig_half, second_order_filter
+from tribo_estimation.core.signal import rig_half, second_order_filter
 
 FloatArray = NDArray[np.float64]
 
@@ -245,14 +245,12 @@ def torsion_lag_compensated(
     up to a constant): exact, no differentiation of the noisy signal. The lag uses
     the first-order-hold discretisation (a zero-order hold's half-sample delay
     would move stick starts by ~0.5 ms at 10 rpm). A second-order sensor
-    ``a2*y'' + tau*y' + y = M_t`` (``a2`` > 0 [s^2], ``accel`` the chamber
-    acceleration [rad/s^2]) adds ``a2*y'' = a2*C1*lag(a)``, with ``lag`` the sensor's
-    own second order (:func:`~tribo_estimation.core.signal.second_order_filter`).
+    ``a2*y'' + tau*y' + y = M_t`` (``a2`` > 0 [s^2]) lags ``w`` by its own second
+    order (:func:`~tribo_estimation.core.signal.second_order_filter`) and adds
+    ``a2*y'' = a2*C1*lag(a)`` from ``accel``, the chamber acceleration [rad/s^2]
+    (None: that term left to the caller).
     """
+    out = torsion + tau * c1 * second_order_filter(w, dt, tau, a2)
     if a2 > 0.0 and accel is not None:
-        return np.asarray(
-            torsion
-            + tau * c1 * second_order_filter(w, dt, tau, a2)
-            + a2 * c1 * second_order_filter(np.asarray(accel, float), dt, tau, a2)
-        )
-    return torsion + tau * c1 * first_order_lag(w, dt, tau)
+        out = out + a2 * c1 * second_order_filter(np.asarray(accel, float), dt, tau, a2)
+    return np.asarray(out)

@@ -17,10 +17,11 @@ import numpy.typing as npt
 
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
-from tribo_estimation.core.shooting import lag2_segments, lag_segments
+from tribo_estimation.core.shooting import lag_segments
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
+    lag2_segments,
     local_slope,
     mad_sigma,
     rig_half,
@@ -311,10 +312,9 @@ def torsion_compensated_record(
     y = record.torsion_moment
     acc = record.angular_acceleration
     w = chamber_speed_integral(acc, dt)
-    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1, a2=a2, accel=acc) - y
+    corr = torsion_lag_compensated(y, w, dt, tau, rig.C1, a2=a2) - y
     # the second-order term a2*C1*lag(a) carries no integration constant: kept whole
     known = a2 * rig.C1 * second_order_filter(acc, dt, tau, a2) if a2 > 0.0 else 0.0
-    corr = corr - known
     n = y.size
     # the mean's window stays shorter than the stick and slip phases between the
     # jumps: at most a quarter period of the rig's fastest mode
@@ -855,7 +855,7 @@ def speed_sensor_output(
     input linear between samples: first order
     (:func:`tribo_estimation.core.shooting.lag_segments`) or, with
     ``speed_lag_shape`` > 0, second order ``a2*y'' + tau*y' + y = w`` with
-    ``a2 = speed_lag_shape*tau^2`` (:func:`tribo_estimation.core.shooting.lag2_segments`,
+    ``a2 = speed_lag_shape*tau^2`` (:func:`tribo_estimation.core.signal.lag2_segments`,
     its slope state given too).
 
     Parameters
