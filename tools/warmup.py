@@ -72,7 +72,7 @@ def main() -> int:
     one = np.ones(1)
     start, stop = np.zeros(1, np.int64), np.ones(1, np.int64)
     knots = shooting.DriveKnots.constant(3.14159)
-    shooting.sliding_states(p, one, one, one, one, one, one, knots.time, knots.speed)
+    shooting.sliding_states(p, one, one, one, one, one, one, knots.time, knots.speed, knots.shape)
     shooting.lag_segments(one, start, stop, one, 0.5, one.copy())
     shooting.lag_segments(one, start, stop, one, 0.5, one.copy(), 1.0)
     lag2 = shooting.second_order_lag(1e-3, 2e-7, 1e-4)

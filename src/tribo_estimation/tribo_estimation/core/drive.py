@@ -5,7 +5,9 @@ speed steps and ramps (a Stribeck sweep). Over a time much longer than the
 stick-slip period the shaft follows the drive (the belt deflection of Equ. 2
 stays bounded), so the shaft speed channel w2, averaged over
 :data:`SMOOTH_TIME`, is the drive speed w0. The profile is a continuous
-piecewise-linear function of time: its knots are placed top-down (split where
+function of time through knots, linear between them or, where the drive
+angles say so, a raised cosine (an S-shaped speed transition, as a motor
+controller's S-ramp; :func:`refine_with_angles`): its knots are placed top-down (split where
 the smoothed speed departs most from the chord, the largest departure first,
 while it exceeds :func:`tolerance`), and the knot speeds are then a
 least-squares fit to the speed averaged in short bins. A stick-slip cycle
@@ -48,6 +50,22 @@ Prior = tuple[FloatArray, FloatArray]
 
 #: Averaging time of the shaft speed for the drive level (several stick-slip periods) [s].
 SMOOTH_TIME = 0.1
+#: Shape code of a raised-cosine piece (:attr:`DriveEstimate.shape`; 0 is linear):
+#: ``w0 = w_a + (w_b - w_a)*(1 - cos(pi*f))/2`` over the piece's fraction ``f``.
+COSINE = 1.0
+
+
+def _cosine_rise(f: FloatArray) -> FloatArray:
+    """Return the raised cosine's fraction of the speed change at piece fraction ``f``."""
+    out: FloatArray = 0.5 - 0.5 * np.cos(np.pi * f)
+    return out
+
+
+def _cosine_area(f: FloatArray) -> FloatArray:
+    """Return the integral of :func:`_cosine_rise` from 0 to ``f`` [-]."""
+    out: FloatArray = 0.5 * f - np.sin(np.pi * f) / (2.0 * np.pi)
+    return out
+
 
 #: Relative disagreement with the nominal speed that is reported [-].
 MISMATCH_LIMIT = 0.05
@@ -66,7 +84,7 @@ def _mismatch(level: float, nominal: float) -> float:
 
 @dataclass(frozen=True)
 class DriveEstimate:
-    """Piecewise-linear drive speed measured from a record.
+    """Drive speed measured from a record: knots, linear or raised-cosine between them.
 
     Parameters
     ----------
@@ -82,6 +100,9 @@ class DriveEstimate:
         Relative deviation ``(level - nominal)/nominal`` [-] (NaN: no nominal).
     from_record : bool
         False when the speed channel was unusable and the nominal is used.
+    shape : FloatArray or None
+        Per knot, the shape of the piece it begins: 0 linear, :data:`COSINE` a
+        raised cosine [-] (None: all linear).
     """
 
     knot_time: FloatArray
@@ -90,6 +111,7 @@ class DriveEstimate:
     level: float
     mismatch: float
     from_record: bool = True
+    shape: FloatArray | None = None
 
     @property
     def mismatched(self) -> bool:
@@ -98,12 +120,31 @@ class DriveEstimate:
 
     @property
     def n_pieces(self) -> int:
-        """Number of linear pieces [-]."""
+        """Number of pieces [-]."""
         return int(self.knot_time.size) - 1
+
+    def shapes(self) -> FloatArray:
+        """Per knot, the shape of the piece it begins (0 linear, :data:`COSINE`) [-]."""
+        if self.shape is None:
+            return np.zeros(self.knot_time.size)
+        return self.shape
+
+    def _cosine_pieces(self) -> list[int]:
+        if self.shape is None:
+            return []
+        return [int(j) for j in np.flatnonzero(self.shape[:-1] == COSINE)]
 
     def speed(self, t: npt.ArrayLike) -> FloatArray:
         """w0(t) [rad/s] (held constant beyond the ends)."""
-        return np.interp(np.asarray(t, dtype=np.float64), self.knot_time, self.knot_speed)
+        tt = np.asarray(t, dtype=np.float64)
+        w = np.asarray(np.interp(tt, self.knot_time, self.knot_speed), dtype=np.float64)
+        for j in self._cosine_pieces():
+            a, b = float(self.knot_time[j]), float(self.knot_time[j + 1])
+            inside = (tt > a) & (tt < b)
+            f = (tt - a) / (b - a)
+            dv = float(self.knot_speed[j + 1] - self.knot_speed[j])
+            w = np.where(inside, self.knot_speed[j] + dv * _cosine_rise(f), w)
+        return w
 
     def rate(self, t: npt.ArrayLike) -> FloatArray:
         """dw0/dt [rad/s^2] of the piece holding t (the later piece at a knot)."""
@@ -113,7 +154,14 @@ class DriveEstimate:
         slopes = np.diff(self.knot_speed) / np.maximum(np.diff(self.knot_time), 1e-12)
         i = np.clip(np.searchsorted(self.knot_time, tt, side='right') - 1, 0, slopes.size - 1)
         inside = (tt >= self.knot_time[0]) & (tt <= self.knot_time[-1])
-        return np.where(inside, slopes[i], 0.0)
+        out = np.where(inside, slopes[i], 0.0)
+        for j in self._cosine_pieces():
+            a, b = float(self.knot_time[j]), float(self.knot_time[j + 1])
+            f = (tt - a) / (b - a)
+            dv = float(self.knot_speed[j + 1] - self.knot_speed[j])
+            peak = 0.5 * math.pi * dv / (b - a)
+            out = np.where((tt >= a) & (tt < b), peak * np.sin(np.pi * f), out)
+        return out
 
     def mean_speed(self, t0: float, t1: float) -> float:
         """Mean drive speed over ``[t0, t1]`` [rad/s]."""
@@ -389,6 +437,7 @@ def _profile(
 
 
 __all__ = [
+    'COSINE',
     'MIN_PIECE',
     'MISMATCH_LIMIT',
     'SMOOTH_TIME',
@@ -419,10 +468,14 @@ _OUTLIER_FLOOR = 1e-4
 _OUTLIER_ROUNDS = 3
 
 
-def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
-    """Return the integral from ``tk[0]`` to ``tt`` of each hat function of the knots.
+def _angle_basis(tk: FloatArray, tt: FloatArray, sk: FloatArray | None = None) -> FloatArray:
+    """Return the integral from ``tk[0]`` to ``tt`` of each knot's basis function.
 
-    Exact for a continuous piecewise-linear w0.
+    Exact for a continuous w0 through the knots, linear between them (hat functions)
+    or a raised cosine where ``sk`` says so: inside such a piece of length ``h`` the
+    angle gained is ``h*(f - A(f))`` times its first knot's speed plus ``h*A(f)``
+    times its second's (``A`` = :func:`_cosine_area`, ``f`` the piece's fraction);
+    over the whole piece both are ``h/2``, as for a linear one.
 
     Parameters
     ----------
@@ -430,6 +483,8 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
         Knot times [s].
     tt : FloatArray
         Times [s].
+    sk : FloatArray, optional
+        Shape of the piece each knot begins (:attr:`DriveEstimate.shape`; default linear).
 
     Returns
     -------
@@ -438,6 +493,19 @@ def _angle_basis(tk: FloatArray, tt: FloatArray) -> FloatArray:
     """
     out = np.zeros((tt.size, tk.size))
     _fill_angle_basis(np.ascontiguousarray(tk), np.ascontiguousarray(tt), out)
+    if sk is not None:
+        for j in np.flatnonzero(sk[:-1] == COSINE).tolist():
+            a, b = float(tk[j]), float(tk[j + 1])
+            lo, hi = np.searchsorted(tt, a, side='right'), np.searchsorted(tt, b, side='left')
+            if np.all(np.diff(tt) >= 0.0):
+                rows = np.arange(lo, hi)
+            else:
+                rows = np.flatnonzero((tt > a) & (tt < b))
+            h = b - a
+            f = (tt[rows] - a) / h
+            d = h * (_cosine_area(f) - 0.5 * f * f)
+            out[rows, j] -= d
+            out[rows, j + 1] += d
     return out
 
 
@@ -529,6 +597,7 @@ def _solve_speeds(
     start: float | None = None,
     prior: Prior | None = None,
     tt_sorted: bool = False,
+    sk: FloatArray | None = None,
 ) -> tuple[FloatArray, float]:
     """Solve the knot speeds of the least-squares fit ``c + integral of w0`` to angles.
 
@@ -552,6 +621,8 @@ def _solve_speeds(
         Knot times [s] and speeds [rad/s] of the profile the knots are pulled toward.
     tt_sorted : bool
         ``tt`` is sorted already.
+    sk : FloatArray, optional
+        Shape of the piece each knot begins (default linear).
 
     Returns
     -------
@@ -559,7 +630,7 @@ def _solve_speeds(
         Knot speeds [rad/s] and the data's sum of squared residuals [rad^2].
     """
     k = tk.size
-    ab = _angle_basis(tk, tt)
+    ab = _angle_basis(tk, tt, sk)
     # the normal equations of the stacked rows (angles; penalty; pull) in x = (c, v):
     # the angle rows' Gram matrix, then the small penalty and pull terms added to it
     gram = np.empty((k + 1, k + 1))
@@ -616,7 +687,12 @@ def _solve_normal(gram: FloatArray, rhs: FloatArray) -> FloatArray:
 
 
 def _outliers(
-    tk: FloatArray, tt: FloatArray, ph: FloatArray, start: float | None, prior: Prior | None
+    tk: FloatArray,
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    sk: FloatArray | None = None,
 ) -> npt.NDArray[np.bool_]:
     """Flag angle samples far off the least-squares profile with knots ``tk``.
 
@@ -639,14 +715,16 @@ def _outliers(
         Known first knot speed [rad/s].
     prior : tuple of FloatArray or None
         Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
+    sk : FloatArray, optional
+        Shape of the piece each knot begins (default linear).
 
     Returns
     -------
     numpy.ndarray of bool
         True for an outlier.
     """
-    vk, _ = _solve_speeds(tk, tt, ph, start, prior)
-    model = _angle_basis(tk, tt) @ vk
+    vk, _ = _solve_speeds(tk, tt, ph, start, prior, sk=sk)
+    model = _angle_basis(tk, tt, sk) @ vk
     r = ph - model
     r = r - np.median(r)
     sigma = 1.4826 * float(np.median(np.abs(r)))
@@ -705,6 +783,7 @@ def _place(
     start: float | None = None,
     coarse_grid: bool = True,
     prior: Prior | None = None,
+    sk: FloatArray | None = None,
 ) -> FloatArray:
     """Move the free knot times to the least-squares angle fit.
 
@@ -730,6 +809,8 @@ def _place(
         Search the coarse grid (False for corners placed before).
     prior : tuple of FloatArray, optional
         Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
+    sk : FloatArray, optional
+        Shape of the piece each knot begins (default linear; kept as the knots move).
 
     Returns
     -------
@@ -744,7 +825,7 @@ def _place(
         tt, ph = tt[pick], ph[pick]
     order = np.argsort(tt, kind='stable')  # sorted once for every trial's knot weights
     tt, ph = tt[order], ph[order]
-    _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True)
+    _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=sk)
     idx = np.flatnonzero(free).tolist()
     moves: list[tuple[list[int], FloatArray]] = [([j], np.ones(1)) for j in idx]
     for j in idx:
@@ -769,12 +850,106 @@ def _place(
                     trial[ks] += d * dirs
                     if not np.all(np.diff(trial) > MIN_PIECE):
                         continue
-                    _, sse = _solve_speeds(trial, tt, ph, start, prior, tt_sorted=True)
+                    _, sse = _solve_speeds(trial, tt, ph, start, prior, tt_sorted=True, sk=sk)
                     if sse < best:
                         best, tk = sse, trial
         if tk is before:  # a sweep without a move: the next would repeat it exactly
             break
     return tk
+
+
+#: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
+_SPANNED_CORNERS = 3
+
+
+def _shaped_by_angles(ts: FloatArray, a: float, b: float) -> bool:
+    """Return True if the sorted angle times ``ts`` [s] inside ``(a, b)`` can shape it.
+
+    At least :data:`_TIMED_ANGLES` of them, spanning at least half of it (the rule
+    that times a transition, :func:`untimed_transitions`).
+    """
+    inside = ts[np.searchsorted(ts, a, side='right') : np.searchsorted(ts, b, side='left')]
+    return inside.size >= _TIMED_ANGLES and float(inside[-1] - inside[0]) >= 0.5 * (b - a)
+
+
+def _choose_shapes(
+    tk: FloatArray,
+    removable: npt.NDArray[np.bool_],
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    sk: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """Choose each piece's shape, linear or raised cosine, by the angles' least squares.
+
+    A motor controller's speed transition is a linear ramp or an S-ramp; linear
+    pieces follow an S-ramp only with extra corners, whose speeds still miss it by a
+    few percent of its change, and the belt (Equ. 2, ``C2`` of thousands of N m/rad)
+    turns the drive angle that misses into tens of N m. Greedy moves, the one that
+    lowers the angles' sum of squares most first, until none does: a piece changes
+    its shape (as many parameters), or up to :data:`_SPANNED_CORNERS`
+    consecutive removable knots go and the pieces they joined become one raised
+    cosine (fewer parameters). A piece's shape is decided only by angles inside it
+    (:func:`_shaped_by_angles`); the angles around a short step fix its mid-time, not
+    its shape.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    removable : numpy.ndarray of bool
+        Interior knots that may go (placed corners, not known ones).
+    tt, ph : FloatArray
+        Sorted times [s] of the drive angles and the angles [rad].
+    start : float or None
+        Known first knot speed [rad/s].
+    prior : tuple of FloatArray or None
+        Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
+    sk : FloatArray, optional
+        The pieces' shapes to start from (default: all linear).
+
+    Returns
+    -------
+    tuple of (FloatArray, FloatArray, numpy.ndarray of bool)
+        The knot times [s], their pieces' shapes and which of them may still move.
+    """
+    if tt.size > _PLACE_SAMPLES:  # evenly thinned, as for the corners' placement
+        pick = np.linspace(0, tt.size - 1, _PLACE_SAMPLES).astype(np.int64)
+        tt, ph = tt[pick], ph[pick]
+    sk = np.zeros(tk.size) if sk is None else sk.copy()
+    _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=sk)
+    while True:
+        move: tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]] | None = None
+        for j in range(tk.size - 1):
+            if not _shaped_by_angles(tt, float(tk[j]), float(tk[j + 1])):
+                continue
+            trial = sk.copy()
+            trial[j] = 0.0 if sk[j] == COSINE else COSINE
+            # a shape's corners sit elsewhere (an S-ramp's are wider apart than the
+            # linear ramp's through the same angles): its own corners placed again
+            ends = np.zeros(tk.size, dtype=bool)
+            ends[j : j + 2] = removable[j : j + 2]
+            tk2 = _place(tk, ends, tt, ph, start, True, prior, trial) if ends.any() else tk
+            _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=trial)
+            if sse < best:
+                best, move = sse, (tk2, trial, removable)
+        for i in range(tk.size - 2):
+            for j in range(i + 2, min(i + 2 + _SPANNED_CORNERS, tk.size)):
+                if not removable[i + 1 : j].all():
+                    break
+                if not _shaped_by_angles(tt, float(tk[i]), float(tk[j])):
+                    continue
+                keep = np.ones(tk.size, dtype=bool)
+                keep[i + 1 : j] = False
+                tk2, sk2 = tk[keep], sk[keep]
+                sk2[i] = COSINE
+                _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
+                if sse < best:
+                    best, move = sse, (tk2, sk2, removable[keep])
+        if move is None:
+            return tk, sk, removable
+        tk, sk, removable = move
 
 
 def refine_with_angles(
@@ -826,7 +1001,9 @@ def refine_with_angles(
     keep_corners : bool
         The interior knots of ``drive`` are corners placed before (not blurred
         knots of :func:`estimate_drive`): searched again locally from where they
-        are (fine grids only), for angles recomputed with that profile.
+        are (fine grids only), for angles recomputed with that profile, each piece
+        keeping its shape. Otherwise the placed corners' pieces get their shapes,
+        linear or raised cosine (:func:`_choose_shapes`), and are placed again.
     prior : DriveEstimate, optional
         The profile of the speed channel (:func:`estimate_drive`) the knot speeds are
         weakly pulled toward (default: ``drive``).
@@ -883,11 +1060,23 @@ def refine_with_angles(
         tk, free = tk[keep], free[keep]
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
+        sk = _shapes_of(drive, tk) if keep_corners else np.zeros(tk.size)
         tk0 = tk
+        coarse = not keep_corners
         if free.any() and int(free.sum()) <= _MAX_PLACED:
-            tk = _place(tk0, free, tt, ph, start_speed, not keep_corners, pull)
+            tk = _place(tk0, free, tt, ph, start_speed, coarse, pull, sk)
+        if int(free.sum()) <= _MAX_PLACED:
+            order = np.argsort(tt, kind='stable')
+            shaped = _choose_shapes(tk, free, tt[order], ph[order], start_speed, pull, sk)
+            if not np.array_equal(shaped[0], tk) or not np.array_equal(shaped[1], sk):
+                # the placed corners again, locally, with the shapes
+                tk, sk, free = shaped
+                tk0, coarse = tk, False
+                if free.any() and int(free.sum()) <= _MAX_PLACED:
+                    tk = _place(tk0, free, tt, ph, start_speed, False, pull, sk)
     else:
         tk = drive.knot_time.copy()
+        sk = drive.shapes().copy()
         if tt.size < tk.size + 2 or tk.size < 2:
             return drive
     # outlying angles (a false stick phase) are dropped and the fit repeated; the
@@ -895,21 +1084,33 @@ def refine_with_angles(
     # a wrongly placed corner come back
     kept = np.ones(tt.size, dtype=bool)
     for _ in range(_OUTLIER_ROUNDS):
-        out = _outliers(tk, tt, ph, start_speed, pull)
+        out = _outliers(tk, tt, ph, start_speed, pull, sk)
         if not out.any() or np.array_equal(~out, kept) or int((~out).sum()) < tk.size + 2:
             break
         kept = ~out
         if place and free.any():
-            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, not keep_corners, pull)
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, coarse, pull, sk)
     tt, ph = tt[kept], ph[kept]
-    vk, _ = _solve_speeds(tk, tt, ph, start_speed, pull)
+    vk, _ = _solve_speeds(tk, tt, ph, start_speed, pull, sk=sk)
     if not np.all(np.isfinite(vk)):
         return drive
-    grid2 = np.linspace(tk[0], tk[-1], 512)
-    level = float(np.median(np.interp(grid2, tk, vk)))
-    nom = drive.nominal
-    mismatch = _mismatch(level, nom)
-    return DriveEstimate(tk.copy(), vk, nom, level, mismatch, drive.from_record)
+    out_shape = sk if sk.any() else None
+    est = DriveEstimate(tk.copy(), vk, drive.nominal, 0.0, math.nan, drive.from_record, out_shape)
+    level = float(np.median(est.speed(np.linspace(tk[0], tk[-1], 512))))
+    return replace(est, level=level, mismatch=_mismatch(level, drive.nominal))
+
+
+def _shapes_of(drive: DriveEstimate, tk: FloatArray) -> FloatArray:
+    """Return the shapes of ``drive``'s pieces on the knots ``tk`` (by knot time)."""
+    src = drive.shapes()
+    out = np.zeros(tk.size)
+    if not src.any():
+        return out
+    i = np.clip(np.searchsorted(drive.knot_time, tk), 0, src.size - 1)
+    same = np.abs(drive.knot_time[i] - tk) <= 1e-9
+    out[same] = src[i[same]]
+    out[-1] = 0.0
+    return out
 
 
 #: Widest drive transition [s]: :func:`refine_with_angles` makes each speed step or
@@ -949,12 +1150,10 @@ def untimed_transitions(drive: DriveEstimate, angle_times: FloatArray) -> list[i
     j = 1
     while j + 2 < tk.size:
         a, b = float(tk[j]), float(tk[j + 1])
-        if b - a <= TRANSITION_MAX:
-            inside = ts[np.searchsorted(ts, a, side='right') : np.searchsorted(ts, b, side='left')]
-            if inside.size < _TIMED_ANGLES or inside[-1] - inside[0] < 0.5 * (b - a):
-                out.append(j)
-                j += 2
-                continue
+        if b - a <= TRANSITION_MAX and not _shaped_by_angles(ts, a, b):
+            out.append(j)
+            j += 2
+            continue
         j += 1
     return out
 

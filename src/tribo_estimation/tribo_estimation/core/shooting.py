@@ -6,10 +6,12 @@ integrated with the compiled kernel.
 Used by the block fit (:mod:`.blockfit`) and the discrepancy fit
 (:mod:`.discrepancy.fitting`).
 
-**Drive.** The model is driven by the measured piecewise-linear drive profile
-(:mod:`.drive`): each piece ``w0(t) = w_j + rate_j*(t - t_j)`` goes to the kernel
-as ``P_W0``, ``P_W0_RATE``, ``P_T_DRIVE`` (the start-up ramp parameter is
-switched off); a segment crossing a knot changes piece there.
+**Drive.** The model is driven by the measured drive profile (:mod:`.drive`):
+each linear piece ``w0(t) = w_j + rate_j*(t - t_j)`` goes to the kernel as
+``P_W0``, ``P_W0_RATE``, ``P_T_DRIVE``, each raised-cosine piece (an S-shaped
+transition from ``w_j`` to ``w_j+1``) as its mean speed, ``P_W0_COS`` and
+``P_W0_OMEGA`` (the start-up ramp parameter is switched off); a segment crossing
+a knot changes piece there.
 The drive *angle* never comes from ``w0*t``: only the belt deflection
 ``phi2 - phi0`` enters Equ. 2, and it is reconstructed from the measured
 state at the segment start.
@@ -49,7 +51,7 @@ IntArray = npt.NDArray[np.int64]
 
 @dataclass(frozen=True)
 class DriveKnots:
-    """Continuous piecewise-linear drive speed (constant beyond the ends; see :mod:`.drive`).
+    """Continuous drive speed through knots (constant beyond the ends; see :mod:`.drive`).
 
     Parameters
     ----------
@@ -57,10 +59,14 @@ class DriveKnots:
         Knot times [s], increasing.
     speed : FloatArray
         Drive speed at the knots [rad/s].
+    shape : FloatArray
+        Per knot, the shape of the piece it begins: 0 linear, 1 raised cosine
+        (:data:`tribo_estimation.core.drive.COSINE`) [-].
     """
 
     time: FloatArray
     speed: FloatArray
+    shape: FloatArray
 
     @staticmethod
     def from_estimate(drive: DriveEstimate) -> DriveKnots:
@@ -79,6 +85,7 @@ class DriveKnots:
         return DriveKnots(
             np.ascontiguousarray(drive.knot_time, dtype=np.float64),
             np.ascontiguousarray(drive.knot_speed, dtype=np.float64),
+            np.ascontiguousarray(drive.shapes(), dtype=np.float64),
         )
 
     @staticmethod
@@ -97,7 +104,9 @@ class DriveKnots:
         DriveKnots
             Two knots at the same speed.
         """
-        return DriveKnots(np.array([t0, max(t1, t0 + 1e-9)]), np.array([w0, w0], dtype=float))
+        return DriveKnots(
+            np.array([t0, max(t1, t0 + 1e-9)]), np.array([w0, w0], dtype=float), np.zeros(2)
+        )
 
 
 @njit(cache=True, nogil=True)
@@ -113,10 +122,17 @@ def _piece(tk: np.ndarray, vk: np.ndarray, t: float) -> int:
 
 
 @njit(cache=True, nogil=True)
-def _piece_params(p: np.ndarray, tk: np.ndarray, vk: np.ndarray, j: int) -> np.ndarray:
-    """Kernel parameters driven by piece j: ``w0 = vk[j] + rate*(t - tk[j])``."""
+def _piece_params(
+    p: np.ndarray, tk: np.ndarray, vk: np.ndarray, sk: np.ndarray, j: int
+) -> np.ndarray:
+    """Kernel parameters driven by piece j.
+
+    Linear: ``w0 = vk[j] + rate*(t - tk[j])``; raised cosine (``sk[j]`` = 1):
+    ``w0 = vk[j] + (vk[j+1] - vk[j])*(1 - cos(pi*(t - tk[j])/h))/2``, ``h`` its length.
+    """
     q = p.copy()
     q[kn.P_RAMP] = 0.0
+    q[kn.P_W0_COS] = 0.0
     k = tk.shape[0]
     if j < 0:
         q[kn.P_W0] = vk[0]
@@ -126,6 +142,13 @@ def _piece_params(p: np.ndarray, tk: np.ndarray, vk: np.ndarray, j: int) -> np.n
         q[kn.P_W0] = vk[k - 1]
         q[kn.P_W0_RATE] = 0.0
         q[kn.P_T_DRIVE] = tk[k - 1]
+    elif sk[j] > 0.5:
+        half = 0.5 * (vk[j + 1] - vk[j])
+        q[kn.P_W0] = vk[j] + half
+        q[kn.P_W0_RATE] = 0.0
+        q[kn.P_T_DRIVE] = tk[j]
+        q[kn.P_W0_COS] = -half
+        q[kn.P_W0_OMEGA] = math.pi / max(tk[j + 1] - tk[j], 1e-12)
     else:
         q[kn.P_W0] = vk[j]
         q[kn.P_W0_RATE] = (vk[j + 1] - vk[j]) / max(tk[j + 1] - tk[j], 1e-12)
@@ -141,6 +164,7 @@ def shoot(
     stops: np.ndarray,
     tk: np.ndarray,
     vk: np.ndarray,
+    sk: np.ndarray,
     dt: float,
     n_sub: int,
     out: np.ndarray,
@@ -161,8 +185,8 @@ def shoot(
         Kernel state per segment (``kernel.S_*``), not modified.
     starts, stops : numpy.ndarray
         First and stop (exclusive) sample of each segment.
-    tk, vk : numpy.ndarray
-        Drive knot times [s] and speeds [rad/s].
+    tk, vk, sk : numpy.ndarray
+        Drive knot times [s], speeds [rad/s] and piece shapes (:class:`DriveKnots`).
     dt : float
         Sample interval [s].
     n_sub : int
@@ -182,7 +206,7 @@ def shoot(
     n_ev = 0
     for k in range(starts.shape[0]):
         s = states[k].copy()
-        n_ev += shoot_on(p, s, starts[k], stops[k], tk, vk, dt, n_sub, out, buf)
+        n_ev += shoot_on(p, s, starts[k], stops[k], tk, vk, sk, dt, n_sub, out, buf)
     return n_ev
 
 
@@ -194,6 +218,7 @@ def shoot_on(
     stop: int,
     tk: np.ndarray,
     vk: np.ndarray,
+    sk: np.ndarray,
     dt: float,
     n_sub: int,
     out: np.ndarray,
@@ -213,8 +238,8 @@ def shoot_on(
         Kernel state at ``start`` (``kernel.S_*``); the state at ``stop`` on return.
     start, stop : int
         First and stop (exclusive) sample.
-    tk, vk : numpy.ndarray
-        Drive knot times [s] and speeds [rad/s].
+    tk, vk, sk : numpy.ndarray
+        Drive knot times [s], speeds [rad/s] and piece shapes (:class:`DriveKnots`).
     dt : float
         Sample interval [s].
     n_sub : int
@@ -237,7 +262,7 @@ def shoot_on(
     pos = start
     j = _piece(tk, vk, s[kn.S_T])
     while n_left > 0:
-        q = _piece_params(p, tk, vk, j)
+        q = _piece_params(p, tk, vk, sk, j)
         # samples until the next knot (the piece changes at the first sample after it)
         n = n_left
         t_next = math.inf
@@ -257,7 +282,7 @@ def shoot_on(
             # instant, e.g. the start-up ramp's end): it belongs to the new piece
             j_new = _piece(tk, vk, max(s[kn.S_T], t_next if t_next < math.inf else -math.inf))
             if j_new != j:
-                q_new = _piece_params(p, tk, vk, j_new)
+                q_new = _piece_params(p, tk, vk, sk, j_new)
                 t = s[kn.S_T]
                 s[kn.S_PHI2] += kn.drive_angle(q_new, t) - kn.drive_angle(q, t)
                 j = j_new
@@ -274,6 +299,7 @@ def stuck_states(
     t_stick: np.ndarray,
     tk: np.ndarray,
     vk: np.ndarray,
+    sk: np.ndarray,
 ) -> np.ndarray:
     """Return the kernel states of stuck discs (module doc; the kernel's own Q1, Q2).
 
@@ -291,8 +317,8 @@ def stuck_states(
         Their acceleration [rad/s^2].
     t_stick : numpy.ndarray
         Time already stuck [s].
-    tk, vk : numpy.ndarray
-        Drive knot times [s] and speeds [rad/s].
+    tk, vk, sk : numpy.ndarray
+        Drive knot times [s], speeds [rad/s] and piece shapes (:class:`DriveKnots`).
 
     Returns
     -------
@@ -302,7 +328,7 @@ def stuck_states(
     m = t.shape[0]
     out = np.zeros((m, kn.NS))
     for k in range(m):
-        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
+        q = _piece_params(p, tk, vk, sk, _piece(tk, vk, t[k]))
         phi1 = torsion[k] / q[kn.P_C1]
         q1 = kn.chamber_moment(q, phi1, w[k])
         phi0 = kn.drive_angle(q, t[k])
@@ -338,6 +364,7 @@ def stuck_states_averaged(
     t_stick: np.ndarray,
     tk: np.ndarray,
     vk: np.ndarray,
+    sk: np.ndarray,
     win_tau: np.ndarray,
     win_a: np.ndarray,
     win_a1: np.ndarray,
@@ -362,7 +389,7 @@ def stuck_states_averaged(
 
     Parameters
     ----------
-    p, t, torsion, w, accel, t_stick, tk, vk : numpy.ndarray
+    p, t, torsion, w, accel, t_stick, tk, vk, sk : numpy.ndarray
         As :func:`stuck_states`.
     win_tau : numpy.ndarray
         Shape (m, W): times of the window samples relative to each start [s].
@@ -378,12 +405,12 @@ def stuck_states_averaged(
     numpy.ndarray
         States (``kernel.S_*``), one row per time.
     """
-    out = stuck_states(p, t, torsion, w, accel, t_stick, tk, vk)
+    out = stuck_states(p, t, torsion, w, accel, t_stick, tk, vk, sk)
     for k in range(t.shape[0]):
         if win_n[k] < _MIN_WINDOW:
             continue
         j0 = _piece(tk, vk, t[k])
-        q = _piece_params(p, tk, vk, j0)
+        q = _piece_params(p, tk, vk, sk, j0)
         c1 = q[kn.P_C1]
         inertia = q[kn.P_I1] + q[kn.P_I2]
         phi1 = torsion[k] / c1
@@ -416,6 +443,7 @@ def sliding_states(
     moment: np.ndarray,
     tk: np.ndarray,
     vk: np.ndarray,
+    sk: np.ndarray,
 ) -> np.ndarray:
     """Return the kernel states while sliding past the slip-speed peak (module doc).
 
@@ -433,8 +461,8 @@ def sliding_states(
         Shaft acceleration [rad/s^2].
     moment : numpy.ndarray
         Friction moment M [N m].
-    tk, vk : numpy.ndarray
-        Drive knot times [s] and speeds [rad/s].
+    tk, vk, sk : numpy.ndarray
+        Drive knot times [s], speeds [rad/s] and piece shapes (:class:`DriveKnots`).
 
     Returns
     -------
@@ -444,7 +472,7 @@ def sliding_states(
     m = t.shape[0]
     out = np.zeros((m, kn.NS))
     for k in range(m):
-        q = _piece_params(p, tk, vk, _piece(tk, vk, t[k]))
+        q = _piece_params(p, tk, vk, sk, _piece(tk, vk, t[k]))
         phi0 = kn.drive_angle(q, t[k])
         w0t = kn.drive_speed(q, t[k])
         out[k, kn.S_T] = t[k]

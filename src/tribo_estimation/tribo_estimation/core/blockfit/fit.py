@@ -236,7 +236,9 @@ def _shooting_nodes(
         acc = window_mean(d.accel, anchors, 2, starts_s, ends_s)
         ts = t_of[anchors]
         node_idx.append(anchors)
-        node_states.append(stuck_states(p, ts, mt, w, acc, np.zeros(ts.size), dk.time, dk.speed))
+        node_states.append(
+            stuck_states(p, ts, mt, w, acc, np.zeros(ts.size), dk.time, dk.speed, dk.shape)
+        )
     slide = _sliding_nodes(np.abs(d.speed - d.chamber_speed), starts_s, ends_s, d.fs)
     if slide.size == 0 and starts_s.size == 0:
         slide = np.zeros(1, dtype=np.int64)  # short block: start at its first sample
@@ -249,7 +251,7 @@ def _shooting_nodes(
         w2 = y + speed_lag * w2d  # first-order sensor lag inverted: w2 = y + tau*y'
         ts = t_of[slide]
         node_idx.append(slide)
-        node_states.append(sliding_states(p, ts, mt, w1, w2, w2d, mom, dk.time, dk.speed))
+        node_states.append(sliding_states(p, ts, mt, w1, w2, w2d, mom, dk.time, dk.speed, dk.shape))
     idx = np.concatenate(node_idx)
     states = np.vstack(node_states)
     order = np.argsort(idx, kind='stable')
@@ -395,7 +397,7 @@ class _Problem:
         out = np.full((kn.N_CH, self.n), np.nan)
         dk = self.nodes.drive
         nd = self.nodes
-        shoot(p, nd.states, nd.start, nd.end, dk.time, dk.speed, self.dt, self.n_sub, out)
+        shoot(p, nd.states, nd.start, nd.end, dk.time, dk.speed, dk.shape, self.dt, self.n_sub, out)
         if len(self._recent) >= 4:
             self._recent.pop(next(iter(self._recent)))
         self._recent[key] = out

@@ -50,6 +50,8 @@ from .layout import (
     P_T_DRIVE,
     P_VISC,
     P_W0,
+    P_W0_COS,
+    P_W0_OMEGA,
     P_W0_RATE,
     Y_LAG,
     Y_PHI1,
@@ -72,8 +74,10 @@ FloatArray = NDArray[np.float64]
 def drive_speed(p: FloatArray, t: float) -> float:
     """Return the drive speed w0(t) [rad/s].
 
-    A linear start-up ramp to the nominal speed (``P_RAMP`` > 0), else one linear
-    piece ``w0 + rate*(t - t_ref)`` of a measured drive profile; plus the ripple.
+    A linear start-up ramp to the nominal speed (``P_RAMP`` > 0), else one piece
+    ``w0 + rate*(t - t_ref) + c*cos(om*(t - t_ref))`` of a measured drive profile
+    (``c`` = ``P_W0_COS``, 0 for a linear piece; a raised-cosine piece has rate 0);
+    plus the ripple.
 
     Parameters
     ----------
@@ -93,8 +97,11 @@ def drive_speed(p: FloatArray, t: float) -> float:
         w = w0n * (t / tr if t < tr else 1.0)
         if t < 0.0:
             w = 0.0
-    else:  # one linear piece of a measured drive profile (rate 0: constant)
+    else:  # one piece of a measured drive profile (rate 0: constant)
         w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
+        c = p[P_W0_COS]
+        if c != 0.0:
+            w += c * math.cos(p[P_W0_OMEGA] * (t - p[P_T_DRIVE]))
     amp = p[P_RIP_AMP]
     if amp != 0.0:
         w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
@@ -140,6 +147,10 @@ def drive_angle(p: FloatArray, t: float) -> float:
         rate = p[P_W0_RATE]
         tref = p[P_T_DRIVE]
         a = w0n * t + 0.5 * rate * ((t - tref) * (t - tref) - tref * tref)
+        c = p[P_W0_COS]
+        if c != 0.0:
+            om0 = p[P_W0_OMEGA]
+            a += c / om0 * (math.sin(om0 * (t - tref)) + math.sin(om0 * tref))
     amp = p[P_RIP_AMP]
     f = p[P_RIP_FREQ]
     if amp != 0.0 and f > 0.0:
@@ -361,6 +372,11 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
             dtr = t - p[P_T_DRIVE]
             w0 = w0n + rate * dtr
             phi0 = w0n * t + 0.5 * rate * (dtr * dtr - p[P_T_DRIVE] * p[P_T_DRIVE])
+            c = p[P_W0_COS]
+            if c != 0.0:
+                om0 = p[P_W0_OMEGA]
+                w0 += c * math.cos(om0 * dtr)
+                phi0 += c / om0 * (math.sin(om0 * dtr) + math.sin(om0 * p[P_T_DRIVE]))
     return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
 
 

@@ -87,7 +87,13 @@ P_RIP2_PHASE = 28  # phase of the second harmonic [rad]
 #: Logarithmic dwell-time stiction: ``mu_s += b*ln(1 + t_stick/t0)`` with ``t0`` =
 #: ``P_ST_TAU`` [s] and ``b`` this slot [-] (the Dieterich form).
 P_ST_LOG = 29
-NP = 30
+#: A raised-cosine drive piece (an S-shaped speed transition) adds
+#: ``P_W0_COS*cos(P_W0_OMEGA*(t - t_ref))`` to the linear piece's speed: from ``v_a``
+#: to ``v_b`` over ``h`` s it is ``w0 = (v_a + v_b)/2``, rate 0, ``P_W0_COS =
+#: -(v_b - v_a)/2`` [rad/s] and ``P_W0_OMEGA = pi/h`` [rad/s] (ramp time 0 only).
+P_W0_COS = 30
+P_W0_OMEGA = 31
+NP = 32
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``

@@ -539,7 +539,7 @@ class Problem:
             tau, acc, a1, a2, n_win = self._windows
             states[st] = stuck_states_averaged(
                 p, t0[st], m_true[st], self._w_start[sel][st], self._a0[sel][st],
-                seg.stick_time[sel][st], dk.time, dk.speed,
+                seg.stick_time[sel][st], dk.time, dk.speed, dk.shape,
                 tau[rows], acc[rows], a1[rows], a2[rows], n_win[rows],
             )  # fmt: skip
         n = rec.time.size
@@ -573,7 +573,7 @@ class Problem:
                 s_run = states[0].copy()
                 for b in cuts:
                     shoot_on(
-                        levelled(float(rec.time[a])), s_run, a, int(b), dk.time, dk.speed,
+                        levelled(float(rec.time[a])), s_run, a, int(b), dk.time, dk.speed, dk.shape,
                         rec.dt, n_sub, out, buf,
                     )  # fmt: skip
                     a = int(b)
@@ -581,11 +581,11 @@ class Problem:
                 for j, b in enumerate(stops):
                     shoot(
                         levelled(float(rec.time[starts[j]])), states[j : j + 1],
-                        starts[j : j + 1], np.full(1, b, np.int64), dk.time, dk.speed,
+                        starts[j : j + 1], np.full(1, b, np.int64), dk.time, dk.speed, dk.shape,
                         rec.dt, n_sub, out,
                     )  # fmt: skip
         else:
-            shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, rec.dt, n_sub, out)
+            shoot(p, states, seg.start[sel], stops, dk.time, dk.speed, dk.shape, rec.dt, n_sub, out)
         self.n_evals += 1
         used = (
             replace(seg, start=seg.start[:1], stop=stops, stick_time=seg.stick_time[:1],
@@ -941,7 +941,7 @@ class Problem:
         keep = d.knot_time > t_after
         tk = np.concatenate(([t0, t_ramp], d.knot_time[keep]))
         vk = np.concatenate(([0.0, float(d.speed(t_after))], d.knot_speed[keep]))
-        return replace(d, knot_time=tk, knot_speed=vk)
+        return replace(d, knot_time=tk, knot_speed=vk, shape=None)
 
     def measured(self, name: str) -> FloatArray:
         """Return a compared measured channel.

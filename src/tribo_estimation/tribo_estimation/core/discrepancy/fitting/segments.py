@@ -681,5 +681,5 @@ def sliding_start_states(
         moment[k] = float(p[kn.P_I1]) * float(a1[k]) - q1
     t0 = rec.time[i0].astype(np.float64)
     return np.asarray(
-        sliding_states(p, t0, m_true, w1, w2, w2_dot, moment, knots.time, knots.speed)
+        sliding_states(p, t0, m_true, w1, w2, w2_dot, moment, knots.time, knots.speed, knots.shape)
     )
