@@ -80,3 +80,25 @@ def test_sticks_too_short_for_the_regression_leave_the_speed_sensor_to_the_basel
     # 11-13; 20-30x with the regression's lag, which is 0.7 ms on these sticks)
     pb = prep.problem
     assert pb.torque_rms(pb.simulate(values)) < 5.0 * t
+
+
+def test_the_baseline_keeps_the_speed_offset_within_the_physical_bound() -> None:
+    # a tachometer reading 0.8 rad/s at rest on a 20 rpm record (2.1 rad/s peak) is no
+    # calibrated sensor: the regression's offset is rejected, and the baseline, which then
+    # fits the offset itself, keeps it within a tenth of the peak speed (random record 60
+    # carried 0.75 rad/s at a 0.78 rad/s peak out of its baseline)
+    t, a, s = NOISE
+    inst = InstrumentSpec(
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, t),
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, a),
+        ChannelSpec(1.0, 0.8, 1, 0.002, 0.0, s),
+    )
+    rec, rig, drv = record(4, constant(rpm(20)), instrument=inst, fs=5000.0, duration=2.0)
+    pol = Policy(shaft=False)
+    prep = prepare(rec, rig, drv, k=2.0, policy=pol)
+    assert math.isfinite(prep.sensor.offset_rejected)
+    values = fit_record_baseline(prep, pol, quiet)
+    bound = 0.1 * float(np.percentile(np.abs(prep.problem.record.speed), 99.0))
+    (spec,) = [p for p in prep.problem.free_instrument if p.name == 'speed_offset']
+    assert (spec.lower, spec.upper) == pytest.approx((-bound, bound), rel=1e-9)
+    assert abs(values['speed_offset']) <= bound * (1.0 + 1e-9)

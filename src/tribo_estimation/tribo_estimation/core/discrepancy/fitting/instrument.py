@@ -501,6 +501,26 @@ SPEED_OFFSET_BOUND = 0.1
 _GAIN_SPREAD = 0.2
 
 
+def speed_offset_bound(record: Record) -> float:
+    """Return the largest speed-channel zero offset a tachometer can have here [rad/s].
+
+    :data:`SPEED_OFFSET_BOUND` of the record's peak speed, the 99th percentile of
+    ``|speed|`` (the channel's range covers at least the speeds it shows). A physical
+    bound on the regression's offset and on every fit's (docs/physics.md section 9).
+
+    Parameters
+    ----------
+    record : Record
+        The record (speed [rad/s]).
+
+    Returns
+    -------
+    float
+        The bound [rad/s].
+    """
+    return SPEED_OFFSET_BOUND * float(np.percentile(np.abs(record.speed), 99.0))
+
+
 def _cluster_lstsq(
     X: FloatArray, d: FloatArray, cluster: IntArray
 ) -> tuple[FloatArray, FloatArray] | None:
@@ -619,9 +639,7 @@ def identify_speed_sensor(
     coef, se = fit
     tau = min(max(float(coef[1]), 0.0), SPEED_LAG.upper)
     drift, drift_se = _mismatch_drift(record.time[idx], w[idx], X, d, cl)
-    # the channel's range covers at least the speeds it shows: their 99th percentile
-    scale = float(np.percentile(np.abs(record.speed), 99.0))
-    off_rejected = float(coef[0]) if abs(coef[0]) > SPEED_OFFSET_BOUND * scale else math.nan
+    off_rejected = float(coef[0]) if abs(coef[0]) > speed_offset_bound(record) else math.nan
     return SpeedSensor(
         tau, float(se[1]), float(coef[0]), float(se[0]), int(idx.size), drift, drift_se,
         gain, gain_se, rejected, float(coef[1]), off_rejected,

@@ -55,6 +55,7 @@ from ..fitting import (
     identify_hum,
     identify_speed_sensor,
     identify_torsion_lag,
+    speed_offset_bound,
     torsion_compensated_record,
 )
 from ..stats import noise_floor
@@ -348,9 +349,13 @@ def fit_record_baseline(
     # second order when the lag is significant, its offset alone when the regression's
     # was set aside
     lagged = sensor['speed_lag_tau'] > 0.0 or unknown
+    # the offset within the physical bound of a tachometer calibrated for this record
+    # (at least 1 mrad/s: a record without motion keeps a fit with room)
+    bound = max(speed_offset_bound(pb.record), 1e-3)
+    offset = replace(SPEED_OFFSET, lower=-bound, upper=bound)
     free_sensor = (
-        (SPEED_LAG, SPEED_OFFSET, SPEED_SHAPE) if lagged
-        else (SPEED_OFFSET,) if offset_set_aside else ()
+        (SPEED_LAG, offset, SPEED_SHAPE) if lagged
+        else (offset,) if offset_set_aside else ()
     )  # fmt: skip
     pb.free_instrument = (*free_sensor, CHAMBER_I1)
     one = Ensemble([pb])
