@@ -860,6 +860,51 @@ def _place(
 
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
 _SPANNED_CORNERS = 3
+#: Spreads of a piece's placed corners about its mid-time tried with its other shape:
+#: a grid of factors [-], then two finer grids (steps of a fifth) around the best.
+_SPREADS = np.linspace(0.6, 1.6, 11)
+
+
+def _spread_search(
+    tk: FloatArray,
+    removable: npt.NDArray[np.bool_],
+    j: int,
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    sk: FloatArray,
+) -> tuple[FloatArray, float]:
+    """Spread piece ``j``'s removable corners about its mid-time to the least squares.
+
+    A corner that may not move stays; spreads that leave a piece shorter than
+    :data:`MIN_PIECE` are skipped.
+
+    Returns
+    -------
+    tuple of (FloatArray, float)
+        The knot times [s] and the angles' sum of squares [rad^2].
+    """
+    a, b = float(tk[j]), float(tk[j + 1])
+    mid, half = 0.5 * (a + b), 0.5 * (b - a)
+    best_tk, best = tk, math.inf
+    grid, step = _SPREADS, float(_SPREADS[1] - _SPREADS[0])
+    for _ in range(3):
+        centre = 1.0
+        for f in grid.tolist():
+            trial = tk.copy()
+            if removable[j]:
+                trial[j] = mid - f * half
+            if removable[j + 1]:
+                trial[j + 1] = mid + f * half
+            if not np.all(np.diff(trial) > MIN_PIECE):
+                continue
+            _, sse = _solve_speeds(trial, tt, ph, start, prior, tt_sorted=True, sk=sk)
+            if sse < best:
+                best_tk, best, centre = trial, sse, f
+        step /= 5.0
+        grid = np.asarray(centre + step * np.arange(-5, 6), dtype=np.float64)
+    return best_tk, best
 
 
 def _shaped_by_angles(ts: FloatArray, a: float, b: float) -> bool:
@@ -927,11 +972,13 @@ def _choose_shapes(
             trial = sk.copy()
             trial[j] = 0.0 if sk[j] == COSINE else COSINE
             # a shape's corners sit elsewhere (an S-ramp's are wider apart than the
-            # linear ramp's through the same angles): its own corners placed again
-            ends = np.zeros(tk.size, dtype=bool)
-            ends[j : j + 2] = removable[j : j + 2]
-            tk2 = _place(tk, ends, tt, ph, start, True, prior, trial) if ends.any() else tk
-            _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=trial)
+            # linear ramp's through the same angles, about 1.4x): its placed corners
+            # spread about their mid-time
+            if removable[j] or removable[j + 1]:
+                tk2, sse = _spread_search(tk, removable, j, tt, ph, start, prior, trial)
+            else:
+                tk2 = tk
+                _, sse = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=trial)
             if sse < best:
                 best, move = sse, (tk2, trial, removable)
         for i in range(tk.size - 2):

@@ -314,3 +314,24 @@ def test_a_continuous_simulation_follows_a_saturating_drift_not_its_first_tangen
     want = 0.01 * (math.exp(-0.45 / 0.5) - math.exp(-2.75 / 0.5)) * rig.F_N * rig.R
     # the first tangent held to the end would give 0.01/0.5*2.3 s: 11x as much
     assert rise == pytest.approx(want, rel=0.3)
+
+
+@pytest.mark.parametrize('seed', [3, 4])
+def test_a_drifting_tachometer_is_calibrated_at_the_sticks(seed: int) -> None:
+    # Tab. 1 at 5 rpm behind a tachometer whose noise is low-passed at 0.5 Hz (0.008
+    # rad/s, 1.6x its white noise): integrated, the drift moves the drive angles, and
+    # the belt makes it a moment at every stick (the baseline at 5.6x and 12x the
+    # noise); the channel's error at the stick phases, taken off, leaves 1.2-1.7x
+    t, a, s = NOISE
+    tacho = ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, s, coloured='ar1', coloured_level=0.008,
+                        coloured_corner=0.5)  # fmt: skip
+    chain = InstrumentSpec(
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, t), ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, a), tacho
+    )
+    rec, rig, drv = record(seed, constant(rpm(5)), instrument=chain, fs=5000.0, duration=3.0)
+    pol = Policy(shaft=False)
+    prep = prepare(rec, rig, drv, k=TRUTH['k'], policy=pol)
+    values = fit_record_baseline(prep, pol, quiet)
+    pb = prep.problem
+    assert pb.torque_rms(pb.simulate(values)) < 2.0 * t
+    assert values['k'] == pytest.approx(TRUTH['k'], rel=0.1)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
+from tribo_estimation.core.drive import SMOOTH_TIME
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import lag_segments
@@ -112,6 +113,94 @@ def stick_guard(record: Record, rig: RigParams) -> int:
         The guard [samples].
     """
     return rig_half(CHAMBER_HALF + 3, record.fs, rig.fastest_mode_hz, least=1)
+
+
+#: Fewest stick phases that calibrate the speed channel (:func:`speed_error_at_sticks`).
+_CALIBRATING_PHASES = 8
+
+
+def speed_error_at_sticks(
+    record: Record,
+    rig: RigParams,
+    runs: tuple[IntArray, IntArray] | None,
+    tau: float = 0.0,
+    slope: FloatArray | None = None,
+) -> FloatArray:
+    """Return the speed channel's slowly varying error seen at the stick phases [rad/s].
+
+    While the discs stick the shaft speed is the chamber's, ``w = (dM_t/dt)/C1``
+    (Equ. 4), which carries none of the speed sensor's errors, so the mean of
+    ``y + tau*y' - w`` (a first-order lag ``tau`` inverted) over a phase's interior
+    is the sensor's error there: its offset, the coloured part of its noise (a
+    tachometer's drift), the white part's mean. The phases' errors are
+    smoothed by a centred moving average over the phases within a half-width of time
+    chosen by leave-one-out cross-validation with the one-standard-error rule (the
+    widest window whose error is within one standard error of the least: from
+    :data:`~tribo_estimation.core.drive.SMOOTH_TIME`, the drive profile's own
+    resolution, doubling to the whole record; an error that does not vary, an
+    offset or white noise, chooses the whole record, and nothing is left to
+    correct), less their mean (the offset belongs to the sensor model), and
+    interpolated linearly between the phases' centres (held beyond them). Integrated,
+    the channel's coloured noise is a drift of the shaft angle that the drive angles
+    of Equ. 2 (:meth:`.Problem._angle_drive`) would otherwise carry: at a slow drive
+    a pink 0.008 rad/s is 2 % of the speed, and the belt makes it a moment of 1 N m
+    per stick.
+
+    Parameters
+    ----------
+    record : Record
+        The record (torsion moment [N m], speed [rad/s]).
+    rig : RigParams
+        Rig parameters (C1, the fastest mode).
+    runs : tuple of (IntArray, IntArray) or None
+        First and stop sample of each stick phase (None: none).
+    tau : float
+        The speed sensor's first-order lag [s].
+    slope : FloatArray, optional
+        The speed channel's slope ``y'`` (default: :func:`speed_slope`) [rad/s^2].
+
+    Returns
+    -------
+    FloatArray
+        The error to take off the speed channel [rad/s] (zeros with fewer than
+        :data:`_CALIBRATING_PHASES` phases).
+    """
+    n = record.time.size
+    if runs is None:
+        return np.zeros(n)
+    guard = stick_guard(record, rig)
+    w = rig_chamber_speed(record, rig)
+    y = record.speed
+    if tau > 0.0:
+        y = y + tau * (speed_slope(y, record.dt, rig) if slope is None else slope)
+    centres: list[float] = []
+    errors: list[float] = []
+    for a, b in zip(*runs, strict=True):
+        if b - a > 2 * guard + 2:
+            j = slice(int(a) + guard, int(b) - guard)
+            centres.append(float(np.mean(record.time[j])))
+            errors.append(float(np.mean(y[j] - w[j])))
+    m = len(errors)
+    if m < _CALIBRATING_PHASES:
+        return np.zeros(n)
+    e = np.asarray(errors)
+    c = np.concatenate(([0.0], np.cumsum(e)))
+    tc = np.asarray(centres)
+    trials: list[tuple[float, float, FloatArray]] = []  # (cv, its standard error, smooth)
+    half = SMOOTH_TIME
+    while True:
+        lo = np.searchsorted(tc, tc - half, side='left')
+        hi = np.searchsorted(tc, tc + half, side='right')
+        total, count = c[hi] - c[lo], hi - lo
+        ok = count > 1
+        sq = (e[ok] - (total[ok] - e[ok]) / (count[ok] - 1)) ** 2
+        trials.append((float(np.mean(sq)), float(np.std(sq)) / math.sqrt(m), total / count))
+        if half >= tc[-1] - tc[0]:
+            break
+        half *= 2.0
+    least = min(trials, key=lambda x: x[0])
+    smooth = next(x[2] for x in reversed(trials) if x[0] <= least[0] + least[1])
+    return np.interp(record.time, tc, smooth - float(np.mean(smooth)))
 
 
 #: Length of the record pieces the torsion lag is estimated on [s] (the spread of

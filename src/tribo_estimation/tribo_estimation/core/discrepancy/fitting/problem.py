@@ -60,6 +60,7 @@ from ..stats import FloatArray
 from .instrument import (
     FIRST_ORDER_A2,
     rig_chamber_speed,
+    speed_error_at_sticks,
     speed_sensor_output,
     speed_slope,
     stuck_sensor_states,
@@ -268,6 +269,10 @@ class Problem:
             else None
         )
         sp = record.speed
+        #: the speed channel's error at the sticks [rad/s] and its integral [rad], per
+        #: sensor lag
+        self._speed_errors: dict[float, FloatArray] = {}
+        self._drift_angles: dict[float, FloatArray] = {}
         self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
         # state at the segment starts: the torsion moment (local cubic) and the
@@ -761,10 +766,10 @@ class Problem:
                 a2 if a2 > FIRST_ORDER_A2 * rec.dt * rec.dt else 0.0,
                 guard=rig_half(CHAMBER_HALF, rec.fs, self.rig.fastest_mode_hz, least=1),
             )  # fmt: skip
-            self._w_start = w - offset
+            self._w_start = w - offset - self._speed_error(tau)[self.segments.start]
             self._sensor_start = (y0, yd0)
         else:
-            self._w_start = self._speed_stuck - offset
+            self._w_start = self._speed_stuck - offset - self._speed_error(0.0)[self.segments.start]
             self._sensor_start = (self._speed_start, self._speed_slope[self.segments.start])
         w1 = np.full(rec.time.size, np.nan)
         acc = rec.angular_acceleration
@@ -887,6 +892,7 @@ class Problem:
             self._shaft_angle[j]
             - offset * (t - rec.time[0])
             + tau * (y - float(self._smooth_speed[0]))
+            - self._drift_angle(tau)[j]
         )
         amp, freq, phase, amp2, phase2 = ripple
         ripple_angle = np.zeros_like(t)
@@ -909,6 +915,30 @@ class Problem:
                 prior=self._drive_speed0,
             )  # fmt: skip
         return drive
+
+    def _speed_error(self, tau: float) -> FloatArray:
+        """Return the speed channel's slowly varying error at the sticks [rad/s].
+
+        :func:`.instrument.speed_error_at_sticks` with the sensor's lag ``tau`` [s]
+        inverted (one per lag: kept); taken off the stuck starts' speed and, integrated
+        (:meth:`_drift_angle`), off the shaft angle.
+        """
+        out = self._speed_errors.get(tau)
+        if out is None:
+            out = speed_error_at_sticks(
+                self.record, self.rig, self.segments.stick_phases(), tau, self._speed_slope
+            )
+            self._speed_errors[tau] = out
+        return out
+
+    def _drift_angle(self, tau: float) -> FloatArray:
+        """Return the integral of :meth:`_speed_error` from the record's start [rad]."""
+        out = self._drift_angles.get(tau)
+        if out is None:
+            e = self._speed_error(tau)
+            out = np.concatenate(([0.0], np.cumsum(0.5 * (e[1:] + e[:-1]) * self.record.dt)))
+            self._drift_angles[tau] = out
+        return out
 
     def _sliding_drive(self, offset: float) -> DriveEstimate:
         """Return the drive profile of a record without drive angles (fewer than 20).
