@@ -132,7 +132,9 @@ def speed_error_at_sticks(
     (Equ. 4), which carries none of the speed sensor's errors, so the mean of
     ``y + tau*y' - w`` (a first-order lag ``tau`` inverted) over a phase's interior
     is the sensor's error there: its offset, the coloured part of its noise (a
-    tachometer's drift), the white part's mean. The phases' errors are
+    tachometer's drift), the white part's mean; less their mean, or a straight line in
+    the phases' speed where it spreads as for the regression's gain (the sensor
+    model's offset and gain, identified elsewhere). The errors are
     smoothed by a centred moving average over the phases within a half-width of time
     chosen by leave-one-out cross-validation with the one-standard-error rule (the
     widest window whose error is within one standard error of the least: from
@@ -175,15 +177,24 @@ def speed_error_at_sticks(
         y = y + tau * (speed_slope(y, record.dt, rig) if slope is None else slope)
     centres: list[float] = []
     errors: list[float] = []
+    speeds: list[float] = []
     for a, b in zip(*runs, strict=True):
         if b - a > 2 * guard + 2:
             j = slice(int(a) + guard, int(b) - guard)
             centres.append(float(np.mean(record.time[j])))
             errors.append(float(np.mean(y[j] - w[j])))
+            speeds.append(float(np.mean(w[j])))
     m = len(errors)
     if m < _CALIBRATING_PHASES:
         return np.zeros(n)
-    e = np.asarray(errors)
+    # the sensor model's own terms out: its offset and, where the phases' speeds spread
+    # (a speed step or sweep tells a gain from a drift), its gain error (linear in the
+    # phases' speed; the gain is identified by the model, not calibrated away here)
+    v = np.asarray(speeds)
+    spread = float(np.percentile(v, 90) - np.percentile(v, 10)) / max(abs(float(np.mean(v))), 1e-12)
+    design = np.column_stack((np.ones(m), v)) if spread > _GAIN_SPREAD else np.ones((m, 1))
+    coef = np.linalg.lstsq(design, np.asarray(errors), rcond=None)[0]
+    e = np.asarray(errors) - design @ coef
     c = np.concatenate(([0.0], np.cumsum(e)))
     tc = np.asarray(centres)
     trials: list[tuple[float, float, FloatArray]] = []  # (cv, its standard error, smooth)
