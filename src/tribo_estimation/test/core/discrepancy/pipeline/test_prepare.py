@@ -97,6 +97,8 @@ def test_the_baseline_keeps_the_speed_offset_within_the_physical_bound() -> None
     pol = Policy(shaft=False)
     prep = prepare(rec, rig, drv, k=2.0, policy=pol)
     assert math.isfinite(prep.sensor.offset_rejected)
+    # a sensor beyond its bounds is no calibration of the channel at the sticks
+    assert not prep.problem.speed_calibration
     values = fit_record_baseline(prep, pol, quiet)
     bound = 0.1 * float(np.percentile(np.abs(prep.problem.record.speed), 99.0))
     (spec,) = [p for p in prep.problem.free_instrument if p.name == 'speed_offset']

@@ -508,11 +508,26 @@ class SpeedSensor:
         bool
             False if the regression's model does not hold.
         """
-        if not self.identified() or not (
-            math.isnan(self.gain_rejected) and math.isnan(self.offset_rejected)
-        ):
+        if not self.within_bounds():
             return False
         return not self.tau_raw < -3.0 * self.tau_se
+
+    def within_bounds(self) -> bool:
+        """Tell whether the sticks identified a sensor within its physical bounds.
+
+        Stick samples there, and neither the gain nor the offset beyond
+        :data:`SPEED_GAIN_BOUND` or :data:`SPEED_OFFSET_BOUND`: the phases' speed errors
+        are then the sensor's (:func:`speed_error_at_sticks`). A lag a few
+        microseconds below zero (:meth:`consistent`) leaves them so.
+
+        Returns
+        -------
+        bool
+            True if the sensor is identified within its bounds.
+        """
+        return self.identified() and (
+            math.isnan(self.gain_rejected) and math.isnan(self.offset_rejected)
+        )
 
     def drifting(self) -> bool:
         """Tell whether the stick-phase kinematics drift during the record.

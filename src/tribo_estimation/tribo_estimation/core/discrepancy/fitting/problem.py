@@ -216,6 +216,10 @@ class Problem:
         Channel weights [1/unit] (default: :meth:`signal_weights`).
     block_time : float
         Length of a time block of the default segments [s].
+    speed_calibration : bool
+        Take the speed channel's slow error at the stick phases off its drive angles
+        and stuck starts (:func:`.instrument.speed_error_at_sticks`; set where the stick
+        regression's sensor model holds).
     """
 
     def __init__(
@@ -228,8 +232,12 @@ class Problem:
         segments: Segments | None = None,
         weights: Mapping[str, float] | None = None,
         block_time: float = 0.25,
+        speed_calibration: bool = False,
     ) -> None:
         self.record = record
+        #: the speed channel's slow error is calibrated at the stick phases
+        #: (:meth:`_speed_error`; where the stick regression's sensor model holds)
+        self.speed_calibration = bool(speed_calibration)
         self.block_time = float(block_time)
         self.rig = rig
         self.drive = drive
@@ -381,7 +389,7 @@ class Problem:
         """
         pb = Problem(
             record, self.rig, self.drive, k=self.k, weights=self.weights,
-            block_time=self.block_time,
+            block_time=self.block_time, speed_calibration=self.speed_calibration,
         )  # fmt: skip
         pb.free_instrument = self.free_instrument
         pb.hum_lines = dict(self.hum_lines)
@@ -920,14 +928,18 @@ class Problem:
         """Return the speed channel's slowly varying error at the sticks [rad/s].
 
         :func:`.instrument.speed_error_at_sticks` with the sensor's lag ``tau`` [s]
-        inverted (one per lag: kept); taken off the stuck starts' speed and, integrated
-        (:meth:`_drift_angle`), off the shaft angle.
+        inverted (one per lag: kept; zeros without :attr:`speed_calibration`); taken off
+        the stuck starts' speed and, integrated (:meth:`_drift_angle`), off the shaft
+        angle.
         """
         out = self._speed_errors.get(tau)
         if out is None:
-            out = speed_error_at_sticks(
-                self.record, self.rig, self.segments.stick_phases(), tau, self._speed_slope
-            )
+            if self.speed_calibration:
+                out = speed_error_at_sticks(
+                    self.record, self.rig, self.segments.stick_phases(), tau, self._speed_slope
+                )
+            else:
+                out = np.zeros(self.record.time.size)
             self._speed_errors[tau] = out
         return out
 

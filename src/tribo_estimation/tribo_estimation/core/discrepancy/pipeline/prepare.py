@@ -136,6 +136,14 @@ def prepare(
         )
         pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
         sensor = identify_speed_sensor(rec, rig, pb.segments.stick_phases())
+    if sensor.within_bounds():
+        # the sticks identified the sensor: they calibrate its slow error too (a gain or
+        # offset beyond the bounds says its model misses the phases, and that misfit
+        # would be in the phases' errors)
+        pb = Problem(
+            rec, rig, drive, k=k, block_time=policy.block_time, segments=pb.segments,
+            speed_calibration=True,
+        )  # fmt: skip
     used = sensor.values()
     instrument: dict[str, object] = {
         'torsion_lag_tau': tq.report(),
@@ -204,7 +212,10 @@ def without_hum(prep: Prepared, values: Mapping[str, float], policy: Policy) -> 
     found = [*earlier] if isinstance(earlier, list) else []
     instrument = {**prep.instrument, 'mains_hum': [*found, *hum.report()]}
     rec = hum.remove(pb.record)
-    new = Problem(rec, pb.rig, pb.drive, k=pb.k, block_time=policy.block_time)
+    new = Problem(
+        rec, pb.rig, pb.drive, k=pb.k, block_time=policy.block_time,
+        speed_calibration=pb.speed_calibration,
+    )  # fmt: skip
     lines = dict(pb.hum_lines)
     for c, f, _, _ in hum.lines:
         if f not in lines.get(c, ()):
