@@ -493,19 +493,20 @@ def _angle_basis(tk: FloatArray, tt: FloatArray, sk: FloatArray | None = None) -
     """
     out = np.zeros((tt.size, tk.size))
     _fill_angle_basis(np.ascontiguousarray(tk), np.ascontiguousarray(tt), out)
-    if sk is not None:
-        for j in np.flatnonzero(sk[:-1] == COSINE).tolist():
-            a, b = float(tk[j]), float(tk[j + 1])
+    pieces = [] if sk is None else np.flatnonzero(sk[:-1] == COSINE).tolist()
+    ordered = bool(pieces) and bool(np.all(np.diff(tt) >= 0.0))
+    for j in pieces:
+        a, b = float(tk[j]), float(tk[j + 1])
+        if ordered:
             lo, hi = np.searchsorted(tt, a, side='right'), np.searchsorted(tt, b, side='left')
-            if np.all(np.diff(tt) >= 0.0):
-                rows = np.arange(lo, hi)
-            else:
-                rows = np.flatnonzero((tt > a) & (tt < b))
-            h = b - a
-            f = (tt[rows] - a) / h
-            d = h * (_cosine_area(f) - 0.5 * f * f)
-            out[rows, j] -= d
-            out[rows, j + 1] += d
+            rows = np.arange(lo, hi)
+        else:
+            rows = np.flatnonzero((tt > a) & (tt < b))
+        h = b - a
+        f = (tt[rows] - a) / h
+        d = h * (_cosine_area(f) - 0.5 * f * f)
+        out[rows, j] -= d
+        out[rows, j + 1] += d
     return out
 
 

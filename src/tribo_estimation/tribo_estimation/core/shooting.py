@@ -43,7 +43,7 @@ from numba import njit
 
 from . import kernel as kn
 from .drive import DriveEstimate
-from .signal import CHAMBER_HALF, lag2_segments, second_order_lag
+from .signal import CHAMBER_HALF, lag2_segments, lag_segments, running_integral, second_order_lag
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -491,48 +491,6 @@ def sliding_states(
     return out
 
 
-@njit(cache=True, nogil=True)
-def lag_segments(
-    x: np.ndarray,
-    starts: np.ndarray,
-    stops: np.ndarray,
-    y_prev: np.ndarray,
-    a: float,
-    out: np.ndarray,
-    c: float = -1.0,
-) -> None:
-    """Apply a first-order sensor lag per segment, each from its own filter state.
-
-    ``c < 0``: ``y[n] = a*y[n-1] + (1 - a)*x[n]``; else the exact form of a
-    continuous sensor for an input linear between samples,
-    ``y[n] = a*y[n-1] + (1 - c)*x[n] + (c - a)*x[n-1]`` with
-    ``c = (1 - a)*tau/dt`` (the other lags by dt/2 less).
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Sensor input [unit].
-    starts, stops : numpy.ndarray
-        First and stop (exclusive) sample of each segment.
-    y_prev : numpy.ndarray
-        Filter state before each segment's first sample [unit].
-    a : float
-        ``exp(-dt/tau)`` [-].
-    out : numpy.ndarray
-        Sensor output [unit], written per segment.
-    c : float
-        ``(1 - a)*tau/dt`` for the exact form, negative for the simple one.
-    """
-    cc = a if c < 0.0 else c
-    for k in range(starts.shape[0]):
-        y = y_prev[k]
-        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
-        for i in range(starts[k], stops[k]):
-            y = a * y + (1.0 - cc) * x[i] + (cc - a) * x_prev
-            x_prev = x[i]
-            out[i] = y
-
-
 # ------------------------------------------------------------- local polynomials
 def _cubic_rows(lo_off: int, hi_off: int) -> FloatArray:
     """Return the rows (value, slope per sample) of the least-squares cubic.
@@ -646,9 +604,9 @@ def _integrals(
     [rad/s] and double [rad] trapezoid integrals from ``i``.
     """
     a = accel[a_lo:a_hi]
-    a1 = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+    a1 = running_integral(a, dt)
     a1 -= a1[i - a_lo]
-    a2 = np.concatenate(([0.0], np.cumsum(0.5 * (a1[1:] + a1[:-1]) * dt)))
+    a2 = running_integral(a1, dt)
     a2 -= a2[i - a_lo]
     tau = np.asarray((np.arange(a_lo, a_hi) - i) * dt, dtype=np.float64)
     return tau, np.asarray(a, dtype=np.float64), a1, a2

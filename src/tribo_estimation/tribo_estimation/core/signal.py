@@ -344,6 +344,48 @@ def second_order_lag(a1: float, a2: float, dt: float) -> FloatArray:
 
 
 @njit(cache=True, nogil=True)
+def lag_segments(
+    x: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+    y_prev: np.ndarray,
+    a: float,
+    out: np.ndarray,
+    c: float = -1.0,
+) -> None:
+    """Apply a first-order sensor lag per segment, each from its own filter state.
+
+    ``c < 0``: ``y[n] = a*y[n-1] + (1 - a)*x[n]``; else the exact form of a
+    continuous sensor for an input linear between samples,
+    ``y[n] = a*y[n-1] + (1 - c)*x[n] + (c - a)*x[n-1]`` with
+    ``c = (1 - a)*tau/dt`` (the other lags by dt/2 less).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Sensor input [unit].
+    starts, stops : numpy.ndarray
+        First and stop (exclusive) sample of each segment.
+    y_prev : numpy.ndarray
+        Filter state before each segment's first sample [unit].
+    a : float
+        ``exp(-dt/tau)`` [-].
+    out : numpy.ndarray
+        Sensor output [unit], written per segment.
+    c : float
+        ``(1 - a)*tau/dt`` for the exact form, negative for the simple one.
+    """
+    cc = a if c < 0.0 else c
+    for k in range(starts.shape[0]):
+        y = y_prev[k]
+        x_prev = x[starts[k]] if stops[k] > starts[k] else 0.0
+        for i in range(starts[k], stops[k]):
+            y = a * y + (1.0 - cc) * x[i] + (cc - a) * x_prev
+            x_prev = x[i]
+            out[i] = y
+
+
+@njit(cache=True, nogil=True)
 def lag2_segments(
     x: np.ndarray,
     starts: np.ndarray,
@@ -358,7 +400,7 @@ def lag2_segments(
 
     ``s[n] = Phi s[n-1] + g0*x[n-1] + g1*(x[n] - x[n-1])`` with ``s = (y, y')`` and
     the coefficients of :func:`second_order_lag`; before a segment the input is held at
-    its first sample (as :func:`tribo_estimation.core.shooting.lag_segments`).
+    its first sample (as :func:`tribo_estimation.core.signal.lag_segments`).
 
     Parameters
     ----------
@@ -457,6 +499,25 @@ def running_max(x: FloatArray, width: int) -> FloatArray:
     return out
 
 
+def running_integral(x: FloatArray, dt: float) -> FloatArray:
+    """Return the trapezoid integral of ``x`` from its first sample to each [unit*s].
+
+    Parameters
+    ----------
+    x : FloatArray
+        Samples [unit].
+    dt : float
+        Sample interval [s].
+
+    Returns
+    -------
+    FloatArray
+        Same length as ``x``, 0 at the first sample.
+    """
+    out: FloatArray = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)))
+    return out
+
+
 def moving_average(x: FloatArray, width: int) -> FloatArray:
     """Centred moving average over ``width`` samples (shorter windows at the ends)."""
     xx = np.asarray(x, dtype=np.float64)
@@ -477,9 +538,12 @@ __all__ = [
     'RIG_FIT_SPAN',
     'chamber_speed',
     'first_order_lag',
+    'lag2_segments',
+    'lag_segments',
     'longest_run',
     'moving_average',
     'noise_level',
     'rig_half',
+    'running_integral',
     'runs',
 ]

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from tribo_estimation.core.signal import running_integral
+
 from .fitting import Problem, SimulatedRecord
 from .stats import (
     PHASE_NAMES,
@@ -49,7 +51,7 @@ VARIABLE_UNITS: dict[str, str] = {
 def shaft_angle(problem: Problem) -> FloatArray:
     """Measured shaft angle modulo 2 pi [rad] (integral of the measured speed w2)."""
     rec = problem.record
-    ang = np.concatenate(([0.0], np.cumsum(0.5 * (rec.speed[1:] + rec.speed[:-1]) * rec.dt)))
+    ang = running_integral(rec.speed, rec.dt)
     return np.mod(ang, 2.0 * math.pi)
 
 

@@ -11,10 +11,22 @@ from tribo_scenarios.spec import ChannelSpec, InstrumentSpec, RigTruth
 
 from tribo_estimation.core.discrepancy.pipeline.policy import Policy, quiet
 from tribo_estimation.core.discrepancy.pipeline.prepare import (
+    Prepared,
     fit_record_baseline,
     identify_speed_gain,
     prepare,
 )
+
+
+def _behind_tachometer(seed: int, speed: ChannelSpec, duration: float, pol: Policy) -> Prepared:
+    """Tab. 1 at 20 rpm, 5 kHz, ideal torque and accelerometer, ``speed`` the tachometer."""
+    t, a, _ = NOISE
+    inst = InstrumentSpec(
+        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, t), ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, a), speed
+    )
+    rec, rig, drv = record(seed, constant(rpm(20)), instrument=inst, fs=5000.0,
+                           duration=duration)  # fmt: skip
+    return prepare(rec, rig, drv, k=2.0, policy=pol)
 
 
 def test_a_second_order_tachometer_gets_its_gain_from_the_baseline() -> None:
@@ -22,15 +34,9 @@ def test_a_second_order_tachometer_gets_its_gain_from_the_baseline() -> None:
     # 3): in the stick phases the discs swing at one frequency, where the sensor's
     # a2*y'' passes for a gain, and the stick regression is several % off; the baseline
     # refitted at trial gains finds it within 1 % and the speed channel fits to its noise
-    t, a, s = NOISE
-    inst = InstrumentSpec(
-        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, t),
-        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, a),
-        ChannelSpec(0.96, 0.02, 2, 0.0016, 0.75, s),
-    )
-    rec, rig, drv = record(3, constant(rpm(20)), instrument=inst, fs=5000.0, duration=3.0)
+    s = NOISE[2]
     pol = Policy(shaft=False)
-    prep = prepare(rec, rig, drv, k=2.0, policy=pol)
+    prep = _behind_tachometer(3, ChannelSpec(0.96, 0.02, 2, 0.0016, 0.75, s), 3.0, pol)
     values = fit_record_baseline(prep, pol, quiet)
     entry = prep.instrument['speed_gain']
     assert isinstance(entry, dict)
@@ -87,15 +93,8 @@ def test_the_baseline_keeps_the_speed_offset_within_the_physical_bound() -> None
     # calibrated sensor: the regression's offset is rejected, and the baseline, which then
     # fits the offset itself, keeps it within a tenth of the peak speed (random record 60
     # carried 0.75 rad/s at a 0.78 rad/s peak out of its baseline)
-    t, a, s = NOISE
-    inst = InstrumentSpec(
-        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, t),
-        ChannelSpec(1.0, 0.0, 0, 0.0, 0.0, a),
-        ChannelSpec(1.0, 0.8, 1, 0.002, 0.0, s),
-    )
-    rec, rig, drv = record(4, constant(rpm(20)), instrument=inst, fs=5000.0, duration=2.0)
     pol = Policy(shaft=False)
-    prep = prepare(rec, rig, drv, k=2.0, policy=pol)
+    prep = _behind_tachometer(4, ChannelSpec(1.0, 0.8, 1, 0.002, 0.0, NOISE[2]), 2.0, pol)
     assert math.isfinite(prep.sensor.offset_rejected)
     # a sensor beyond its bounds is no calibration of the channel at the sticks
     assert not prep.problem.speed_calibration

@@ -18,14 +18,15 @@ import numpy.typing as npt
 from tribo_estimation.core.drive import SMOOTH_TIME
 from tribo_estimation.core.lsq import cluster_robust_se
 from tribo_estimation.core.model import RigParams
-from tribo_estimation.core.shooting import lag_segments
 from tribo_estimation.core.signal import (
     CHAMBER_HALF,
     chamber_speed,
     lag2_segments,
+    lag_segments,
     local_slope,
     mad_sigma,
     rig_half,
+    running_integral,
     second_order_filter,
     second_order_lag,
 )
@@ -191,8 +192,8 @@ def speed_error_at_sticks(
     # (a speed step or sweep tells a gain from a drift), its gain error (linear in the
     # phases' speed; the gain is identified by the model, not calibrated away here)
     v = np.asarray(speeds)
-    spread = float(np.percentile(v, 90) - np.percentile(v, 10)) / max(abs(float(np.mean(v))), 1e-12)
-    design = np.column_stack((np.ones(m), v)) if spread > _GAIN_SPREAD else np.ones((m, 1))
+    spread = _speeds_spread(v, float(np.mean(v)))
+    design = np.column_stack((np.ones(m), v)) if spread else np.ones((m, 1))
     coef = np.linalg.lstsq(design, np.asarray(errors), rcond=None)[0]
     e = np.asarray(errors) - design @ coef
     c = np.concatenate(([0.0], np.cumsum(e)))
@@ -616,6 +617,16 @@ SPEED_OFFSET_BOUND = 0.1
 _GAIN_SPREAD = 0.2
 
 
+def _speeds_spread(per_phase: FloatArray, mean: float) -> bool:
+    """Tell whether the stick phases' mean speeds [rad/s] spread beyond :data:`_GAIN_SPREAD`.
+
+    Their 10th to 90th percentile over ``|mean|`` [rad/s]: a speed step or sweep, which
+    tells a sensor gain from a drift or an offset.
+    """
+    lo, hi = np.percentile(per_phase, (10.0, 90.0))
+    return bool((hi - lo) > _GAIN_SPREAD * abs(mean))
+
+
 def speed_offset_bound(record: Record) -> float:
     """Return the largest speed-channel zero offset a tachometer can have here [rad/s].
 
@@ -668,8 +679,7 @@ def _mismatch_drift(
     cols = [base, (t - float(np.mean(t))) / span]
     _, first = np.unique(cluster, return_index=True)
     per_stick = np.asarray([float(np.mean(x)) for x in np.split(w, first[1:])])
-    lo, hi = np.percentile(per_stick, (10.0, 90.0))
-    if (hi - lo) > _GAIN_SPREAD * abs(w_mean):
+    if _speeds_spread(per_stick, w_mean):
         cols.append((w - w_mean)[:, None])
     fit = _cluster_lstsq(np.column_stack(cols), d, cluster)
     if fit is None:
@@ -928,7 +938,7 @@ def stuck_sensor_states(
             continue
         base = min(int(i), lo)
         a = acc[base:hi]
-        big_a = np.concatenate(([0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)))
+        big_a = running_integral(a, dt)
         m = big_a.size
         # columns: the response from rest to A, then the free responses from a unit
         # output and (second order) a unit slope before the first sample
@@ -986,7 +996,7 @@ def speed_sensor_output(
     Lag ``speed_lag_tau`` [s] (its state before each segment start given, less the
     offset) and zero offset ``speed_offset`` [rad/s]; the lag is the exact form for an
     input linear between samples: first order
-    (:func:`tribo_estimation.core.shooting.lag_segments`) or, with
+    (:func:`tribo_estimation.core.signal.lag_segments`) or, with
     ``speed_lag_shape`` > 0, second order ``a2*y'' + tau*y' + y = w`` with
     ``a2 = speed_lag_shape*tau^2`` (:func:`tribo_estimation.core.signal.lag2_segments`,
     its slope state given too).

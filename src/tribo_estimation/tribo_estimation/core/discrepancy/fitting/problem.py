@@ -51,7 +51,7 @@ from tribo_estimation.core.shooting import (
     stuck_windows,
     window_mean,
 )
-from tribo_estimation.core.signal import CHAMBER_HALF, moving_average, rig_half
+from tribo_estimation.core.signal import CHAMBER_HALF, moving_average, rig_half, running_integral
 from tribo_estimation.errors import InvalidParameterError
 
 from .. import candidates as cand_lib
@@ -281,7 +281,7 @@ class Problem:
         #: sensor lag
         self._speed_errors: dict[float, FloatArray] = {}
         self._drift_angles: dict[float, FloatArray] = {}
-        self._shaft_angle = np.concatenate(([0.0], np.cumsum(0.5 * (sp[1:] + sp[:-1]) * record.dt)))
+        self._shaft_angle = running_integral(sp, record.dt)
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
         # state at the segment starts: the torsion moment (local cubic) and the
         # acceleration; the common speed of the stuck discs from the speed channel
@@ -947,8 +947,7 @@ class Problem:
         """Return the integral of :meth:`_speed_error` from the record's start [rad]."""
         out = self._drift_angles.get(tau)
         if out is None:
-            e = self._speed_error(tau)
-            out = np.concatenate(([0.0], np.cumsum(0.5 * (e[1:] + e[:-1]) * self.record.dt)))
+            out = running_integral(self._speed_error(tau), self.record.dt)
             self._drift_angles[tau] = out
         return out
 
