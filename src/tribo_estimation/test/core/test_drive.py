@@ -40,31 +40,45 @@ def test_refine_keeps_the_speed_channel_where_no_angles_pin_the_profile() -> Non
     assert float(got.speed(4.0)) == pytest.approx(0.0, abs=0.01)
 
 
-def test_angle_basis_integrates_the_hat_functions() -> None:
-    # the integral from the first knot of each hat function, against a trapezoid sum on
-    # a 1 us grid (tolerance 1e-9 s: the sum's error on a piecewise quadratic)
-    from tribo_estimation.core.drive import _angle_basis
+@pytest.mark.parametrize('cosine', [(), (1, 4)])
+def test_angle_basis_integrates_the_hat_functions(cosine: tuple[int, ...]) -> None:
+    # the integral from the first knot of each basis function (hat, or raised cosine on
+    # the pieces ``cosine``), against a trapezoid sum on a 1 us grid (tolerance 1e-9 s:
+    # the sum's error on a piecewise smooth integrand); samples before the first knot,
+    # on the knots and past the last
+    from tribo_estimation.core.drive import COSINE, _angle_basis
 
     rng = np.random.default_rng(5)
     tk = np.sort(rng.uniform(0.0, 0.2, 7))
-    tt = np.concatenate((rng.uniform(tk[0], 0.25, 50), tk))  # samples on the knots too
+    tt = np.concatenate((rng.uniform(tk[0] - 0.01, 0.25, 50), tk))
+    sk = np.zeros(tk.size)
+    sk[list(cosine)] = COSINE
     grid = np.arange(tk[0], 0.25 + 1e-6, 1e-6)
-    got = _angle_basis(tk, tt)
+    got = _angle_basis(tk, tt, sk)
     for j in range(tk.size):
         unit = np.zeros(tk.size)
         unit[j] = 1.0
         hat = np.interp(grid, tk, unit)  # held at the last knot's value beyond it
+        for p in cosine:
+            inside = (grid > tk[p]) & (grid < tk[p + 1])
+            f = (grid[inside] - tk[p]) / (tk[p + 1] - tk[p])
+            rise = 0.5 - 0.5 * np.cos(np.pi * f)
+            hat[inside] = unit[p] + (unit[p + 1] - unit[p]) * rise
         cum = np.concatenate(([0.0], np.cumsum(0.5 * (hat[1:] + hat[:-1]) * np.diff(grid))))
-        assert got[:, j] == pytest.approx(np.interp(tt, grid, cum), abs=1e-9), j
+        want = np.where(tt < tk[0], 0.0, np.interp(tt, grid, cum))
+        assert got[:, j] == pytest.approx(want, abs=1e-9), j
 
 
 def test_knot_normal_equations_match_an_orthogonal_solve_of_the_stacked_rows() -> None:
     # the Gram matrix of the angle rows plus the penalty and pull terms gives lstsq's
     # solution of the stacked rows (angles, second differences, pull toward a prior;
     # a known first speed moved to the right-hand side) to a relative 1e-8, the last
-    # knot with no angle near it held by the pull alone
+    # knot with no angle near it held by the pull alone; the sparse assembly
+    # (per-piece sums) against the dense rows, also for unsorted angles past the last
+    # knot and a raised-cosine piece
     from tribo_estimation.core.drive import (
         _KNOT_SMOOTH,
+        COSINE,
         _angle_basis,
         _pull_weights,
         _solve_speeds,
@@ -76,16 +90,21 @@ def test_knot_normal_equations_match_an_orthogonal_solve_of_the_stacked_rows() -
     ph = 0.1 + 2.0 * tt + 0.3 * np.sin(3.0 * tt) + rng.normal(0.0, 1e-3, tt.size)
     prior = (np.array([0.0, 1.0]), np.array([2.0, 3.0]))
     k = tk.size
-    for start in (None, 2.1):
-        vk, sse = _solve_speeds(tk, tt, ph, start, prior)
+    # unsorted angles, some past the last knot, and a raised-cosine piece
+    wide = rng.uniform(0.0, 1.2, 300)
+    wide_ph = 0.1 + 2.0 * wide + rng.normal(0.0, 1e-3, wide.size)
+    sk = np.array([0.0, 0.0, COSINE, 0.0, 0.0, 0.0])
+    cases = [(tt, ph, None, None), (tt, ph, 2.1, None), (wide, wide_ph, None, sk)]
+    for tt, ph, start, sk in cases:
+        vk, sse = _solve_speeds(tk, tt, ph, start, prior, sk=sk)
         d2 = np.zeros((k - 2, k + 1))
         for i in range(k - 2):
             d2[i, 1 + i : 4 + i] = _KNOT_SMOOTH * np.array([1.0, -2.0, 1.0])
-        w = _pull_weights(tk, tt)
+        w = _pull_weights(tk, np.sort(tt))
         if start is not None:
             w[0] = 0.0
         pull = np.column_stack((np.zeros(k), np.diag(w)))
-        rows = np.vstack((np.column_stack((np.ones(tt.size), _angle_basis(tk, tt))), d2, pull))
+        rows = np.vstack((np.column_stack((np.ones(tt.size), _angle_basis(tk, tt, sk))), d2, pull))
         rhs = np.concatenate((ph, np.zeros(k - 2), w * np.interp(tk, *prior)))
         if start is not None:
             rhs = rhs - start * rows[:, 1]

@@ -32,7 +32,6 @@ Units: time s, speed rad/s, rate rad/s^2.
 
 from __future__ import annotations
 
-import functools
 import heapq
 import math
 from dataclasses import dataclass, replace
@@ -61,10 +60,10 @@ def _cosine_rise(f: FloatArray) -> FloatArray:
     return out
 
 
-def _cosine_area(f: FloatArray) -> FloatArray:
-    """Return the integral of :func:`_cosine_rise` from 0 to ``f`` [-]."""
-    out: FloatArray = 0.5 * f - np.sin(np.pi * f) / (2.0 * np.pi)
-    return out
+@njit(cache=True)
+def _cosine_area(f: float) -> float:
+    """Return the integral of :func:`_cosine_rise` from 0 to ``f`` [-] (compiled)."""
+    return 0.5 * f - math.sin(math.pi * f) / (2.0 * math.pi)
 
 
 #: Relative disagreement with the nominal speed that is reported [-].
@@ -475,7 +474,8 @@ def _angle_basis(tk: FloatArray, tt: FloatArray, sk: FloatArray | None = None) -
     or a raised cosine where ``sk`` says so: inside such a piece of length ``h`` the
     angle gained is ``h*(f - A(f))`` times its first knot's speed plus ``h*A(f)``
     times its second's (``A`` = :func:`_cosine_area`, ``f`` the piece's fraction);
-    over the whole piece both are ``h/2``, as for a linear one.
+    over the whole piece both are ``h/2``, as for a linear one. The dense form of
+    :func:`_knot_columns` (which the knot fit uses).
 
     Parameters
     ----------
@@ -491,104 +491,257 @@ def _angle_basis(tk: FloatArray, tt: FloatArray, sk: FloatArray | None = None) -
     FloatArray
         Shape ``(tt.size, tk.size)`` [s].
     """
+    tk = np.ascontiguousarray(tk, dtype=np.float64)
+    order = np.argsort(tt, kind='stable')
+    ts = np.ascontiguousarray(np.asarray(tt, dtype=np.float64)[order])
+    shapes = np.zeros(tk.size) if sk is None else np.ascontiguousarray(sk, dtype=np.float64)
+    piece, u, v = _knot_columns(tk, shapes, ts)
+    full = _knot_constants(tk)
     out = np.zeros((tt.size, tk.size))
-    _fill_angle_basis(np.ascontiguousarray(tk), np.ascontiguousarray(tt), out)
-    pieces = [] if sk is None else np.flatnonzero(sk[:-1] == COSINE).tolist()
-    ordered = bool(pieces) and bool(np.all(np.diff(tt) >= 0.0))
-    for j in pieces:
-        a, b = float(tk[j]), float(tk[j + 1])
-        if ordered:
-            lo, hi = np.searchsorted(tt, a, side='right'), np.searchsorted(tt, b, side='left')
-            rows = np.arange(lo, hi)
-        else:
-            rows = np.flatnonzero((tt > a) & (tt < b))
-        h = b - a
-        f = (tt[rows] - a) / h
-        d = h * (_cosine_area(f) - 0.5 * f * f)
-        out[rows, j] -= d
-        out[rows, j + 1] += d
+    for i, (p, a, b) in enumerate(zip(piece.tolist(), u.tolist(), v.tolist(), strict=True)):
+        if p < 0:  # before the first knot: no angle gained
+            continue
+        row = out[order[i]]
+        row[:p] = full[:p]
+        row[p] = a
+        if p < tk.size - 1:
+            row[p + 1] = b
     return out
 
 
 @njit(cache=True)
-def _fill_angle_basis(tk: FloatArray, tt: FloatArray, out: FloatArray) -> None:
-    """Write :func:`_angle_basis` into ``out`` (compiled; the same arithmetic per entry).
-
-    A hat function's integral over a whole piece is the same for every sample past
-    it: computed once per knot.
-    """
+def _knot_constants(tk: FloatArray) -> FloatArray:
+    """Return each knot's basis integral over its whole support [s] (half its pieces)."""
     k = tk.shape[0]
-    left = np.zeros(k)  # s*s/(2h) of the piece before knot j at s = h
-    right = np.zeros(k)  # s - s*s/(2h) of the piece after knot j at s = h
+    out = np.zeros(k)
     for j in range(k):
         if j > 0:
-            h = tk[j] - tk[j - 1]
-            left[j] = h * h / (2.0 * h)
+            out[j] += 0.5 * (tk[j] - tk[j - 1])
         if j < k - 1:
-            h = tk[j + 1] - tk[j]
-            right[j] = h - h * h / (2.0 * h)
-    for i in range(tt.shape[0]):
-        x = tt[i]
-        for j in range(k):
-            v = 0.0
-            if j > 0 and x > tk[j - 1]:
-                if x >= tk[j]:
-                    v += left[j]
-                else:
-                    h = tk[j] - tk[j - 1]
-                    s = x - tk[j - 1]
-                    v += s * s / (2.0 * h)
-            if j < k - 1:
-                if x > tk[j]:
-                    if x >= tk[j + 1]:
-                        v += right[j]
-                    else:
-                        h = tk[j + 1] - tk[j]
-                        s = x - tk[j]
-                        v += s - s * s / (2.0 * h)
-            else:  # w0 held constant after the last knot
-                v += max(x - tk[j], 0.0)
-            out[i, j] = v
+            out[j] += 0.5 * (tk[j + 1] - tk[j])
+    return out
 
 
-def _pull_weights(tk: FloatArray, tt: FloatArray, tt_sorted: bool = False) -> FloatArray:
-    """Return the weight of each knot's pull toward the prior profile [s].
+@njit(cache=True)
+def _knot_columns(
+    tk: FloatArray, sk: FloatArray, ts: FloatArray
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Return the sparse rows of :func:`_angle_basis` at sorted times ``ts`` [s].
 
-    The angles fix a knot's speed over the part of its hat function's support they
-    span (the fit's constant takes the angle before the first of them). The rest of
-    the support (sliding, or stick phases too short to sample, before, between or
-    after the stick phases that give angles) has only the prior: the pull weighs
-    half the width of the support the angles leave uncovered, the angle error [rad]
-    one rad/s of speed error makes over it, so a knot keeps the speed channel's
-    value unless the angles around its gap say otherwise; a knot whose support the
-    angles span gets a weak pull (:data:`_KNOT_SMOOTH`).
-
-    Parameters
-    ----------
-    tk : FloatArray
-        Knot times [s].
-    tt : FloatArray
-        Times of the angles [s], sorted or not.
-    tt_sorted : bool
-        ``tt`` is sorted already.
+    A time inside piece ``p`` (``tk[p] <= t < tk[p+1]``; -1 before the first knot,
+    ``k - 1`` from the last on, where w0 is held) has the whole-support integrals
+    (:func:`_knot_constants`) in the columns before ``p``, ``u`` in column ``p``,
+    ``v`` in column ``p + 1`` and zeros after.
 
     Returns
     -------
-    FloatArray
-        One weight per knot [s].
+    tuple of (IntArray, FloatArray, FloatArray)
+        The piece of each time [-], ``u`` and ``v`` [s].
     """
-    ts = tt if tt_sorted else np.sort(tt)
-    lo = np.concatenate((tk[:1], tk[:-1]))
-    hi = np.concatenate((tk[1:], tk[-1:]))
-    i0 = np.searchsorted(ts, lo, side='left')
-    i1 = np.searchsorted(ts, hi, side='right')
-    inside = i1 > i0
-    covered = np.zeros(tk.size)
-    if ts.size:
-        first = ts[np.minimum(i0, ts.size - 1)]
-        last = ts[np.maximum(i1 - 1, 0)]
-        covered = np.where(inside, last - first, 0.0)
-    return np.maximum(0.5 * (hi - lo - covered), _KNOT_SMOOTH)
+    k = tk.shape[0]
+    n = ts.shape[0]
+    piece = np.empty(n, dtype=np.int64)
+    u = np.zeros(n)
+    v = np.zeros(n)
+    j = 0
+    for i in range(n):
+        x = ts[i]
+        while j < k and tk[j] <= x:
+            j += 1
+        p = j - 1
+        piece[i] = p
+        if p < 0:
+            continue
+        left = 0.5 * (tk[p] - tk[p - 1]) if p > 0 else 0.0
+        s = x - tk[p]
+        if p == k - 1:
+            u[i] = left + s
+            continue
+        h = tk[p + 1] - tk[p]
+        a = left + s - s * s / (2.0 * h)
+        b = s * s / (2.0 * h)
+        if sk[p] == COSINE:
+            f = s / h
+            d = h * (_cosine_area(f) - 0.5 * f * f)
+            a -= d
+            b += d
+        u[i] = a
+        v[i] = b
+    return piece, u, v
+
+
+@njit(cache=True)
+def _knot_normal(
+    tk: FloatArray,
+    sk: FloatArray,
+    ts: FloatArray,
+    ph: FloatArray,
+    prior_t: FloatArray,
+    prior_v: FloatArray,
+    pulled: bool,
+    start_known: bool,
+) -> tuple[FloatArray, FloatArray, IntArray, FloatArray, FloatArray]:
+    """Return the normal equations of the knot fit in ``x = (c, v)`` (compiled).
+
+    The angle rows' Gram matrix and right-hand side from per-piece sums of the sparse
+    rows (:func:`_knot_columns`), in O(n + k^2), plus the second-difference penalty
+    and the pull toward the prior (:func:`_pull_weights`; none on a known first speed).
+
+    Returns
+    -------
+    tuple
+        Gram matrix, right-hand side, and the rows' pieces, ``u`` and ``v``.
+    """
+    k = tk.shape[0]
+    piece, u, v = _knot_columns(tk, sk, ts)
+    # per piece p (index p + 1): count, sums of u, v, uu, uv, vv, y, yu, yv
+    acc = np.zeros((k + 1, 9))
+    for i in range(ts.shape[0]):
+        q = piece[i] + 1
+        a, b, y = u[i], v[i], ph[i]
+        acc[q, 0] += 1.0
+        acc[q, 1] += a
+        acc[q, 2] += b
+        acc[q, 3] += a * a
+        acc[q, 4] += a * b
+        acc[q, 5] += b * b
+        acc[q, 6] += y
+        acc[q, 7] += y * a
+        acc[q, 8] += y * b
+    # tails over the pieces after column c (index c + 1; c = -1 the constant)
+    tail_n = np.zeros(k + 2)
+    tail_y = np.zeros(k + 2)
+    for q in range(k, -1, -1):
+        tail_n[q] = tail_n[q + 1] + acc[q, 0]
+        tail_y[q] = tail_y[q + 1] + acc[q, 6]
+    # column c's whole-support value: 1 for the constant, else _knot_constants
+    full = np.ones(k + 1)
+    full[1:] = _knot_constants(tk)
+    gram = np.zeros((k + 1, k + 1))
+    rhs = np.zeros(k + 1)
+    gram[0, 0] = tail_n[0]
+    rhs[0] = tail_y[0]
+    for cb in range(1, k + 1):
+        # column cb (knot cb - 1): u in piece cb - 1 (index cb), v in piece cb - 2
+        qu, qv = cb, cb - 1
+        for ca in range(cb):
+            g = full[ca] * full[cb] * tail_n[cb + 1] + full[ca] * acc[qu, 1]
+            if ca < cb - 1:
+                g += full[ca] * acc[qv, 2]
+            else:  # column ca is u where column cb is v
+                g += acc[qv, 4]
+            gram[ca, cb] = g
+            gram[cb, ca] = g
+        gram[cb, cb] = full[cb] * full[cb] * tail_n[cb + 1] + acc[qu, 3] + acc[qv, 5]
+        rhs[cb] = full[cb] * tail_y[cb + 1] + acc[qu, 7] + acc[qv, 8]
+    if k >= 3:
+        s2 = _KNOT_SMOOTH * _KNOT_SMOOTH
+        for r in range(k - 2):
+            for a in range(3):
+                for b in range(3):  # the row (1, -2, 1)'s outer product
+                    da = 1.0 if a != 1 else -2.0
+                    db = 1.0 if b != 1 else -2.0
+                    gram[1 + r + a, 1 + r + b] += s2 * da * db
+    if pulled:
+        weight = _pull_weights(tk, ts)
+        if start_known:
+            weight[0] = 0.0
+        for j in range(k):
+            w2 = weight[j] * weight[j]
+            gram[1 + j, 1 + j] += w2
+            rhs[1 + j] += w2 * np.interp(tk[j], prior_t, prior_v)
+    return gram, rhs, piece, u, v
+
+
+@njit(cache=True)
+def _cholesky_solve(gram: FloatArray, rhs: FloatArray) -> tuple[FloatArray, bool]:
+    """Solve ``gram @ x = rhs`` by Cholesky (compiled); False if not positive definite."""
+    m = gram.shape[0]
+    low = np.zeros((m, m))
+    for i in range(m):
+        for j in range(i + 1):
+            s = gram[i, j]
+            for q in range(j):
+                s -= low[i, q] * low[j, q]
+            if i == j:
+                if not s > 0.0:
+                    return np.zeros(m), False
+                low[i, i] = math.sqrt(s)
+            else:
+                low[i, j] = s / low[j, j]
+    z = np.zeros(m)
+    for i in range(m):
+        s = rhs[i]
+        for q in range(i):
+            s -= low[i, q] * z[q]
+        z[i] = s / low[i, i]
+    x = np.zeros(m)
+    for i in range(m - 1, -1, -1):
+        s = z[i]
+        for q in range(i + 1, m):
+            s -= low[q, i] * x[q]
+        x[i] = s / low[i, i]
+    return x, True
+
+
+@njit(cache=True)
+def _knot_residuals(
+    tk: FloatArray, x: FloatArray, ph: FloatArray, piece: IntArray, u: FloatArray, v: FloatArray
+) -> FloatArray:
+    """Return ``c + integral of w0 - angle`` at the sorted rows (compiled) [rad]."""
+    k = tk.shape[0]
+    full = _knot_constants(tk)
+    level = np.empty(k + 1)  # c + the whole supports before piece p (index p + 1)
+    level[0] = x[0]
+    for p in range(k):
+        level[p + 1] = level[p] + full[p] * x[1 + p]
+    out = np.empty(ph.shape[0])
+    for i in range(ph.shape[0]):
+        p = piece[i]
+        r = level[p + 1] - ph[i] if p < 0 else level[p] + u[i] * x[1 + p] - ph[i]
+        if 0 <= p < k - 1:
+            r += v[i] * x[2 + p]
+        out[i] = r
+    return out
+
+
+def _knot_fit(
+    tk: FloatArray,
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    tt_sorted: bool,
+    sk: FloatArray | None,
+) -> tuple[FloatArray, FloatArray, IntArray]:
+    """Return ``(c, v)`` of the knot fit, its residuals and the rows' order.
+
+    :func:`_solve_speeds`' solution; the residuals [rad] are those of the angles
+    sorted by time, ``order`` the sort (an identity when ``tt_sorted``).
+    """
+    k = tk.size
+    tk = np.ascontiguousarray(tk, dtype=np.float64)
+    if tt_sorted:
+        order = np.arange(tt.size)
+        ts, ys = np.ascontiguousarray(tt), np.ascontiguousarray(ph)
+    else:
+        order = np.argsort(tt, kind='stable')
+        ts, ys = np.ascontiguousarray(tt[order]), np.ascontiguousarray(ph[order])
+    shapes = np.zeros(k) if sk is None else np.ascontiguousarray(sk, dtype=np.float64)
+    empty = np.zeros(1)
+    prior_t, prior_v = (empty, empty) if prior is None else prior
+    gram, rhs, piece, u, v = _knot_normal(
+        tk, shapes, ts, ys, np.ascontiguousarray(prior_t, dtype=np.float64),
+        np.ascontiguousarray(prior_v, dtype=np.float64), prior is not None, start is not None,
+    )  # fmt: skip
+    x = np.zeros(k + 1)
+    if start is None:
+        x[:] = _solve_normal(gram, rhs)
+    else:  # known: its column moves to the right-hand side
+        cols = np.delete(np.arange(k + 1), 1)
+        x[1] = start
+        x[cols] = _solve_normal(gram[np.ix_(cols, cols)], rhs[cols] - start * gram[cols, 1])
+    return x, _knot_residuals(tk, x, ys, piece, u, v), order
 
 
 def _solve_speeds(
@@ -606,7 +759,8 @@ def _solve_speeds(
     toward the ``prior`` profile (the smoothed speed channel): where angles pin a
     knot they decide, and a knot with no angle near it (sliding without sticks
     before, after or between them) keeps the channel's speed instead of the
-    penalty's straight-line extrapolation.
+    penalty's straight-line extrapolation. The normal equations are assembled
+    from the sparse rows of the basis (:func:`_knot_normal`).
 
     Parameters
     ----------
@@ -630,45 +784,48 @@ def _solve_speeds(
     tuple of (FloatArray, float)
         Knot speeds [rad/s] and the data's sum of squared residuals [rad^2].
     """
-    k = tk.size
-    ab = _angle_basis(tk, tt, sk)
-    # the normal equations of the stacked rows (angles; penalty; pull) in x = (c, v):
-    # the angle rows' Gram matrix, then the small penalty and pull terms added to it
-    gram = np.empty((k + 1, k + 1))
-    gram[0, 0] = float(tt.size)
-    gram[0, 1:] = gram[1:, 0] = ab.sum(axis=0)
-    gram[1:, 1:] = ab.T @ ab
-    rhs = np.empty(k + 1)
-    rhs[0] = float(ph.sum())
-    rhs[1:] = ph @ ab
-    if k >= 3:
-        # a weak penalty on the knot speeds' second differences [rad per rad/s] keeps
-        # closely spaced knots with few samples between them from oscillating
-        gram[1:, 1:] += _KNOT_SMOOTH**2 * _second_difference_gram(k)
-    if prior is not None:
-        weight = _pull_weights(tk, tt, tt_sorted)
-        if start is not None:
-            weight[0] = 0.0
-        w2 = weight * weight
-        gram[1:, 1:] += np.diag(w2)
-        rhs[1:] += w2 * np.interp(tk, *prior)
-    x = np.zeros(k + 1)
-    if start is None:
-        x[:] = _solve_normal(gram, rhs)
-    else:  # known: its column moves to the right-hand side
-        cols = np.delete(np.arange(k + 1), 1)
-        x[1] = start
-        x[cols] = _solve_normal(gram[np.ix_(cols, cols)], rhs[cols] - start * gram[cols, 1])
-    r = x[0] + ab @ x[1:] - ph
+    x, r, _ = _knot_fit(tk, tt, ph, start, prior, tt_sorted, sk)
     return np.asarray(x[1:], dtype=np.float64), float(r @ r)
 
 
-@functools.cache
-def _second_difference_gram(k: int) -> FloatArray:
-    """Return ``D^T D`` of the second-difference operator ``D`` on ``k`` knot speeds."""
-    d2 = np.diff(np.eye(k), 2, axis=0)
-    out: FloatArray = d2.T @ d2
-    out.setflags(write=False)
+@njit(cache=True)
+def _pull_weights(tk: FloatArray, ts: FloatArray) -> FloatArray:
+    """Return the weight of each knot's pull toward the prior profile [s] (compiled).
+
+    The angles fix a knot's speed over the part of its hat function's support they
+    span (the fit's constant takes the angle before the first of them). The rest of
+    the support (sliding, or stick phases too short to sample, before, between or
+    after the stick phases that give angles) has only the prior: the pull weighs
+    half the width of the support the angles leave uncovered, the angle error [rad]
+    one rad/s of speed error makes over it, so a knot keeps the speed channel's
+    value unless the angles around its gap say otherwise; a knot whose support the
+    angles span gets a weak pull (:data:`_KNOT_SMOOTH`).
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s].
+    ts : FloatArray
+        Times of the angles [s], sorted.
+
+    Returns
+    -------
+    FloatArray
+        One weight per knot [s].
+    """
+    k = tk.shape[0]
+    n = ts.shape[0]
+    out = np.empty(k)
+    for j in range(k):
+        lo = tk[j - 1] if j > 0 else tk[0]
+        hi = tk[j + 1] if j < k - 1 else tk[k - 1]
+        covered = 0.0
+        if n > 0:
+            i0 = np.searchsorted(ts, lo, side='left')
+            i1 = np.searchsorted(ts, hi, side='right')
+            if i1 > i0:
+                covered = ts[i1 - 1] - ts[i0]
+        out[j] = max(0.5 * (hi - lo - covered), _KNOT_SMOOTH)
     return out
 
 
@@ -677,14 +834,13 @@ def _solve_normal(gram: FloatArray, rhs: FloatArray) -> FloatArray:
 
     The knot fit's design is tall and thin (thousands of angles, tens of knots) and
     well conditioned (the penalty and pull rows keep every knot speed pinned), so its
-    Gram matrix is positive definite and solved directly; one that is not (a knot
-    with neither angles nor pull) gets the least-norm solution.
+    Gram matrix is positive definite and solved directly (:func:`_cholesky_solve`);
+    one that is not (a knot with neither angles nor pull) gets the least-norm solution.
     """
-    try:
-        np.linalg.cholesky(gram)
-    except np.linalg.LinAlgError:
+    x, ok = _cholesky_solve(np.ascontiguousarray(gram), np.ascontiguousarray(rhs))
+    if not ok:
         return np.asarray(np.linalg.lstsq(gram, rhs, rcond=None)[0], dtype=np.float64)
-    return np.asarray(np.linalg.solve(gram, rhs), dtype=np.float64)
+    return np.asarray(x, dtype=np.float64)
 
 
 def _outliers(
@@ -724,9 +880,9 @@ def _outliers(
     numpy.ndarray of bool
         True for an outlier.
     """
-    vk, _ = _solve_speeds(tk, tt, ph, start, prior, sk=sk)
-    model = _angle_basis(tk, tt, sk) @ vk
-    r = ph - model
+    _, fit, order = _knot_fit(tk, tt, ph, start, prior, False, sk)
+    r = np.empty(tt.size)
+    r[order] = fit
     r = r - np.median(r)
     sigma = 1.4826 * float(np.median(np.abs(r)))
     return np.asarray(np.abs(r) > max(_OUTLIER_SIGMA * sigma, _OUTLIER_FLOOR), dtype=np.bool_)
