@@ -179,6 +179,18 @@ class DriveEstimate:
             mismatch=_mismatch(level, self.nominal),
         )
 
+    def rests_at_start(self) -> bool:
+        """Return whether the drive rests over the profile's first piece.
+
+        Its second knot's speed is within :func:`tolerance` of its first's: a record
+        that begins at rest holds a wait before the motor starts, and a start-up ramp
+        begins at that knot, not at the record's first sample.
+        """
+        if self.knot_speed.size < 2:
+            return True
+        step = abs(float(self.knot_speed[1] - self.knot_speed[0]))
+        return step <= tolerance(self.level, 0.0)
+
     def warning(self) -> str | None:
         """One line for the user when the record disagrees with the nominal speed."""
         if not self.mismatched:

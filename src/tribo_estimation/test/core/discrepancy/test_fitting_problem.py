@@ -20,6 +20,7 @@ from tribo_estimation.core.discrepancy.pipeline.prepare import (
     prepare,
 )
 from tribo_estimation.core.drive import COSINE
+from tribo_estimation.core.model import DriveProfile
 
 #: Tab. 1 friction of the generated records (Equ. 8).
 TRUTH = {'mu0': 0.13, 'mu_inf': 0.10, 'k': 2.0}
@@ -293,6 +294,26 @@ def test_an_s_ramp_of_the_drive_is_followed_by_a_raised_cosine_piece(
         j for j in range(tk.size - 1) if tk[j] < at + length - 0.005 and tk[j + 1] > at + 0.005
     ]
     assert {float(est.shapes()[j]) for j in inside} == {COSINE if shape == 'cosine' else 0.0}
+
+
+@pytest.mark.parametrize(('wait', 'seed'), [(0.2, 7), (0.0, 8)])
+def test_a_start_up_ramp_is_placed_where_the_motor_starts(wait: float, seed: int) -> None:
+    # RIG.yaml's ramp_time (0.14 s) and a record that begins at rest: the motor starts
+    # with the record or after a wait of 0.2 s. A ramp taken to begin at t = 0 put a
+    # corner 60 ms before the motor's start: the profile 10 % of the level off, the
+    # baseline at 52x the noise; now 0.03 % and 1.02x (tolerances 2 % and 1.3x)
+    w, ramp = rpm(20.0), 0.14
+    drv = DriveSpec('startup', (Transition(wait, ramp, w, 'linear'),), 0.0, w, ramp, ('startup',))
+    rec, rig, _ = record(seed, drv, fs=10_000.0, duration=2.0)
+    pol = Policy()
+    prep = prepare(rec, rig, DriveProfile(w, ramp), k=TRUTH['k'], policy=pol)
+    values = fit_record_baseline(prep, pol, quiet)
+    pb = prep.problem
+    t = rec.time - rec.time[0]
+    true = w * np.clip((t - wait) / ramp, 0.0, 1.0)
+    near = t < wait + ramp + 0.1
+    assert np.max(np.abs(pb.drive_estimate.speed(rec.time[near]) - true[near])) < 0.02 * w
+    assert pb.torque_rms(pb.simulate(values)) < 1.3 * NOISE[0]
 
 
 def test_a_continuous_simulation_follows_a_saturating_drift_not_its_first_tangent() -> None:

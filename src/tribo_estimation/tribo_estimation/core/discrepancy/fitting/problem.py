@@ -276,6 +276,12 @@ class Problem:
             if begins_at_drive_start(record, drive.ramp_time, self.drive_estimate.level)
             else None
         )
+        #: RIG.yaml's start-up ramp, (start, end) [s], where it begins at the record's
+        #: first sample: a record that begins at rest and rests on (the motor started
+        #: after the recording) has its start-up's corners placed as any other's
+        self._ramp: FloatArray | None = None
+        if self._start_speed is not None and not self.drive_estimate.rests_at_start():
+            self._ramp = np.array([float(record.time[0]), record.time[0] + drive.ramp_time])
         sp = record.speed
         #: the speed channel's error at the sticks [rad/s] and its integral [rad], per
         #: sensor lag
@@ -910,7 +916,7 @@ class Problem:
         if amp != 0.0 and freq > 0.0:  # the ripple's angle (kernel.drive_angle)
             om = 2.0 * math.pi * freq
             ripple_angle = ripple_angle + amp / om * (math.cos(phase) - np.cos(om * t + phase))
-        hints = np.array([0.0, self.drive.ramp_time]) if self.drive.ramp_time > 0 else None
+        hints = self._ramp
         # the damping term K2*(w - w0) needs w0: the starting profile first, then once
         # more with the profile from the angles; the smoothed speed blurs a speed
         # step over 150 ms, so its angles bias the corners: they are placed again
@@ -956,9 +962,9 @@ class Problem:
 
         The smoothed shaft speed (:func:`~tribo_estimation.core.drive.estimate_drive`)
         less the speed sensor's offset; it blurs the start-up ramp over
-        :data:`~tribo_estimation.core.drive.SMOOTH_TIME`, so a record that begins at
-        the drive's start from rest gets RIG.yaml's ramp (0 at the start, the measured
-        speed at the ramp's end) instead.
+        :data:`~tribo_estimation.core.drive.SMOOTH_TIME`, so a record whose start-up
+        ramp begins at its first sample gets RIG.yaml's ramp (0 at the start, the
+        measured speed at the ramp's end) instead.
 
         Parameters
         ----------
@@ -971,11 +977,9 @@ class Problem:
             The profile.
         """
         d = self._drive_speed0.shifted(-offset)
-        ramp = self.drive.ramp_time
-        if self._start_speed is None or ramp <= 0.0:
+        if self._ramp is None:
             return d
-        t0 = float(self.record.time[0])
-        t_ramp = t0 + ramp
+        t0, t_ramp = self._ramp.tolist()
         t_after = t_ramp + SMOOTH_TIME
         if t_after >= float(d.knot_time[-1]):
             return d

@@ -97,10 +97,10 @@ def stuck_before_onset(
 
 
 def begins_at_drive_start(record: Record, ramp_time: float, level: float) -> bool:
-    """Return whether the record begins at the drive's start from rest.
+    """Return whether the record begins at rest before or at the drive's start.
 
-    RIG.yaml's start-up ramp (``ramp_time`` > 0) begins at t = 0 = the record's first
-    sample and the shaft speed there is at rest (mean of the first 10 ms within
+    RIG.yaml has a start-up ramp (``ramp_time`` > 0), the record's first sample is at
+    t = 0 and the shaft speed there is at rest (mean of the first 10 ms within
     :func:`tribo_estimation.core.drive.tolerance` of 0). A stick phase at such a
     record's start began with the record: its dwell clock starts at the first sample
     (the convention of the reference generator and the kernel's rest state).
