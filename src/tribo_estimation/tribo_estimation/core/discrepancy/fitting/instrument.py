@@ -205,11 +205,15 @@ def speed_error_at_sticks(
         hi = np.searchsorted(tc, tc + half, side='right')
         total, count = c[hi] - c[lo], hi - lo
         ok = count > 1
-        sq = (e[ok] - (total[ok] - e[ok]) / (count[ok] - 1)) ** 2
-        trials.append((float(np.mean(sq)), float(np.std(sq)) / math.sqrt(m), total / count))
+        if ok.any():  # a window that holds only its own phase predicts nothing
+            sq = (e[ok] - (total[ok] - e[ok]) / (count[ok] - 1)) ** 2
+            trials.append((float(np.mean(sq)), float(np.std(sq)) / math.sqrt(m), total / count))
         if half >= tc[-1] - tc[0]:
             break
         half *= 2.0
+    trials = [x for x in trials if math.isfinite(x[0])]
+    if not trials:
+        return np.zeros(n)
     least = min(trials, key=lambda x: x[0])
     smooth = next(x[2] for x in reversed(trials) if x[0] <= least[0] + least[1])
     return np.interp(record.time, tc, smooth - float(np.mean(smooth)))
