@@ -27,7 +27,6 @@ from .instrument import (
     FALSE_STICK_MIN,
     FALSE_STICK_SIGMA,
     HUM_CHANNELS,
-    MIN_TORSION_LAG,
     SPEED_GAIN_BOUND,
     SPEED_OFFSET_BOUND,
     AccelSensor,
@@ -80,6 +79,7 @@ from .segments import (
     sliding_start_states,
     stick_runs,
     stuck_before_onset,
+    waits_at_rest,
 )
 
 __all__ = [
@@ -95,7 +95,6 @@ __all__ = [
     'INSTRUMENT_FIELDS',
     'K_DECAY',
     'MEASUREMENT_FIELDS',
-    'MIN_TORSION_LAG',
     'MU0',
     'MU_INF',
     'RIG_FACTORS',
@@ -135,4 +134,5 @@ __all__ = [
     'stuck_before_onset',
     'stuck_sensor_states',
     'torsion_compensated_record',
+    'waits_at_rest',
 ]

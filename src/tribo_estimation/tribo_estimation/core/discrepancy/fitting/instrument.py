@@ -224,8 +224,6 @@ def speed_error_at_sticks(
 #: mean that fixes the compensation's constant and drift [s].
 _TQ_LAG_PIECE = 1.0
 _TQ_LAG_MEAN_WIN = 0.005
-#: Smallest torsion lag taken as real [s] (the block fit's threshold).
-MIN_TORSION_LAG = 1e-4
 #: Largest accelerometer lag behind the torsion moment that is identified [s] (an
 #: accelerometer's bandwidth is a kilohertz or more; its lag a fraction of a ms).
 MAX_ACCEL_LAG = 1e-3
@@ -303,9 +301,10 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     of a second order (:data:`sticks.TORSION_LAG_SHAPES`). The medians are the lag and
     its shape, the pieces' robust spread (MAD) their standard errors; a shape within
     3 standard errors of 0 leaves the first-order lag. Used
-    (compensated) when at least :data:`MIN_TORSION_LAG`, beyond 3 standard errors
-    and inside the estimator's range (an estimate at the range's end, 3 ms, is left
-    to the workflow's ``torque_sensor_lag`` candidate).
+    (compensated) when beyond 3 standard errors (at least two pieces) and inside the
+    estimator's range (an estimate at the range's end, 3 ms, is left to the
+    workflow's ``torque_sensor_lag`` candidate); a fraction of a sample counts at a
+    low sample rate.
 
     Parameters
     ----------
@@ -348,9 +347,9 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
 
     def used(tau: float, se: float) -> float:
         ok = (
-            abs(tau) >= MIN_TORSION_LAG
-            and -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
-            and (not math.isfinite(se) or abs(tau) > 3.0 * se)
+            -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
+            and math.isfinite(se)
+            and abs(tau) > 3.0 * se
         )
         return tau if ok else 0.0
 

@@ -84,6 +84,7 @@ from .segments import (
     sliding_chamber_speed,
     sliding_start_states,
     slip_samples,
+    waits_at_rest,
 )
 
 #: Cell of the speed-sensor lag [s] and offset [rad/s] within which the drive profile
@@ -280,7 +281,8 @@ class Problem:
         #: first sample: a record that begins at rest and rests on (the motor started
         #: after the recording) has its start-up's corners placed as any other's
         self._ramp: FloatArray | None = None
-        if self._start_speed is not None and not self.drive_estimate.rests_at_start():
+        level = self.drive_estimate.level
+        if self._start_speed is not None and not waits_at_rest(record, drive.ramp_time, level):
             self._ramp = np.array([float(record.time[0]), record.time[0] + drive.ramp_time])
         sp = record.speed
         #: the speed channel's error at the sticks [rad/s] and its integral [rad], per

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tribo_estimation.core import kernel as kn
-from tribo_estimation.core.drive import tolerance
+from tribo_estimation.core.drive import SMOOTH_TIME, tolerance
 from tribo_estimation.core.model import RigParams
 from tribo_estimation.core.shooting import DriveKnots, sliding_states, window_mean
 from tribo_estimation.core.signal import chamber_speed, rig_half, runs
@@ -122,6 +122,46 @@ def begins_at_drive_start(record: Record, ramp_time: float, level: float) -> boo
     n_rest = max(1, round(0.01 * record.fs))  # the first 10 ms of the speed channel
     at_rest = abs(float(np.mean(record.speed[:n_rest]))) < tolerance(level, 0.0)
     return ramp_time > 0.0 and abs(float(record.time[0])) < 1e-6 and at_rest
+
+
+def waits_at_rest(record: Record, ramp_time: float, level: float) -> bool:
+    """Return whether a record that begins at rest waits before the motor starts.
+
+    The speed channel, averaged over 10 ms, stays within
+    :func:`tribo_estimation.core.drive.tolerance` of its first 10 ms for longer than
+    a start-up ramp of ``ramp_time`` from the first sample would let it, plus the
+    drive profile's resolution :data:`~tribo_estimation.core.drive.SMOOTH_TIME` (the
+    shaft follows the drive through the belt; a shorter wait is not resolved): of the
+    two shapes a controller ramps by, the raised cosine leaves its start slowest, by
+    a fraction ``q`` of its change after ``acos(1 - 2q)/pi`` of its time (``q`` the
+    tolerance over the level). Such a record's start-up is not RIG.yaml's ramp from
+    t = 0; its corners are placed by the drive angles.
+
+    Parameters
+    ----------
+    record : Record
+        The measured record (speed [rad/s]).
+    ramp_time : float
+        RIG.yaml start-up ramp [s].
+    level : float
+        Drive speed level [rad/s].
+
+    Returns
+    -------
+    bool
+        True when the motor starts later than a ramp from the first sample would.
+    """
+    n = max(1, round(0.01 * record.fs))
+    if record.speed.size <= n or level == 0.0:
+        return False
+    tol = tolerance(level, 0.0)
+    mean = np.convolve(record.speed, np.ones(n) / n, mode='valid')
+    moved = np.flatnonzero(np.abs(mean - mean[0]) > tol)
+    if moved.size == 0:
+        return True
+    q = min(tol / abs(level), 1.0)
+    slowest = ramp_time * math.acos(1.0 - 2.0 * q) / math.pi
+    return float(moved[0]) / record.fs > slowest + SMOOTH_TIME + n / record.fs
 
 
 def stick_runs(
