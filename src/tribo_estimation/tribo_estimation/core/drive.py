@@ -1226,7 +1226,6 @@ def refine_with_angles(
     tt, ph = tt[ok], ph[ok]
     free = np.zeros(drive.knot_time.size, dtype=bool)
     tk0 = drive.knot_time
-    pin: float | None = None  # the start speed the corners are placed with
     if place:
         inner = drive.knot_time[1:-1]
         hints = np.asarray(hint_knots if hint_knots is not None else [], dtype=np.float64)
@@ -1242,11 +1241,6 @@ def refine_with_angles(
             # the record begins at the drive's start: the ramp's end is a corner whether
             # or not the speed channel's profile put a knot near it
             moved = np.unique(np.concatenate((moved, hints)))
-        # the known start speed shapes a ramp that begins with the record; a record that
-        # rests first has that speed in its angles, and its corners are placed free of
-        # it: a speed offset then only shifts the knot speeds (a linear drift of the
-        # angles), never the corners
-        pin = start_speed if hints.size else None
         corners = inner.copy() if keep_corners else _corners(inner)
         corners = corners[(corners > t_lo + MIN_PIECE) & (corners < t_hi - MIN_PIECE)]
         # a corner without angles near it has nothing to place it by: its transition
@@ -1274,16 +1268,16 @@ def refine_with_angles(
         tk0 = tk
         coarse = not keep_corners
         if free.any() and int(free.sum()) <= _MAX_PLACED:
-            tk = _place(tk0, free, tt, ph, pin, coarse, pull, sk)
+            tk = _place(tk0, free, tt, ph, start_speed, coarse, pull, sk)
         if int(free.sum()) <= _MAX_PLACED:
             order = np.argsort(tt, kind='stable')
-            shaped = _choose_shapes(tk, free, tt[order], ph[order], pin, pull, sk)
+            shaped = _choose_shapes(tk, free, tt[order], ph[order], start_speed, pull, sk)
             if not np.array_equal(shaped[0], tk) or not np.array_equal(shaped[1], sk):
                 # the placed corners again, locally, with the shapes
                 tk, sk, free = shaped
                 tk0, coarse = tk, False
                 if free.any() and int(free.sum()) <= _MAX_PLACED:
-                    tk = _place(tk0, free, tt, ph, pin, False, pull, sk)
+                    tk = _place(tk0, free, tt, ph, start_speed, False, pull, sk)
     else:
         tk = drive.knot_time.copy()
         sk = drive.shapes().copy()
@@ -1299,7 +1293,7 @@ def refine_with_angles(
             break
         kept = ~out
         if place and free.any():
-            tk = _place(tk0, free, tt[kept], ph[kept], pin, coarse, pull, sk)
+            tk = _place(tk0, free, tt[kept], ph[kept], start_speed, coarse, pull, sk)
     tt, ph = tt[kept], ph[kept]
     vk, _ = _solve_speeds(tk, tt, ph, start_speed, pull, sk=sk)
     if not np.all(np.isfinite(vk)):

@@ -100,9 +100,10 @@ def test_torsion_lag_and_accelerometer_gain_at_low_and_high_rates(fs: float) -> 
 def test_a_lag_of_a_fraction_of_a_sample_is_used_where_it_is_significant(
     fs: float, lag: float
 ) -> None:
-    # a 60 us torsion amplifier (an eighth of a sample at 2 kHz) is beyond 3 standard
-    # errors of its pieces (about 2 us): used within 10 % (a fixed 0.1 ms floor left
-    # it out: random control 30, 4.1x -> 3.5x its noise with it); none is not used
+    # a 60 us torsion amplifier (an eighth of a sample at 2 kHz) is significant over
+    # its pieces (standard error about 2 us, Student's t with 3 degrees of freedom at
+    # alpha = 0.01): used within 10 % (a fixed 0.1 ms floor left it out: random
+    # control 30, 4.1x -> 3.5x its noise with it); none is not used
     tq, ac, sp = rig_channels(1.0, torsion_lag=lag)
     r = make_record(
         RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), SpeedProfile.startup(rpm(25), 0.2),

@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
+from scipy.stats import t as student_t
 
 from tribo_estimation.core.drive import SMOOTH_TIME
 from tribo_estimation.core.lsq import cluster_robust_se
@@ -292,7 +293,9 @@ def _median_se(arr: FloatArray) -> tuple[float, float]:
     return med, se
 
 
-def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True) -> TorsionLag:
+def identify_torsion_lag(
+    record: Record, rig: RigParams, *, enabled: bool = True, alpha: float = 0.01
+) -> TorsionLag:
     """Identify the torsion amplifier's lag from the record, friction-free.
 
     :func:`sticks.fit_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
@@ -301,10 +304,12 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     of a second order (:data:`sticks.TORSION_LAG_SHAPES`). The medians are the lag and
     its shape, the pieces' robust spread (MAD) their standard errors; a shape within
     3 standard errors of 0 leaves the first-order lag. Used
-    (compensated) when beyond 3 standard errors (at least two pieces) and inside the
-    estimator's range (an estimate at the range's end, 3 ms, is left to the
-    workflow's ``torque_sensor_lag`` candidate); a fraction of a sample counts at a
-    low sample rate.
+    (compensated) when the median is significant, beyond the two-sided ``alpha``
+    quantile of Student's t law with one degree of freedom fewer than the pieces
+    times its standard error (no lag: the pieces' estimates scatter about 0), and
+    inside the estimator's range (an estimate at the range's end, 3 ms, is left to
+    the workflow's ``torque_sensor_lag`` candidate); a fraction of a sample counts
+    at a low sample rate.
 
     Parameters
     ----------
@@ -314,6 +319,8 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
         Rig parameters (C1, Tab. 1).
     enabled : bool
         False: estimate nothing (NaN lag, none used).
+    alpha : float
+        Probability of using a lag where there is none [-].
 
     Returns
     -------
@@ -345,11 +352,12 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
                 qs.append(q)
         return np.asarray(taus), np.asarray(qs)
 
-    def used(tau: float, se: float) -> float:
+    def used(tau: float, se: float, n: int) -> float:
         ok = (
             -0.98 * MAX_ACCEL_LAG < tau < 0.98 * MAX_TORSION_LAG
+            and n > 1
             and math.isfinite(se)
-            and abs(tau) > 3.0 * se
+            and abs(tau) > float(student_t.ppf(1.0 - 0.5 * alpha, n - 1)) * se
         )
         return tau if ok else 0.0
 
@@ -357,7 +365,7 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     if taus.size == 0:
         return TorsionLag(math.nan, math.nan, 0, 0.0)
     tau, se = _median_se(taus)
-    first = TorsionLag(tau, se, taus.size, used(tau, se))
+    first = TorsionLag(tau, se, taus.size, used(tau, se, taus.size))
     if not first.used > 0.0:
         return first  # no lag of the amplifier's own to give a shape to
     taus, qs = each(TORSION_LAG_SHAPES)
@@ -367,7 +375,7 @@ def identify_torsion_lag(record: Record, rig: RigParams, *, enabled: bool = True
     if not (q > 0.0 and math.isfinite(q_se) and q > 3.0 * q_se):
         return replace(first, shape=q, shape_se=q_se)
     tau, se = _median_se(taus)
-    lag = used(tau, se)
+    lag = used(tau, se, taus.size)
     return TorsionLag(tau, se, taus.size, lag, q, q_se, q if lag > 0.0 else 0.0)
 
 

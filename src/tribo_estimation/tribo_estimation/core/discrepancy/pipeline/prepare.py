@@ -115,7 +115,7 @@ def prepare(
     Prepared
         The record's fit problem and its instrument identification.
     """
-    tq = identify_torsion_lag(record, rig, enabled=policy.torsion_lag)
+    tq = identify_torsion_lag(record, rig, enabled=policy.torsion_lag, alpha=policy.alpha)
     rec = torsion_compensated_record(record, rig, tq.used, a2=tq.a2)
     pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
     sticks = pb.segments.stick_phases()
