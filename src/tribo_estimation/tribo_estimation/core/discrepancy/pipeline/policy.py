@@ -32,7 +32,9 @@ class Policy:
         Chance that a model with nothing missing is called inadequate [-]: the
         false-alarm rate of every adequacy decision (shared among the statistics of
         :mod:`.null`), and so a bound on the rate of naming an effect in a record
-        with nothing missing.
+        with nothing missing; also the rate at which the instrument chain takes a
+        torsion-amplifier lag where there is none
+        (:func:`..fitting.instrument.identify_torsion_lag`).
     replicas : int
         Bootstrap replicas of the baseline's null law (:func:`.null.null_law`).
     confirm_replicas : int
