@@ -25,7 +25,6 @@ from tribo_estimation.core.signal import (
     lag2_segments,
     lag_segments,
     local_slope,
-    mad_sigma,
     rig_half,
     running_integral,
     second_order_filter,
@@ -285,11 +284,16 @@ class TorsionLag:
 
 
 def _median_se(arr: FloatArray) -> tuple[float, float]:
-    """Return the median of piece estimates and its standard error from their MAD."""
-    # a piece at rest carries no kinematics: its estimate is arbitrary and must not
-    # inflate the spread (the median absolute deviation, not the standard deviation)
+    """Return the median of piece estimates and its standard error.
+
+    ``1.2533*sd/sqrt(n)`` (the median's efficiency under normal scatter), the pieces'
+    standard deviation: with the handful of pieces a record has, their median absolute
+    deviation can come out near zero by chance (on 40 records without a lag it called
+    2 of them significant at ``alpha`` = 0.01; the standard deviation none). The
+    pieces without kinematics are censored before (:func:`identify_torsion_lag`).
+    """
     med = float(np.median(arr))
-    se = float(1.2533 * mad_sigma(arr) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
+    se = float(1.2533 * np.std(arr, ddof=1) / math.sqrt(arr.size)) if arr.size > 1 else math.nan
     return med, se
 
 
@@ -300,9 +304,11 @@ def identify_torsion_lag(
 
     :func:`sticks.fit_torsion_lag` (chamber kinematics ``M_t = C1*phi1``,
     ``phi1'' = a``, Equ. 1/4) on pieces of ~1 s, first order (the accelerometer's lag
-    below zero); a lag of the amplifier that is used is then searched over the shapes
+    below zero; a piece's estimate at an end of the range is censored, no
+    estimate, while any piece's lies inside); a lag of the amplifier that is used is
+    then searched over the shapes
     of a second order (:data:`sticks.TORSION_LAG_SHAPES`). The medians are the lag and
-    its shape, the pieces' robust spread (MAD) their standard errors; a shape within
+    its shape, the pieces' spread their standard errors (:func:`_median_se`); a shape within
     3 standard errors of 0 leaves the first-order lag. Used
     (compensated) when the median is significant, beyond the two-sided ``alpha``
     quantile of Student's t law with one degree of freedom fewer than the pieces
@@ -350,7 +356,14 @@ def identify_torsion_lag(
             if math.isfinite(tau):
                 taus.append(tau)
                 qs.append(q)
-        return np.asarray(taus), np.asarray(qs)
+        t_arr, q_arr = np.asarray(taus), np.asarray(qs)
+        # a piece whose estimate sits at an end of the range found no minimum inside it
+        # (a piece at rest, without the kinematics): censored, not an estimate, unless
+        # every piece ends there (a lag beyond the range)
+        inside = (t_arr > -0.98 * MAX_ACCEL_LAG) & (t_arr < 0.98 * MAX_TORSION_LAG)
+        if inside.any():
+            t_arr, q_arr = t_arr[inside], q_arr[inside]
+        return t_arr, q_arr
 
     def used(tau: float, se: float, n: int) -> float:
         ok = (
