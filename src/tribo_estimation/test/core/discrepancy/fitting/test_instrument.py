@@ -95,11 +95,8 @@ def test_torsion_lag_and_accelerometer_gain_at_low_and_high_rates(fs: float) -> 
     assert acc.gain == pytest.approx(1.05, rel=0.015)  # within 1.5 %
 
 
-@pytest.mark.parametrize('fs', [2000.0, 10000.0])
 @pytest.mark.parametrize('lag', [6e-5, 0.0])
-def test_a_lag_of_a_fraction_of_a_sample_is_used_where_it_is_significant(
-    fs: float, lag: float
-) -> None:
+def test_a_lag_of_a_fraction_of_a_sample_is_used_where_it_is_significant(lag: float) -> None:
     # a 60 us torsion amplifier (an eighth of a sample at 2 kHz) is significant over
     # its pieces (standard error about 2 us, Student's t with 3 degrees of freedom at
     # alpha = 0.01): used within 10 % (a fixed 0.1 ms floor left it out: random
@@ -107,7 +104,8 @@ def test_a_lag_of_a_fraction_of_a_sample_is_used_where_it_is_significant(
     tq, ac, sp = rig_channels(1.0, torsion_lag=lag)
     r = make_record(
         RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), SpeedProfile.startup(rpm(25), 0.2),
-                   torsion=tq, accel=ac, speed=sp, seed=3, duration=3.0, start_offset=1.0, fs=fs)
+                   torsion=tq, accel=ac, speed=sp, seed=3, duration=3.0, start_offset=1.0,
+                   fs=2000.0)
     )  # fmt: skip
     got = identify_torsion_lag(
         Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed), RigParams.tab1()
@@ -115,20 +113,19 @@ def test_a_lag_of_a_fraction_of_a_sample_is_used_where_it_is_significant(
     assert got.used == pytest.approx(lag, rel=0.1, abs=0.0)
 
 
-@pytest.mark.parametrize('seed', [5, 6])
 @pytest.mark.parametrize('lag', [5e-4, 0.0])
-def test_pieces_at_rest_neither_hide_nor_fake_a_torsion_lag(lag: float, seed: int) -> None:
+def test_pieces_at_rest_neither_hide_nor_fake_a_torsion_lag(lag: float) -> None:
     # two of four ~1 s pieces at rest: a piece without kinematics ends its estimate at
     # the range's end (censored: random record 38 had three of four there, their
     # median -0.87 ms against a true +0.31 ms); the rest's spread is the standard
-    # deviation's (their median absolute deviation came out near 0 for seed 5 and
+    # deviation's (their median absolute deviation came out near 0 for this seed and
     # made a 2 us lag significant). 0.5 ms used within 2 % + 20 us; none not used
     w = rpm(25)
     drive = SpeedProfile(((0.0, 0.0), (0.2, w), (0.95, w), (1.0, 0.0), (3.0, 0.0), (3.05, w)))
     tq, ac, sp = rig_channels(1.0, torsion_lag=lag)
     r = make_record(
         RecordSpec(RigParams.tab1(), FrictionLaw(0.13, 0.1), drive, torsion=tq, accel=ac,
-                   speed=sp, seed=seed, duration=4.0, start_offset=0.6)
+                   speed=sp, seed=5, duration=4.0, start_offset=0.6)
     )  # fmt: skip
     got = identify_torsion_lag(
         Record(r.time, r.torsion_moment, r.angular_acceleration, r.speed), RigParams.tab1()
