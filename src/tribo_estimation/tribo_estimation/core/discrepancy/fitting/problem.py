@@ -284,11 +284,6 @@ class Problem:
         level = self.drive_estimate.level
         if self._start_speed is not None and not waits_at_rest(record, drive.ramp_time, level):
             self._ramp = np.array([float(record.time[0]), record.time[0] + drive.ramp_time])
-        #: the drive's known speed at the first sample where the ramp begins there [rad/s]
-        #: (a wait's own angles pin its speed; pinned as well, a tachometer offset, a
-        #: linear drift of the angles that a common shift of the knot speeds takes up,
-        #: would move the start-up's corners)
-        self._ramp_start = self._start_speed if self._ramp is not None else None
         sp = record.speed
         #: the speed channel's error at the sticks [rad/s] and its integral [rad], per
         #: sensor lag
@@ -924,6 +919,11 @@ class Problem:
             om = 2.0 * math.pi * freq
             ripple_angle = ripple_angle + amp / om * (math.cos(phase) - np.cos(om * t + phase))
         hints = self._ramp
+        # the drive's known start speed only where the ramp begins at the first sample:
+        # a wait's own angles pin its speed; pinned as well, a tachometer offset (a
+        # linear drift of the angles that a common shift of the knot speeds takes up)
+        # would move the start-up's corners
+        start = self._start_speed if hints is not None else None
         # the damping term K2*(w - w0) needs w0: the starting profile first, then once
         # more with the profile from the angles; the smoothed speed blurs a speed
         # step over 150 ms, so its angles bias the corners: they are placed again
@@ -932,7 +932,7 @@ class Problem:
             defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle, hints, place=place,
-                start_speed=self._ramp_start, keep_corners=local or it > 0,
+                start_speed=start, keep_corners=local or it > 0,
                 prior=self._drive_speed0,
             )  # fmt: skip
         return drive
