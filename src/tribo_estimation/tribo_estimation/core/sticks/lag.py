@@ -42,12 +42,19 @@ def kinematic_pair(
     """Return the chamber kinematics ``M_t'' = C1*a`` as two sampled sides (Equ. 1, 4).
 
     ``D[n] = (M[n+h] - 2*M[n] + M[n-h])/(h*dt)^2/C1`` and the acceleration's
-    triangle-weighted mean ``K[n] = sum_j (h - |j|)/h^2 * a[n+j]`` over the same
+    triangle-weighted mean ``K[n] = sum_j (h - |j|)/h^2 * a_c[n+j]`` over the same
     +-h samples: the second difference of ``phi1`` is exactly the triangle-weighted
-    integral of ``phi1''``, so ``D = K`` sample by sample (trapezoid rule) with no
-    integral carried across stick-slip cycles. Integrating a sampled acceleration
-    over cycles instead adds the error of every switching jump (its instant falls
-    between samples): at 2 kHz a random walk of a sizeable part of the chamber speed.
+    integral of ``phi1''``, so ``D = K`` sample by sample with no integral carried
+    across stick-slip cycles. Integrating a sampled acceleration over cycles instead
+    adds the error of every switching jump (its instant falls between samples): at
+    2 kHz a random walk of a sizeable part of the chamber speed.
+
+    The sum stands for the integral through Numerov's correction
+    ``a_c[n] = a[n] + (a[n+1] - 2*a[n] + a[n-1])/12``: at ``theta = 2*pi*f*dt``
+    the plain sum (the trapezoid rule) weighs a component of frequency ``f`` by
+    ``(theta/2)^2/sin(theta/2)^2 = 1 + theta^2/12`` against the second difference
+    of the same band-limited signal, a gain error of 0.9 % at 105 Hz and 2 kHz;
+    the correction leaves ``theta^4/90`` (1e-4 there).
 
     Parameters
     ----------
@@ -76,7 +83,9 @@ def kinematic_pair(
     dt = 1.0 / fs
     d = (m[2 * h :] - 2.0 * m[h:-h] + m[: -2 * h]) / ((h * dt) ** 2 * c1)
     w = (h - np.abs(np.arange(-h, h + 1, dtype=np.float64))) / float(h * h)
-    k = np.convolve(a, w, mode='valid')
+    a_c = a.copy()  # the end samples have weight 0
+    a_c[1:-1] += (a[2:] - 2.0 * a[1:-1] + a[:-2]) / 12.0
+    k = np.convolve(a_c, w, mode='valid')
     return np.asarray(d, dtype=np.float64), np.asarray(k, dtype=np.float64)
 
 
