@@ -43,7 +43,14 @@ from numba import njit
 
 from . import kernel as kn
 from .drive import DriveEstimate
-from .signal import CHAMBER_HALF, lag2_segments, lag_segments, running_integral, second_order_lag
+from .signal import (
+    CHAMBER_HALF,
+    lag2_segments,
+    lag_segments,
+    noise_level,
+    running_integral,
+    second_order_lag,
+)
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -663,6 +670,90 @@ def stuck_windows(
     return tau, acc, a1, a2, n
 
 
+@njit(cache=True, nogil=True)
+def torsion_smoother(
+    torsion: np.ndarray, accel: np.ndarray, dt: float, c1: float, var_m: float, var_a: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the torsion moment and its rate by a Kalman smoother of the chamber kinematics.
+
+    Stick or slip, ``M_t = C1*phi1`` and ``phi1'' = a`` (Equ. 1, 4): the state
+    ``(M, v = M')`` advances from sample to sample by the trapezoid integrals of
+    the measured acceleration, ``v += C1*h*(a[k-1] + a[k])/2``,
+    ``M += h*v + C1*h^2*(a[k-1] + a[k])/4`` (those of :func:`stuck_kinematics`'s
+    regression), with the accelerometer's white noise (variance ``var_a``) as the
+    process noise, a random walk of ``v`` of variance ``(C1*h)^2*var_a`` per step;
+    the torsion channel measures ``M`` with white noise of variance ``var_m``. The
+    forward filter (diffuse start) and the Rauch-Tung-Striebel backward pass give
+    the least-squares state at every sample from the whole stretch: the measured
+    acceleration is trusted over a few samples, the torsion channel's mean over many,
+    in the ratio of their noises (a regression on ``M - C1*A2`` trusts the double
+    integral ``A2`` over the whole window: at 2 kHz its random walk exceeds the
+    torsion channel's noise within 30 ms).
+
+    Parameters
+    ----------
+    torsion : numpy.ndarray
+        Torsion moment [N m] over a stretch.
+    accel : numpy.ndarray
+        Chamber acceleration [rad/s^2] over the same samples.
+    dt : float
+        Sample interval [s].
+    c1 : float
+        Measuring-spring stiffness C1 [N m/rad].
+    var_m : float
+        Variance of the torsion channel's white noise [(N m)^2], > 0.
+    var_a : float
+        Variance of the accelerometer's white noise [(rad/s^2)^2], >= 0.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The smoothed torsion moment [N m] and its rate [N m/s] per sample.
+    """
+    n = torsion.shape[0]
+    xm = np.empty(n)
+    xv = np.empty(n)
+    # filtered (f) and predicted (p) means and covariances (p00, p01, p11)
+    fm, fv = np.empty(n), np.empty(n)
+    f00, f01, f11 = np.empty(n), np.empty(n), np.empty(n)
+    pm, pv = np.empty(n), np.empty(n)
+    p00, p01, p11 = np.empty(n), np.empty(n), np.empty(n)
+    q = (c1 * dt) ** 2 * var_a
+    big = 1e6 * (var_m + (c1 * dt) ** 2 * var_a)
+    m, v = torsion[0], 0.0
+    c00, c01, c11 = big, 0.0, big / (dt * dt)
+    for k in range(n):
+        if k > 0:
+            s = accel[k - 1] + accel[k]
+            m = m + dt * v + c1 * dt * dt * s / 4.0
+            v = v + c1 * dt * s / 2.0
+            c00, c01, c11 = (
+                c00 + 2.0 * dt * c01 + dt * dt * c11 + q * dt * dt / 4.0,
+                c01 + dt * c11 + q * dt / 2.0,
+                c11 + q,
+            )
+        pm[k], pv[k], p00[k], p01[k], p11[k] = m, v, c00, c01, c11
+        s_inn = c00 + var_m
+        g0, g1 = c00 / s_inn, c01 / s_inn
+        r = torsion[k] - m
+        m, v = m + g0 * r, v + g1 * r
+        c00, c01, c11 = c00 - g0 * c00, c01 - g0 * c01, c11 - g1 * c01
+        fm[k], fv[k], f00[k], f01[k], f11[k] = m, v, c00, c01, c11
+    xm[n - 1], xv[n - 1] = fm[n - 1], fv[n - 1]
+    for k in range(n - 2, -1, -1):
+        # gain C = Pf F' Pp^-1 (F = [[1, h], [0, 1]])
+        a00 = f00[k] + dt * f01[k]
+        a01 = f01[k]
+        a10 = f01[k] + dt * f11[k]
+        a11 = f11[k]
+        det = p00[k + 1] * p11[k + 1] - p01[k + 1] * p01[k + 1]
+        i00, i01, i11 = p11[k + 1] / det, -p01[k + 1] / det, p00[k + 1] / det
+        dm, dv = xm[k + 1] - pm[k + 1], xv[k + 1] - pv[k + 1]
+        xm[k] = fm[k] + (a00 * i00 + a01 * i01) * dm + (a00 * i01 + a01 * i11) * dv
+        xv[k] = fv[k] + (a10 * i00 + a11 * i01) * dm + (a10 * i01 + a11 * i11) * dv
+    return xm, xv
+
+
 def stuck_kinematics(
     torsion: FloatArray,
     accel: FloatArray,
@@ -677,16 +768,13 @@ def stuck_kinematics(
     """Estimate the torsion moment, its slope and the common speed at stick samples.
 
     While the discs stick, ``M_t = C1*phi1`` with ``phi1' = w`` and ``w' = a``
-    (Equ. 4, the chamber kinematics): relative to a sample ``i``,
-    ``M_t(t) = M_i + C1*w_i*(t - t_i) + C1*A2(t)`` and ``y(t) = w_i + A1(t)``
-    (shaft speed channel without lag), with ``A1``, ``A2`` the single and double
-    integrals (trapezoid) of the measured acceleration ``a`` from ``t_i``. A
-    linear regression of the torsion moment over the stick phase (within
-    ``+-half`` samples) gives ``M_i`` and the slope ``C1*w_i``; the mean of
-    ``y - A1`` gives ``w_i`` from the speed channel. Over a stick phase this
-    uses ~10x more samples than a local cubic and no polynomial shape: the
-    state's error drops to about a third (0.006 N m, 7e-4 rad/s at the noise of
-    config/rig.yaml) and loses the cubic's curvature bias.
+    (Equ. 4, the chamber kinematics). The torsion moment and its slope ``C1*w``
+    come from :func:`torsion_smoother` over the stick phase (the white noise of
+    both channels from :func:`.signal.noise_level`; a noise-free torsion channel
+    leaves the measured value). Relative to a sample ``i`` the speed channel
+    (without lag) shows ``y(t) = w_i + A1(t)``, ``A1`` the trapezoid integral of
+    the measured acceleration ``a`` from ``t_i``: the mean of ``y - A1`` within
+    ``+-half`` samples gives ``w_i``.
 
     Parameters
     ----------
@@ -705,7 +793,7 @@ def stuck_kinematics(
     c1 : float
         Measuring-spring stiffness C1 [N m/rad].
     half : int
-        Half width of the regression window [samples].
+        Half width of the speed channel's window [samples].
 
     Returns
     -------
@@ -718,19 +806,32 @@ def stuck_kinematics(
     val = np.full(m, math.nan)
     slope = np.full(m, math.nan)
     w = np.full(m, math.nan)
+    var_m = noise_level(torsion) ** 2
+    var_a = noise_level(accel) ** 2
+    if not math.isfinite(var_a):
+        var_a = 0.0
+    smoothed: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
     for k in range(m):
         i = int(idx[k])
         a_lo = max(int(lo[k]), i - half)
         a_hi = min(int(hi[k]), i + half + 1)
         if a_hi - a_lo < 8 or not a_lo <= i < a_hi:
             continue
-        tau, _, a1, a2 = _integrals(accel, a_lo, a_hi, i, dt)
-        z = torsion[a_lo:a_hi] - c1 * a2
-        x = np.column_stack((np.ones(tau.size), tau))
-        coef, *_ = np.linalg.lstsq(x, z, rcond=None)
-        val[k] = float(coef[0])
-        slope[k] = float(coef[1])
+        _, _, a1, _ = _integrals(accel, a_lo, a_hi, i, dt)
         w[k] = float(np.mean(speed[a_lo:a_hi] - a1))
+        if not var_m > 0.0:
+            val[k], slope[k] = float(torsion[i]), c1 * w[k]
+            continue
+        phase = (int(lo[k]), int(hi[k]))
+        if phase not in smoothed:
+            smoothed[phase] = torsion_smoother(
+                np.ascontiguousarray(torsion[phase[0] : phase[1]]),
+                np.ascontiguousarray(accel[phase[0] : phase[1]]),
+                dt, c1, var_m, var_a,
+            )  # fmt: skip
+        xm, xv = smoothed[phase]
+        val[k] = float(xm[i - phase[0]])
+        slope[k] = float(xv[i - phase[0]])
     return val, slope, w
 
 
@@ -748,5 +849,6 @@ __all__ = [
     'stuck_states',
     'stuck_states_averaged',
     'stuck_windows',
+    'torsion_smoother',
     'window_mean',
 ]
