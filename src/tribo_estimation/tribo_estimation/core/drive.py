@@ -39,6 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 from numba import njit
+from scipy.optimize import least_squares
 
 from .signal import moving_average, noise_level
 
@@ -923,9 +924,9 @@ def _corners(inner: FloatArray) -> FloatArray:
     return np.asarray(sorted(out), dtype=np.float64)
 
 
-#: Most corners whose instants are searched [-]: more are the smoothed speed following
-#: slow stick-slip cycles (a drive at a few rpm), not transitions of the drive; they
-#: keep the smoothing's instants (the search's cost grows with their square).
+#: Most corners whose pieces' shapes :func:`_choose_shapes` chooses [-] (its greedy
+#: moves cost about the cube of the count); more (several transitions, or the smoothed
+#: speed following slow stick-slip cycles) are placed and stay linear.
 _MAX_PLACED = 8
 #: Most drive angles the corner placement fits [-] (the knot speeds of the final
 #: profile are solved on all of them).
@@ -1012,7 +1013,70 @@ def _place(
                         best, tk = sse, trial
         if tk is before:  # a sweep without a move: the next would repeat it exactly
             break
-    return tk
+    return _polish_corners(tk, free, tt, ph, start, prior, sk)
+
+
+def _polish_corners(
+    tk: FloatArray,
+    free: npt.NDArray[np.bool_],
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    sk: FloatArray | None,
+) -> FloatArray:
+    """Move the free knot times jointly to the nearest least-squares angle fit.
+
+    The grids of :func:`_place` move one corner or one pair at a time; corners of
+    neighbouring transitions share the fit's constant and the speeds between them, so
+    the grid search can stop where no single move helps though a joint one would.
+    From there a trust-region least squares over the free times (the knot speeds
+    solved at every evaluation, a variable projection) reaches the joint minimum.
+    Each time stays within half the gap to its neighbours (less :data:`MIN_PIECE`),
+    so the knots keep their order.
+
+    Parameters
+    ----------
+    tk : FloatArray
+        Knot times [s] (from the grid search).
+    free : numpy.ndarray of bool
+        The knots that move.
+    tt, ph : FloatArray
+        Sorted times [s] of the drive angles and the angles [rad].
+    start : float or None
+        Known first knot speed [rad/s].
+    prior : tuple of FloatArray or None
+        Knot times [s] and speeds [rad/s] the knot speeds are weakly pulled toward.
+    sk : FloatArray or None
+        Shape of the piece each knot begins (default linear).
+
+    Returns
+    -------
+    FloatArray
+        The knot times [s] (``tk`` where the polish does not lower the sum of squares).
+    """
+    idx = np.flatnonzero(free)
+    if idx.size == 0 or tt.size <= tk.size + 2:
+        return tk
+    gap = np.diff(tk)
+    lo = tk[idx] - 0.5 * (gap[idx - 1] - MIN_PIECE)
+    hi = tk[idx] + 0.5 * (gap[np.minimum(idx, gap.size - 1)] - MIN_PIECE)
+    if not np.all(hi > lo):
+        return tk
+    x0 = np.clip(tk[idx], lo, hi)
+
+    def residuals(x: FloatArray) -> FloatArray:
+        trial = tk.copy()
+        trial[idx] = x
+        return _knot_fit(trial, tt, ph, start, prior, True, sk)[1]
+
+    r0 = residuals(x0)
+    sol = least_squares(residuals, x0, bounds=(lo, hi), x_scale=1e-3, diff_step=1e-7, max_nfev=50)
+    if not float(sol.fun @ sol.fun) < float(r0 @ r0):
+        return tk
+    out = tk.copy()
+    out[idx] = sol.x
+    return out
 
 
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
@@ -1267,7 +1331,7 @@ def refine_with_angles(
         sk = _shapes_of(drive, tk) if keep_corners else np.zeros(tk.size)
         tk0 = tk
         coarse = not keep_corners
-        if free.any() and int(free.sum()) <= _MAX_PLACED:
+        if free.any():
             tk = _place(tk0, free, tt, ph, start_speed, coarse, pull, sk)
         if int(free.sum()) <= _MAX_PLACED:
             order = np.argsort(tt, kind='stable')
