@@ -9,6 +9,7 @@ from tribo_estimation.core.discrepancy.fitting.segments import (
     SLIP_MAX,
     SLIP_STRIDE,
     free_stretches,
+    make_segments,
     sliding_segments,
     slip_peak_starts,
     slip_samples,
@@ -124,3 +125,30 @@ def test_a_sliding_start_moves_to_its_swings_slip_speed_peak(phase: float) -> No
     # the starts stay
     fast = RigRecord(t, m, np.zeros(n), np.full(n, 3.5))
     assert np.array_equal(slip_peak_starts(fast, starts, rig, 1000), starts)
+
+
+def test_a_long_stick_phase_gets_a_stuck_start_every_block() -> None:
+    # stick phases of 20 ms every 50 ms, then a rest of 1.2 s (a stop), then more: the
+    # rest holds starts 0.25 s apart (no segment from a stuck start runs on through
+    # more than two blocks of it), each from that phase with its dwell so far
+    n = round(3.0 * FS)
+    t = np.arange(n) / FS
+    rec = RigRecord(t, np.full(n, 10.0), np.zeros(n), np.zeros(n))
+    short = [(round(x * FS), round((x + 0.02) * FS)) for x in np.arange(0.05, 1.0, 0.05)]
+    rest = (round(1.0 * FS), round(2.2 * FS))
+    after = [(round(x * FS), round((x + 0.02) * FS)) for x in np.arange(2.25, 2.9, 0.05)]
+    phases = [*short, rest, *after]
+    runs = (
+        np.array([a for a, _ in phases], np.int64),
+        np.array([b for _, b in phases], np.int64),
+        np.array([a / FS for a, _ in phases]),
+    )
+    seg = make_segments(rec, RigParams.tab1(), block_time=0.25, runs=runs)
+    inside = (seg.start >= rest[0]) & (seg.start < rest[1])
+    starts = seg.start[inside] / FS
+    assert starts.size == 4  # 1.003, 1.253, 1.503, 1.753 s
+    assert np.allclose(np.diff(starts), 0.25)
+    assert np.all(seg.run_start[inside] == rest[0]) and np.all(seg.run_stop[inside] == rest[1])
+    # the dwell grows with the start (its clock from the phase's onset)
+    dwell = seg.stick_time[inside]
+    assert dwell[0] > 0.0 and np.allclose(dwell - dwell[0], starts - starts[0])

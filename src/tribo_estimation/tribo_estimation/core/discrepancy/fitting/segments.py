@@ -232,7 +232,9 @@ def make_segments(
     """Cut the record into segments that start ``start_delay`` s into a stick phase.
 
     Each segment runs to the next segment start (at least ``min_length`` s
-    later); segments are numbered into time blocks of about ``block_time`` s.
+    later); segments are numbered into time blocks of about ``block_time`` s. A
+    stick phase longer than two blocks (a rest) gets a start every block from its
+    first, each with its dwell since the phase's onset.
     A record with fewer than 3 stick phases (slip-slip, steady sliding) gets
     sliding segments instead (:func:`sliding_segments`).
 
@@ -301,11 +303,18 @@ def make_segments(
     # earlier: its dwell clock starts where they began to move together
     early = stuck_before_onset(record, rig, s_start, s_stop)
     onset = np.asarray(onset, dtype=np.float64) - early
-    cand = [
-        (int(a) + min(delay, (int(b) - int(a)) // 2), k)
-        for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True))
-        if slip[k] <= limit and not cut[k]
-    ]
+    length = max(round(block_time * fs), 100)
+    cand: list[tuple[int, int]] = []
+    for k, (a, b) in enumerate(zip(s_start, s_stop, strict=True)):
+        if slip[k] > limit or cut[k]:
+            continue
+        first = int(a) + min(delay, (int(b) - int(a)) // 2)
+        # a stick phase longer than two blocks (a rest, the end of a stop) gets a start
+        # every block: the drive profile's angle error at the phase's start would
+        # otherwise hold the torsion moment off through the whole rest
+        cand.extend((j, k) for j in range(first, int(b) - length + 1, length))
+        if not cand or cand[-1][1] != k:
+            cand.append((first, k))
     if len(cand) < 3:
         # a stick phase (at rest before a start-up, through a stop) has no sliding
         # state: sliding segments fill the stretches between stick phases
@@ -332,7 +341,6 @@ def make_segments(
     # a stretch without stick phases longer than two blocks (sliding after a start-up
     # or a speed step, or before the first stick) is cut into sliding segments: a
     # segment from a stuck start does not run on through it
-    length = max(round(block_time * fs), 100)
     slide = _sliding_starts(free_stretches(s_start, s_stop, record.time.size), length, stuck)
     slide = slip_peak_starts(record, slide, rig, length // 4)
     order = np.argsort(np.concatenate((stuck, slide)), kind='stable')
