@@ -1,4 +1,5 @@
-"""The null law's bounds: Student-t prediction bounds of the replicas' log statistics."""
+"""The null law: Student-t prediction bounds of the replicas' log statistics, and the
+replicas' refit by the record's estimator."""
 
 from __future__ import annotations
 
@@ -6,10 +7,15 @@ import math
 
 import numpy as np
 import pytest
+from discrepancy_scenarios import NOISE as LEVELS
+from discrepancy_scenarios import constant, record, rpm
 from scipy.stats import t as student_t
 
+from tribo_estimation.core.discrepancy.fitting import K_DECAY, MU0, MU_INF
 from tribo_estimation.core.discrepancy.pipeline.noise import ChannelNoise, NoiseModel
-from tribo_estimation.core.discrepancy.pipeline.null import Adequacy, NullLaw
+from tribo_estimation.core.discrepancy.pipeline.null import Adequacy, NullLaw, null_law
+from tribo_estimation.core.discrepancy.pipeline.policy import Policy
+from tribo_estimation.core.discrepancy.pipeline.prepare import prepare
 
 NOISE = NoiseModel(ChannelNoise(0.05), ChannelNoise(2.0), ChannelNoise(0.005))
 
@@ -85,3 +91,26 @@ def test_a_law_whose_replicas_refit_beyond_their_noise_is_not_self_consistent(
     tq = tuple(centre * (1.0 + 0.005 * rng.standard_normal(8)))
     law = NullLaw({'torsion_moment': tq, 'speed': tq, 'blocks': tq}, 0.01)
     assert law.self_consistent() is usable
+
+
+def test_the_replicas_are_weighted_by_their_own_residuals() -> None:
+    # the record's estimator weighs each channel by its residual at the model; so are
+    # the replicas, whatever the record's weights were (they carry the record's own
+    # misfit: a torque residual of 18x its noise weighed a replica's torque 35x below
+    # its noise, and the refit traded it for the speed channel). Same seed, the record's
+    # torque weight 1000x lower: the same statistics within 1e-9
+    rec, rig, drv = record(4, constant(rpm(20)), fs=5000.0, duration=1.0)
+    pb = prepare(rec, rig, drv, k=2.0, policy=Policy(shaft=False)).problem
+    noise = NoiseModel(*(ChannelNoise(s) for s in LEVELS))
+    values = {'mu0': 0.13, 'mu_inf': 0.10, 'k': 2.0}
+
+    def law() -> NullLaw:
+        return null_law(pb, values, [MU0, MU_INF, K_DECAY], noise, replicas=2, alpha=0.01,
+                        seed=1, max_nfev=20)  # fmt: skip
+
+    first = law()
+    pb.weights['torsion_moment'] *= 1e-3
+    again = law()
+    for name, got in again.samples.items():
+        assert got == pytest.approx(first.samples[name], rel=1e-9), name
+    assert first.centre('torsion_moment') < 1.2  # replicas of the true model

@@ -35,6 +35,7 @@ from tribo_estimation.errors import EstimationError
 from ..candidates import ParamSpec
 from ..fitting import Problem, Record, SimulatedRecord
 from .noise import RAW_CHANNELS, NoiseModel, measure_noise
+from .prepare import channel_floors
 
 FloatArray = np.ndarray
 
@@ -337,6 +338,12 @@ def null_law(
 ) -> NullLaw:
     """Measure the adequacy statistics' null law by a parametric bootstrap.
 
+    Each replica (:func:`replica`) is refitted by the record's estimator: the
+    record's problem settings, its open transitions timed, the channel weights from
+    the replica's residuals at ``values`` (as the baseline's are from the record's,
+    :meth:`..fitting.Problem.set_residual_weights`), the free parameters from
+    ``values``.
+
     Parameters
     ----------
     problem : Problem
@@ -370,6 +377,12 @@ def null_law(
         try:
             rep = problem.like(replica(problem, values, noise, rng))
             rep.set_transition_durations(values)  # the record's estimator: open steps timed
+            # the record's estimator: channel weights from the residuals at the model (the
+            # record's own weights carry its misfit: a torque residual of 18x its noise
+            # weighed the replica's torque 35x below its noise, and the refit traded it for
+            # the speed channel)
+            sim = rep.simulate(values)
+            rep.set_residual_weights(sim, channel_floors(rep, sim))
             fo = rep.fit(free, values, max_nfev=max_nfev)
             st = adequacy(rep, rep.simulate(fo.values))
         except EstimationError:  # a replica that cannot be fitted gives no sample
