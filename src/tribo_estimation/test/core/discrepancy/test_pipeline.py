@@ -32,7 +32,7 @@ from tribo_estimation.core.discrepancy.pipeline.prepare import (
 pytestmark = pytest.mark.slow
 
 #: The records are made on RIG.yaml's rig exactly: tests of other steps leave out the
-#: shaft's identification, which the control, drift and lag tests keep on.
+#: shaft's identification, which the control and lag tests keep on.
 EXACT_RIG = Policy(shaft=False)
 
 #: A torque residual within this factor of the white noise floor fits "to the floor" [-]
@@ -99,7 +99,7 @@ def test_a_saturating_drift_is_named_as_friction_drift() -> None:
     # the record starts 0.5 s into the drift: D*(1 - exp(-(t + 0.5)/tau)) is the form with
     # D' = D*exp(-0.5/tau) and the levels shifted
     rec, rig, drv = record(2, constant(rpm(25), start=0.5), effect=eff, duration=4.0, fs=5000.0)
-    res = find_missing_physics([rec], rig, [drv])
+    res = find_missing_physics([rec], rig, [drv], policy=EXACT_RIG)
     assert res.verdict == NAMED, res.finding()
     (e,) = res.named
     assert e.family == 'friction_drift' and e.form == 'friction_drift_saturating'
