@@ -51,7 +51,13 @@ from tribo_estimation.core.shooting import (
     stuck_windows,
     window_mean,
 )
-from tribo_estimation.core.signal import CHAMBER_HALF, moving_average, rig_half, running_integral
+from tribo_estimation.core.signal import (
+    CHAMBER_HALF,
+    moving_average,
+    noise_level,
+    rig_half,
+    running_integral,
+)
 from tribo_estimation.errors import InvalidParameterError
 
 from .. import candidates as cand_lib
@@ -505,6 +511,7 @@ class Problem:
         seg_mask: npt.NDArray[np.bool_] | None = None,
         *,
         continuous: bool = False,
+        start_delta: FloatArray | None = None,
     ) -> SimulatedRecord:
         """Simulate the (selected) segments with the model ``values``.
 
@@ -518,6 +525,9 @@ class Problem:
             Simulate one stretch from the first segment's start state to the record's
             end (no re-initialisation: the model's own motion, as a record of it would
             show; ``seg_mask`` is ignored).
+        start_delta : FloatArray or None
+            Added to every segment's start state (rows: segments, columns: the
+            kernel's state slots; :meth:`start_corrections`).
 
         Returns
         -------
@@ -563,6 +573,8 @@ class Problem:
                 seg.stick_time[sel][st], dk.time, dk.speed, dk.shape,
                 tau[rows], acc[rows], a1[rows], a2[rows], n_win[rows],
             )  # fmt: skip
+        if start_delta is not None:
+            states += start_delta[np.flatnonzero(sel)]
         n = rec.time.size
         out = np.full((kn.N_CH, n), np.nan)
         n_sub = kn.substeps_for(p, rec.dt)
@@ -635,6 +647,120 @@ class Problem:
             chamber_speed=out[kn.OUT_W1],
             covered=covered,
         )
+
+    def refined(self, values: Mapping[str, float]) -> SimulatedRecord:
+        """Simulate the model with every segment's start corrected by its own samples.
+
+        The adequacy statistics judge the model, not the start states' estimates
+        (:meth:`start_corrections`); the fit itself runs from the estimated starts.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            The model.
+
+        Returns
+        -------
+        SimulatedRecord
+            Its simulation from the corrected starts.
+        """
+        return self.simulate(values, start_delta=self.start_corrections(values))
+
+    def start_corrections(self, values: Mapping[str, float]) -> FloatArray | None:
+        """Return the correction of every segment's start state by its own samples.
+
+        A segment starts from a state estimated from a few ms of noisy samples
+        (a local fit at a sliding start, the stick kinematics at a stuck one); its
+        error sets off the chamber's and the shaft's lightly damped swings for the
+        whole segment, as large as the noise where the windows are short (low sample
+        rates, short sticks). The segment's whole residual fixes those few numbers
+        far better: per segment, the weighted least-squares correction of the chamber
+        and shaft angles and speeds (at a stuck start the discs' common speed, so
+        the start stays stuck), from the model ``values``' sensitivities (one
+        simulation per direction, every segment at once; a Gauss-Newton step), each
+        channel's mains lines taken out first. Each direction is scaled to one noise
+        level of the torsion moment (the angle's, or the swing's amplitude of the
+        speed's), and the correction is the posterior mode with the window's error
+        taken as one such unit (a unit prior): the starts cannot take up more than
+        the window's noise allows. A segment keeps its correction only where its own
+        cost falls (a stick or a breakaway that moves with the start is not linear).
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            The model.
+
+        Returns
+        -------
+        FloatArray or None
+            Rows: segments, columns: the kernel's state slots (None: no segment's
+            cost falls).
+        """
+        seg = self.segments
+        if seg.n == 0:
+            return None
+        rig = self.rig_of(values)
+        base = self.simulate(values)
+        dm = max(noise_level(self.record.torsion_moment), 1e-6)  # [N m]
+        slides = seg.sliding_starts
+        # the directions [state units per unit coefficient]: chamber angle, shaft angle,
+        # the chamber speed (both speeds while stuck), the shaft speed (sliding only)
+        w1_scale = dm * math.sqrt(rig.C1 / rig.I1) / rig.C1
+        w2_scale = dm * math.sqrt(rig.C2 / rig.I2) / rig.C2
+        dirs = np.zeros((4, seg.n, kn.NS))
+        dirs[0, :, kn.S_PHI1] = dm / rig.C1
+        dirs[1, :, kn.S_PHI2] = dm / rig.C2
+        dirs[2, :, kn.S_W1] = w1_scale
+        dirs[2, ~slides, kn.S_W2] = w1_scale
+        dirs[3, slides, kn.S_W2] = w2_scale
+        r0 = self._segment_residuals(base, None)
+        cols = [
+            self._segment_residuals(self.simulate(values, start_delta=d), base) - r0 for d in dirs
+        ]
+        cov = base.covered
+        delta = np.zeros((seg.n, kn.NS))
+        for j in range(seg.n):
+            a, b = int(seg.start[j]), int(seg.stop[j])
+            rows = np.concatenate([cov[a:b]] * r0.shape[0])
+            y = r0[:, a:b].ravel()[rows]
+            use = [0, 1, 2] if not slides[j] else [0, 1, 2, 3]
+            J = np.column_stack([cols[k][:, a:b].ravel()[rows] for k in use])
+            if y.size <= 2 * len(use) or not (np.all(np.isfinite(J)) and np.all(np.isfinite(y))):
+                continue
+            c = np.linalg.solve(J.T @ J + np.eye(len(use)), -(J.T @ y))
+            delta[j] = np.tensordot(c, dirs[use, j], axes=1)
+        after = self._segment_residuals(self.simulate(values, start_delta=delta), None)
+        better = np.zeros(seg.n, dtype=bool)
+        for j in range(seg.n):
+            a, b = int(seg.start[j]), int(seg.stop[j])
+            e0 = r0[:, a:b][np.isfinite(r0[:, a:b])]
+            e1 = after[:, a:b][np.isfinite(after[:, a:b])]
+            better[j] = e1.size == e0.size and float(e1 @ e1) < float(e0 @ e0)
+        delta[~better] = 0.0
+        return delta if better.any() else None
+
+    def _segment_residuals(
+        self, sim: SimulatedRecord, lines_of: SimulatedRecord | None
+    ) -> FloatArray:
+        """Weighted residuals per channel (rows) and sample (NaN where not covered).
+
+        The mains lines are those of ``sim``'s residual, or of ``lines_of``'s (the
+        base of a sensitivity: the same lines, so that the difference holds none).
+        """
+        ref = sim if lines_of is None else lines_of
+        cov = ref.covered
+        out = []
+        for c in CHANNELS:
+            w = self.weights.get(c, 0.0)
+            if not w > 0:
+                continue
+            row = np.full(cov.size, np.nan)
+            src = 'angular_acceleration' if c == 'chamber_speed' else c
+            r_ref = self._meas[c][cov] - ref.channel(c)[cov]
+            lines = r_ref - self.without_lines(src, r_ref, cov)
+            row[cov] = w * (self._meas[c][cov] - sim.channel(c)[cov] - lines)
+            out.append(row)
+        return np.asarray(out)
 
     def set_transition_durations(
         self, values: Mapping[str, float]

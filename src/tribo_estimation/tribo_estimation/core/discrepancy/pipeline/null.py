@@ -342,7 +342,8 @@ def null_law(
     record's problem settings, its open transitions timed, the channel weights from
     the replica's residuals at ``values`` (as the baseline's are from the record's,
     :meth:`..fitting.Problem.set_residual_weights`), the free parameters from
-    ``values``.
+    ``values``; its statistics, like the record's, from the segments' corrected starts
+    (:meth:`..fitting.Problem.refined`).
 
     Parameters
     ----------
@@ -384,7 +385,7 @@ def null_law(
             sim = rep.simulate(values)
             rep.set_residual_weights(sim, channel_floors(rep, sim))
             fo = rep.fit(free, values, max_nfev=max_nfev)
-            st = adequacy(rep, rep.simulate(fo.values))
+            st = adequacy(rep, rep.refined(fo.values))
         except EstimationError:  # a replica that cannot be fitted gives no sample
             continue
         for n in STATISTICS:

@@ -126,7 +126,8 @@ def judge(ens: Ensemble, forms: tuple[str, ...], fit: Fit) -> Model:
     Model
         The model.
     """
-    sims = ens.simulate(fit.values)
+    # judged from the segments' corrected starts (:meth:`..fitting.Problem.refined`)
+    sims = [pb.refined(v) for pb, v in zip(ens.problems, ens.split(fit.values), strict=True)]
     return Model(
         forms,
         fit,
