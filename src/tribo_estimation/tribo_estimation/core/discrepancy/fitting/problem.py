@@ -681,9 +681,11 @@ class Problem:
         channel's mains lines taken out first. Each direction is scaled to one noise
         level of the torsion moment (the angle's, or the swing's amplitude of the
         speed's), and the correction is the posterior mode with the window's error
-        taken as one such unit (a unit prior): the starts cannot take up more than
-        the window's noise allows. A segment keeps its correction only where its own
-        cost falls (a stick or a breakaway that moves with the start is not linear).
+        taken as one such unit (a unit prior), so the starts are shrunk toward their
+        estimates: a model error of many noise levels keeps most of its excess (a
+        3 % error of mu_inf at 5 rpm and 2 kHz: 89 % of its mean square). A segment
+        keeps its correction only where its own cost falls (a stick or a breakaway
+        that moves with the start is not linear).
 
         Parameters
         ----------
