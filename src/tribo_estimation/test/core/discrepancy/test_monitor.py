@@ -86,3 +86,34 @@ def test_later_windows_pool_their_fresh_replicas_with_the_newest_earlier_ones(
         assert len(before) == len(after) == cfg.replicas, name
         assert after[fresh:] == before[: cfg.replicas - fresh], name
         assert after[:fresh] != before[:fresh], name
+
+
+def test_a_later_window_starts_its_baseline_fit_from_the_window_before(
+    sim_record: Callable[..., SimResult], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the windows overlap: the second window's baseline fit starts from the first's
+    # values (find_missing_physics(previous=)), and both fit the same friction (Tab. 1
+    # record: mu0 and mu_inf within 0.5 % of each other); a gap forgets it
+    from tribo_estimation.core.discrepancy import monitor as mon_mod
+
+    seen: list[tuple[dict[str, float], ...]] = []
+    real = mon_mod.find_missing_physics
+
+    def spy(*args: object, **kwargs: object) -> object:
+        seen.append(tuple(kwargs.get('previous', ())))  # type: ignore[arg-type]
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(mon_mod, 'find_missing_physics', spy)
+    rec = sim_record(2.0, FS, seed=3)
+    mon = _monitor(1.5, 0.5)
+    chans = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
+    n = round(1.5 * FS)
+    (first,) = mon.push(*(c[:n] for c in chans))
+    (second,) = mon.push(*(c[n:] for c in chans))
+    assert seen[0] == ()
+    assert seen[1] == (first.baseline,) and first.baseline['mu0'] > 0.0
+    assert second.mu0 == pytest.approx(first.mu0, rel=5e-3)
+    assert second.mu_inf == pytest.approx(first.mu_inf, rel=5e-3)
+    mon.reset()
+    mon.push(*(c[:n] for c in chans))
+    assert seen[2] == ()

@@ -132,7 +132,8 @@ class WindowResult:
     ``investigation``: the result of :meth:`WindowMonitor.investigate`);
     ``complete`` False when the verdict may change with every family screened (the
     window is then worth an investigation); ``null`` the null law the window was
-    judged against (one per record: the window).
+    judged against (one per record: the window); ``baseline`` its baseline's values
+    (SI; the next window's fit starts from them).
     """
 
     t_start: float
@@ -159,6 +160,7 @@ class WindowResult:
     verdict: str = field(default='')
     complete: bool = True
     null: tuple[NullLaw, ...] = field(default=(), repr=False, compare=False)
+    baseline: dict[str, float] = field(default_factory=dict, repr=False, compare=False)
 
 
 #: The samples of one window, ready to evaluate (a copy; see :meth:`WindowMonitor.add`).
@@ -237,6 +239,8 @@ class WindowMonitor:
         self._fs: float | None = None
         self._next_end: float | None = None
         self._null: tuple[NullLaw, ...] | None = None
+        #: the last window's baseline (the next window's fit starts from it)
+        self._baseline: dict[str, float] | None = None
 
     # ------------------------------------------------------------------ input
     def reset(self) -> None:
@@ -245,6 +249,7 @@ class WindowMonitor:
         self._n = 0
         self._next_end = None
         self._null = None
+        self._baseline = None
 
     def add(
         self,
@@ -398,7 +403,8 @@ class WindowMonitor:
         first window, then ``fresh_replicas`` of each window's own pooled with the
         newest of the windows before (:class:`MonitorConfig`). The replicas' noise is
         seeded by the window's last sample index, so a skipped window changes no
-        other window's replicas.
+        other window's replicas. A later window's baseline fit starts from the window
+        before's (they overlap; ``find_missing_physics(previous=)``).
         """
         cfg = self.config
         seed = round(float(w.time[-1]) * (self._fs or 1.0))
@@ -407,9 +413,11 @@ class WindowMonitor:
             r = self._run(w, pol, None, (), ())
         else:
             pol = replace(cfg.policy(), replicas=cfg.fresh_replicas, seed=seed)
-            r = self._run(w, pol, None, self._null, ())
+            start = (self._baseline,) if self._baseline else ()
+            r = self._run(w, pol, None, self._null, (), start)
         if r.quality != 'fit_failed':
             self._null = r.null
+            self._baseline = r.baseline or None
         return r
 
     def investigate(self, w: WindowData, null: tuple[NullLaw, ...] = ()) -> WindowResult:
@@ -445,6 +453,7 @@ class WindowMonitor:
         null: tuple[NullLaw, ...] | None,
         earlier: tuple[NullLaw, ...],
         flags_in: tuple[str, ...],
+        previous: tuple[dict[str, float], ...] = (),
     ) -> WindowResult:
         """Run the pipeline on one window under ``policy`` and summarise the verdict."""
         cfg = self.config
@@ -456,7 +465,7 @@ class WindowMonitor:
         try:
             res = find_missing_physics(
                 [w], self.rig, [drive], k=self.k, policy=policy, null=null,
-                earlier=earlier, pool=self.config.replicas,
+                earlier=earlier, pool=self.config.replicas, previous=previous,
             )  # fmt: skip
         except EstimationError:
             return self._empty(w, t0, 'fit_failed', w0)
@@ -511,6 +520,7 @@ class WindowMonitor:
             verdict=res.verdict,
             complete=complete,
             null=tuple(r.null for r in res.records),
+            baseline=dict(rep.baseline),
         )
 
 

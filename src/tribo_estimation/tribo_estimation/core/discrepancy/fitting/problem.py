@@ -13,6 +13,7 @@ residuals (measured - simulated) of :data:`.records.CHANNELS`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -527,7 +528,7 @@ class Problem:
             show; ``seg_mask`` is ignored).
         start_delta : FloatArray or None
             Added to every segment's start state (rows: segments, columns: the
-            kernel's state slots; :meth:`start_corrections`).
+            kernel's state slots; :meth:`refined`).
 
         Returns
         -------
@@ -651,8 +652,23 @@ class Problem:
     def refined(self, values: Mapping[str, float]) -> SimulatedRecord:
         """Simulate the model with every segment's start corrected by its own samples.
 
-        The adequacy statistics judge the model, not the start states' estimates
-        (:meth:`start_corrections`); the fit itself runs from the estimated starts.
+        The adequacy statistics judge the model, not the start states' estimates;
+        the fit itself runs from the estimated starts. Per segment, one Gauss-Newton
+        step on its start state: the chamber's and the shaft's angles and their
+        speed (the chamber's, and the shaft's with it at a stuck start, which keeps
+        it stuck) set off the lightly damped swings that an error of the estimate
+        (a few ms of noisy samples) carries through the whole segment, as large as
+        the noise where the windows are short (low sample rates, short sticks). The
+        sensitivities come from one simulation per direction (every segment at once),
+        the residuals weighted per channel with the mains lines taken out. Each
+        direction is scaled to one noise level of the torsion moment (the angle's,
+        or the swing's amplitude of the speed's) and the step is the posterior mode
+        with the estimate's error taken as one such unit (a unit prior), so the starts
+        are shrunk toward their estimates: a model error of many noise levels keeps
+        most of its excess (a 3 % error of mu_inf at 5 rpm and 2 kHz: 89 % of its
+        mean square). A segment keeps its step only where its own cost falls (a
+        stick or a breakaway that moves with the start is not linear); the others
+        keep their estimated start.
 
         Parameters
         ----------
@@ -662,84 +678,57 @@ class Problem:
         Returns
         -------
         SimulatedRecord
-            Its simulation from the corrected starts.
-        """
-        return self.simulate(values, start_delta=self.start_corrections(values))
-
-    def start_corrections(self, values: Mapping[str, float]) -> FloatArray | None:
-        """Return the correction of every segment's start state by its own samples.
-
-        A segment starts from a state estimated from a few ms of noisy samples
-        (a local fit at a sliding start, the stick kinematics at a stuck one); its
-        error sets off the chamber's and the shaft's lightly damped swings for the
-        whole segment, as large as the noise where the windows are short (low sample
-        rates, short sticks). The segment's whole residual fixes those few numbers
-        far better: per segment, the weighted least-squares correction of the chamber
-        and shaft angles and speeds (at a stuck start the discs' common speed, so
-        the start stays stuck), from the model ``values``' sensitivities (one
-        simulation per direction, every segment at once; a Gauss-Newton step), each
-        channel's mains lines taken out first. Each direction is scaled to one noise
-        level of the torsion moment (the angle's, or the swing's amplitude of the
-        speed's), and the correction is the posterior mode with the window's error
-        taken as one such unit (a unit prior), so the starts are shrunk toward their
-        estimates: a model error of many noise levels keeps most of its excess (a
-        3 % error of mu_inf at 5 rpm and 2 kHz: 89 % of its mean square). A segment
-        keeps its correction only where its own cost falls (a stick or a breakaway
-        that moves with the start is not linear).
-
-        Parameters
-        ----------
-        values : mapping of str to float
-            The model.
-
-        Returns
-        -------
-        FloatArray or None
-            Rows: segments, columns: the kernel's state slots (None: no segment's
-            cost falls).
+            Its simulation, each segment from its corrected (or estimated) start.
         """
         seg = self.segments
-        if seg.n == 0:
-            return None
-        rig = self.rig_of(values)
         base = self.simulate(values)
+        if seg.n == 0:
+            return base
+        rig = self.rig_of(values)
         dm = max(noise_level(self.record.torsion_moment), 1e-6)  # [N m]
-        slides = seg.sliding_starts
         # the directions [state units per unit coefficient]: chamber angle, shaft angle,
-        # the chamber speed (both speeds while stuck), the shaft speed (sliding only)
-        w1_scale = dm * math.sqrt(rig.C1 / rig.I1) / rig.C1
-        w2_scale = dm * math.sqrt(rig.C2 / rig.I2) / rig.C2
-        dirs = np.zeros((4, seg.n, kn.NS))
+        # chamber speed (the shaft's too while stuck)
+        dirs = np.zeros((3, seg.n, kn.NS))
         dirs[0, :, kn.S_PHI1] = dm / rig.C1
         dirs[1, :, kn.S_PHI2] = dm / rig.C2
-        dirs[2, :, kn.S_W1] = w1_scale
-        dirs[2, ~slides, kn.S_W2] = w1_scale
-        dirs[3, slides, kn.S_W2] = w2_scale
+        w_scale = dm * math.sqrt(rig.C1 / rig.I1) / rig.C1
+        dirs[2, :, kn.S_W1] = w_scale
+        dirs[2, ~seg.sliding_starts, kn.S_W2] = w_scale
         r0 = self._segment_residuals(base, None)
-        cols = [
-            self._segment_residuals(self.simulate(values, start_delta=d), base) - r0 for d in dirs
-        ]
-        cov = base.covered
-        delta = np.zeros((seg.n, kn.NS))
-        for j in range(seg.n):
-            a, b = int(seg.start[j]), int(seg.stop[j])
-            rows = np.concatenate([cov[a:b]] * r0.shape[0])
-            y = r0[:, a:b].ravel()[rows]
-            use = [0, 1, 2] if not slides[j] else [0, 1, 2, 3]
-            J = np.column_stack([cols[k][:, a:b].ravel()[rows] for k in use])
-            if y.size <= 2 * len(use) or not (np.all(np.isfinite(J)) and np.all(np.isfinite(y))):
-                continue
-            c = np.linalg.solve(J.T @ J + np.eye(len(use)), -(J.T @ y))
-            delta[j] = np.tensordot(c, dirs[use, j], axes=1)
-        after = self._segment_residuals(self.simulate(values, start_delta=delta), None)
-        better = np.zeros(seg.n, dtype=bool)
-        for j in range(seg.n):
-            a, b = int(seg.start[j]), int(seg.stop[j])
-            e0 = r0[:, a:b][np.isfinite(r0[:, a:b])]
-            e1 = after[:, a:b][np.isfinite(after[:, a:b])]
-            better[j] = e1.size == e0.size and float(e1 @ e1) < float(e0 @ e0)
-        delta[~better] = 0.0
-        return delta if better.any() else None
+        cols = np.stack(
+            [self._segment_residuals(self.simulate(values, start_delta=d), base) - r0 for d in dirs]
+        )  # (direction, channel, sample)
+        # per segment, the normal equations over its samples of every channel
+        ok = np.all(np.isfinite(cols), axis=(0, 1)) & np.all(np.isfinite(r0), axis=0)
+        y = np.where(ok, r0, 0.0)
+        J = np.where(ok, cols, 0.0)
+        bounds = seg.start.astype(np.int64)
+        JJ = np.add.reduceat(np.einsum('acn,bcn->abn', J, J), bounds, axis=2)
+        Jy = np.add.reduceat(np.einsum('acn,cn->an', J, y), bounds, axis=1)
+        counts = np.add.reduceat(ok.astype(np.int64), bounds)
+        # (samples between or after segments are not simulated: NaN, outside ``ok``)
+        A = np.moveaxis(JJ, 2, 0) + np.eye(3)
+        c = -np.linalg.solve(A, Jy.T[..., None])[..., 0]  # (segment, direction)
+        c[counts <= 6] = 0.0
+        delta = np.einsum('sd,dsk->sk', c, dirs)
+        after = self.simulate(values, start_delta=delta)
+        r1 = self._segment_residuals(after, None)
+        e0 = np.add.reduceat(np.where(np.isfinite(r0), r0 * r0, 0.0).sum(axis=0), bounds)
+        e1 = np.add.reduceat(np.where(np.isfinite(r1), r1 * r1, 0.0).sum(axis=0), bounds)
+        f0 = np.add.reduceat(np.isfinite(r0).sum(axis=0), bounds)
+        f1 = np.add.reduceat(np.isfinite(r1).sum(axis=0), bounds)
+        better = (e1 < e0) & (f1 == f0)
+        if better.all():
+            return after
+        # the segments are independent: each keeps the simulation of the start it keeps
+        use = np.zeros(base.covered.size, dtype=bool)
+        for j in np.flatnonzero(better):
+            use[seg.start[j] : seg.stop[j]] = True
+        fields = {
+            f.name: np.where(use, getattr(after, f.name), getattr(base, f.name))
+            for f in dataclasses.fields(base)
+        }
+        return SimulatedRecord(**fields)
 
     def _segment_residuals(
         self, sim: SimulatedRecord, lines_of: SimulatedRecord | None

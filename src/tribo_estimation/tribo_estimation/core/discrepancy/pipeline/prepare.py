@@ -293,8 +293,9 @@ def fit_record_baseline(
         Receiver of progress messages.
     previous : mapping of str to float or None
         A fitted baseline of the same record before a change of its instrument terms
-        (the hum taken out): the refit starts from its k only, and from its values
-        too, so it is never worse than they are on the changed record.
+        (the hum taken out), or of an overlapping window of the same stream: the fit
+        starts from its k only, and from its values too, so it is never worse than
+        they are on this record.
 
     Returns
     -------

@@ -208,6 +208,7 @@ def find_missing_physics(
     null: Sequence[NullLaw] | None = None,
     earlier: Sequence[NullLaw] = (),
     pool: int = 0,
+    previous: Sequence[Mapping[str, float]] = (),
 ) -> MissingPhysics:
     """Find what the rig model misses in one record or several (module docstring).
 
@@ -240,6 +241,11 @@ def find_missing_physics(
         ``pool`` in all. Empty: only the fresh ones.
     pool : int
         Replicas of a pooled law (with ``earlier``).
+    previous : sequence of mapping of str to float
+        Per record, the baseline of an overlapping window of the same stream (the
+        live monitor): the baseline fit starts from its k and its values
+        (:func:`.prepare.fit_record_baseline`) instead of the policy's ``k_starts``.
+        Empty: the policy's starts.
 
     Returns
     -------
@@ -261,7 +267,9 @@ def find_missing_physics(
     preps: list[Prepared] = []
     base_vals: list[dict[str, float]] = []
     for i, (r, d) in enumerate(zip(records, drives, strict=True)):
-        prep, vals = _prepared(i, r, rig, d, k, pol, say)
+        prep, vals = _prepared(
+            i, r, rig, d, k, pol, say, previous=previous[i] if i < len(previous) else None
+        )
         # one record: its shaft identified (several records share one rig, whose joint
         # identification is not built: they keep RIG.yaml's shaft)
         found = identify_shaft(prep, vals, pol, say) if pol.shaft and len(records) == 1 else None
