@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tribo_estimation.core.config import load_rig_config
-from tribo_estimation.core.discrepancy.monitor import MonitorConfig, WindowMonitor
+from tribo_estimation.core.discrepancy.monitor import MonitorConfig, WindowMonitor, WindowResult
 from tribo_estimation.core.simulate import SimResult
 
 CFG = load_rig_config(Path(__file__).resolve().parents[5] / 'config' / 'rig.yaml')
@@ -68,15 +68,23 @@ def test_warm_up_leaves_the_monitor_as_it_was(
     assert ra.verdict == 'nothing_missing' and ra.complete and 'incomplete' not in ra.quality
 
 
-def test_later_windows_pool_their_fresh_replicas_with_the_newest_earlier_ones(
-    sim_record: Callable[..., SimResult],
-) -> None:
+def _two_windows(
+    sim_record: Callable[..., SimResult], mon: WindowMonitor | None = None
+) -> tuple[WindowMonitor, WindowResult, WindowResult]:
+    """Push a 2 s Tab. 1 record as 1.5 s, then 0.5 s: two windows of 1.5 s, hop 0.5 s."""
     rec = sim_record(2.0, FS, seed=3)
-    mon = _monitor(1.5, 0.5)
+    mon = mon if mon is not None else _monitor(1.5, 0.5)
     chans = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
     n = round(1.5 * FS)
     (first,) = mon.push(*(c[:n] for c in chans))
     (second,) = mon.push(*(c[n:] for c in chans))
+    return mon, first, second
+
+
+def test_later_windows_pool_their_fresh_replicas_with_the_newest_earlier_ones(
+    sim_record: Callable[..., SimResult],
+) -> None:
+    mon, first, second = _two_windows(sim_record)
     cfg = mon.config
     fresh = cfg.fresh_replicas
     for name, before in first.null[0].samples.items():
@@ -104,16 +112,11 @@ def test_a_later_window_starts_its_baseline_fit_from_the_window_before(
         return real(*args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(mon_mod, 'find_missing_physics', spy)
-    rec = sim_record(2.0, FS, seed=3)
-    mon = _monitor(1.5, 0.5)
-    chans = (rec.time, rec.torsion_moment, rec.angular_acceleration, rec.speed)
-    n = round(1.5 * FS)
-    (first,) = mon.push(*(c[:n] for c in chans))
-    (second,) = mon.push(*(c[n:] for c in chans))
+    mon, first, second = _two_windows(sim_record)
     assert seen[0] == ()
     assert seen[1] == (first.baseline,) and first.baseline['mu0'] > 0.0
     assert second.mu0 == pytest.approx(first.mu0, rel=5e-3)
     assert second.mu_inf == pytest.approx(first.mu_inf, rel=5e-3)
     mon.reset()
-    mon.push(*(c[:n] for c in chans))
+    _two_windows(sim_record, mon)
     assert seen[2] == ()
