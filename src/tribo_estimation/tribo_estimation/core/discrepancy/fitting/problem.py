@@ -694,10 +694,16 @@ class Problem:
         w_scale = dm * math.sqrt(rig.C1 / rig.I1) / rig.C1
         dirs[2, :, kn.S_W1] = w_scale
         dirs[2, ~seg.sliding_starts, kn.S_W2] = w_scale
-        r0 = self._segment_residuals(base, None)
-        cols = np.stack(
-            [self._segment_residuals(self.simulate(values, start_delta=d), base) - r0 for d in dirs]
-        )  # (direction, channel, sample)
+        r0 = self._segment_residuals(base)
+        # a direction's change of the weighted residual is the simulations' difference
+        # (the measurement and its mains lines are the same for both)
+        cov = base.covered
+        weighted = [(ch, w) for ch in CHANNELS if (w := self.weights.get(ch, 0.0)) > 0]
+        cols = np.empty((len(dirs), *r0.shape))  # (direction, channel, sample)
+        for k, d in enumerate(dirs):
+            moved = self.simulate(values, start_delta=d)
+            for i, (ch, w) in enumerate(weighted):
+                cols[k, i] = np.where(cov, w * (base.channel(ch) - moved.channel(ch)), np.nan)
         # per segment, the normal equations over its samples of every channel
         ok = np.all(np.isfinite(cols), axis=(0, 1)) & np.all(np.isfinite(r0), axis=0)
         y = np.where(ok, r0, 0.0)
@@ -712,7 +718,7 @@ class Problem:
         c[counts <= 6] = 0.0
         delta = np.einsum('sd,dsk->sk', c, dirs)
         after = self.simulate(values, start_delta=delta)
-        r1 = self._segment_residuals(after, None)
+        r1 = self._segment_residuals(after)
         e0 = np.add.reduceat(np.where(np.isfinite(r0), r0 * r0, 0.0).sum(axis=0), bounds)
         e1 = np.add.reduceat(np.where(np.isfinite(r1), r1 * r1, 0.0).sum(axis=0), bounds)
         f0 = np.add.reduceat(np.isfinite(r0).sum(axis=0), bounds)
@@ -730,16 +736,13 @@ class Problem:
         }
         return SimulatedRecord(**fields)
 
-    def _segment_residuals(
-        self, sim: SimulatedRecord, lines_of: SimulatedRecord | None
-    ) -> FloatArray:
+    def _segment_residuals(self, sim: SimulatedRecord) -> FloatArray:
         """Weighted residuals per channel (rows) and sample (NaN where not covered).
 
-        The mains lines are those of ``sim``'s residual, or of ``lines_of``'s (the
-        base of a sensitivity: the same lines, so that the difference holds none).
+        The channels of :meth:`residual_vector` (each with its mains lines taken out),
+        in the record's sample order, so that they can be summed per segment.
         """
-        ref = sim if lines_of is None else lines_of
-        cov = ref.covered
+        cov = sim.covered
         out = []
         for c in CHANNELS:
             w = self.weights.get(c, 0.0)
@@ -747,9 +750,7 @@ class Problem:
                 continue
             row = np.full(cov.size, np.nan)
             src = 'angular_acceleration' if c == 'chamber_speed' else c
-            r_ref = self._meas[c][cov] - ref.channel(c)[cov]
-            lines = r_ref - self.without_lines(src, r_ref, cov)
-            row[cov] = w * (self._meas[c][cov] - sim.channel(c)[cov] - lines)
+            row[cov] = w * self.without_lines(src, self._meas[c][cov] - sim.channel(c)[cov], cov)
             out.append(row)
         return np.asarray(out)
 
