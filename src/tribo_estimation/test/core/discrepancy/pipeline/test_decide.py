@@ -11,6 +11,7 @@ from tribo_estimation.core.discrepancy.pipeline.decide import (
     CANNOT_TELL_APART,
     NAMED,
     UNEXPLAINED,
+    carried,
     decide,
     explained,
     indistinguishable,
@@ -120,3 +121,24 @@ def test_a_fit_that_only_crosses_the_bound_is_no_name() -> None:
     far = _model(BOUND * math.exp(3.0 * tol), 1.0)
     d = decide(fits[:1], far, [LAW], single_speed=True)
     assert d.kind == NAMED and d.named is not None and d.named.family == 'bearing_friction'
+
+
+def test_a_form_kept_tentatively_stays_the_answer_when_nothing_lowers_the_rest() -> None:
+    # round 1 kept viscous friction (5.0 -> 1.8, failing); round 2 finds nothing: the
+    # answer is round 1's partial explanation with its share (25 - 3.24)/(25 - c^2)
+    kept = _fit('viscous_friction', 'viscous_friction', 1.8)
+    round2 = decide([_fit('stribeck_shape', 'stribeck_shape', 1.799)], kept.model, [LAW],
+                    single_speed=False)  # fmt: skip
+    assert round2.kind == UNEXPLAINED and not round2.partial
+    d = carried(round2, [(kept, CURRENT)], [LAW])
+    assert d.kind == UNEXPLAINED and d.named is None
+    assert [f.family for f in d.alternatives] == ['viscous_friction']
+    assert [f.family for f in d.partial] == ['viscous_friction']
+    c = LAW.centre('torsion_moment')
+    share = (25.0 - 1.8**2) / (25.0 - c * c)
+    assert f'viscous_friction explains {100 * share:.0f} % of the excess' in d.reason
+    assert round2.reason in d.reason
+    # a round with its own answer is left as it is
+    named = decide([_fit('frictional_lag', 'frictional_lag', 1.05)], kept.model, [LAW],
+                   single_speed=False)  # fmt: skip
+    assert carried(named, [(kept, CURRENT)], [LAW]) is named

@@ -295,6 +295,50 @@ def decide(
     )
 
 
+def carried(
+    decision: Decision, kept: Sequence[tuple[FormFit, Model]], laws: Sequence[NullLaw]
+) -> Decision:
+    """Return a round's decision with the forms kept tentatively in earlier rounds.
+
+    A form kept for the next round (the one partial explanation a round singled out)
+    stays the record's partial explanation when the next round finds nothing that
+    lowers the mismatch further: the round's "no family lowers the mismatch" is said
+    of the model with it, not of the record.
+
+    Parameters
+    ----------
+    decision : Decision
+        The round's decision.
+    kept : sequence of (FormFit, Model)
+        The forms kept in earlier rounds, in order, each with the model it was added to.
+    laws : sequence of NullLaw
+        The records' null laws.
+
+    Returns
+    -------
+    Decision
+        ``decision`` itself unless it is unexplained with no partial explanation of its
+        own after kept forms; then unexplained with the kept forms as the set and the
+        partial explanations, and the share of the excess each explains.
+    """
+    if decision.kind != UNEXPLAINED or decision.partial or not kept:
+        return decision
+    forms = tuple(f for f, _ in kept)
+    shares = '; '.join(
+        f'{f.family} explains {100 * explained(f, before, laws):.0f} % of the excess'
+        for f, before in kept
+    )
+    them = 'them' if len(forms) > 1 else 'it'
+    return Decision(
+        UNEXPLAINED,
+        None,
+        forms,
+        forms,
+        f'no family explains the mismatch down to the noise; {shares}, and with {them} in '
+        f'the model {decision.reason}',
+    )
+
+
 __all__ = [
     'CANNOT_TELL_APART',
     'INSTRUMENT',
@@ -304,6 +348,7 @@ __all__ = [
     'UNEXPLAINED',
     'Decision',
     'best_per_family',
+    'carried',
     'decide',
     'experiment',
     'explained',

@@ -30,6 +30,7 @@ from .decide import (
     NOTHING_MISSING,
     UNEXPLAINED,
     Decision,
+    carried,
     decide,
     explained,
 )
@@ -331,6 +332,7 @@ def find_missing_physics(
     rounds: list[tuple[Effect, ...]] = []
     decision: Decision
     added: list[FormFit] = []
+    added_to: dict[str, Model] = {}  # per family kept tentatively, the model it was added to
     lost = [law.centre('torsion_moment') for law in laws if not law.self_consistent()]
     if lost:
         say(f'null law not self-consistent: replicas refitted to {max(lost):.3g} x their noise')
@@ -389,9 +391,11 @@ def find_missing_physics(
                     reason=f'{decision.reason}; the time budget ended before '
                     f'{", ".join(sorted(wanted - screened))} were fitted',
                 )
+            stalled = decision.kind == UNEXPLAINED and bool(added) and not decision.partial
+            decision = carried(decision, [(f, added_to[f.family]) for f in added], laws)
             rounds.append(tuple(_effect(f, ens, current, laws) for f in fits))
             say(f'round {rnd + 1}: {decision.kind}: {decision.reason}')
-            if decision.kind in (NAMED, CANNOT_TELL_APART):
+            if decision.kind in (NAMED, CANNOT_TELL_APART) or stalled:
                 break
             singled = len(decision.alternatives) == 1 and decision.alternatives[0].failing
             if not singled or rnd + 1 >= pol.max_effects or _time.perf_counter() > deadline:
@@ -399,6 +403,7 @@ def find_missing_physics(
             top = decision.alternatives[0]
             say(f'round {rnd + 1}: {top.family} kept tentatively for the next round')
             added.append(top)
+            added_to[top.family] = current
             current = top.model
     named: list[FormFit] = []
     if decision.kind == NAMED and decision.named is not None:
@@ -471,8 +476,12 @@ def find_missing_physics(
         reason=decision.reason,
         experiment=decision.experiment,
         named=tuple(named_effects),
-        alternatives=tuple(_effect(f, ens, current, laws) for f in decision.alternatives),
-        partial=tuple(_effect(f, ens, current, laws) for f in decision.partial),
+        alternatives=tuple(
+            _effect(f, ens, added_to.get(f.family, current), laws) for f in decision.alternatives
+        ),
+        partial=tuple(
+            _effect(f, ens, added_to.get(f.family, current), laws) for f in decision.partial
+        ),
         records=tuple(reports),
         rounds=tuple(rounds),
         policy=pol,
