@@ -3,8 +3,9 @@
 ``prepare`` turns a checked record into a fit problem: the torsion amplifier's (or the
 accelerometer's) lag
 is identified from the chamber kinematics and compensated
-(:func:`..fitting.identify_torsion_lag`), the record is cut into segments that start
-in its stick phases, the drive profile is measured from it
+(:func:`..fitting.identify_torsion_lag`), the accelerometer's gain and zero are
+referred to the torsion moment (:func:`..fitting.identify_accel_sensor`), the record
+is cut into segments that start in its stick phases, the drive profile is measured from it
 (:mod:`tribo_estimation.core.drive`) and the speed sensor's lag and offset are
 identified from the stick phases (:func:`..fitting.identify_speed_sensor`).
 
@@ -119,16 +120,17 @@ def prepare(
     rec = torsion_compensated_record(record, rig, tq.used, a2=tq.a2)
     pb = Problem(rec, rig, drive, k=k, block_time=policy.block_time)
     sticks = pb.segments.stick_phases()
-    accel = identify_accel_sensor(rec, rig)
+    accel = identify_accel_sensor(rec, rig, sticks)
     sensor = identify_speed_sensor(rec, rig, sticks)
     report_gain: dict[str, object] = {'value': sensor.gain, 'se': sensor.gain_se, 'unit': '-'}
     if math.isfinite(sensor.gain_rejected):
         report_gain['rejected'] = sensor.gain_rejected
         report_gain['bound'] = SPEED_GAIN_BOUND
     gain = sensor.gain
-    if accel.gain != 1.0 or gain != 1.0:
+    if accel.changes or gain != 1.0:
         # the channels in the torsion moment's frame (a common gain of all three is
-        # the torque's calibration: it scales mu0 and mu_inf alike)
+        # the torque's calibration: it scales mu0 and mu_inf alike), the accelerometer's
+        # zero taken out
         rec = replace(
             rec,
             angular_acceleration=accel.correct(rec.angular_acceleration),
