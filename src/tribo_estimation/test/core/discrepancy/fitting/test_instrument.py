@@ -44,11 +44,30 @@ def test_hum_is_the_line_at_the_mains_frequency_not_one_beside_it(seed: int) -> 
     beside = 60.0 + 0.6 / SPAN
     res = _residuals([(50.0, 0.05), (beside, 2.0)], seed)
     t = res.pop('t')
-    found = {(c, f) for c, f, _, _ in identify_hum(t, res, 0.01).lines}
-    assert ('torsion_moment', 50.0) in found
-    assert ('torsion_moment', 60.0) not in found
-    amp = {f: a for c, f, a, _ in identify_hum(t, res, 0.01).lines}
-    assert amp[50.0] == pytest.approx(0.05, rel=0.15)  # amplitude within 15 %
+    lines = identify_hum(t, res, 0.01).lines
+    # one line, on the torque, at 50 Hz within a tenth of the resolution 1/T
+    assert [c for c, _, _, _ in lines] == ['torsion_moment']
+    assert lines[0][1] == pytest.approx(50.0, abs=0.1 / SPAN)
+    assert lines[0][2] == pytest.approx(0.05, rel=0.15)  # amplitude within 15 %
+
+
+@pytest.mark.parametrize('seed', [1, 2])
+def test_hum_lines_are_fitted_at_the_grid_frequency(seed: int) -> None:
+    # the grid at 50.05 Hz (0.1 % off): harmonics 1, 3 and 5 (0.1, 0.05, 0.05 N m) on
+    # white noise of 0.05 N m. Fitted at the nominal 250 Hz, the fifth harmonic turns
+    # 2 pi*0.25*6 = 9.4 rad against the fit over the record and stays in it; at the
+    # grid's frequency (within 1 mHz) every line goes, the residual left at its noise
+    # within 2 %
+    grid = 50.05
+    res = _residuals([(grid, 0.1), (3 * grid, 0.05), (5 * grid, 0.05)], seed)
+    t = res.pop('t')
+    hum = identify_hum(t, res, 0.01)
+    found = sorted(f for _, f, _, _ in hum.lines)
+    assert len(found) == 3
+    for k, f in zip((1, 3, 5), found, strict=True):
+        assert f == pytest.approx(k * grid, abs=k * 1e-3)
+    left = hum.remove(Record(t, res['torsion_moment'], res['speed'], res['speed']))
+    assert float(np.std(left.torsion_moment)) == pytest.approx(0.05, rel=0.02)
 
 
 def test_hum_false_alarm_rate_is_alpha() -> None:

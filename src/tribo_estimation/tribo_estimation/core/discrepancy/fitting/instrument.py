@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -1215,6 +1215,10 @@ MAINS_HARMONICS = 5
 #: Neighbouring frequencies (multiples of the record's resolution 1/T) that give a
 #: line's local null level [-].
 _HUM_NEIGHBOURS = tuple(j for j in range(-12, 13) if abs(j) >= 2)
+#: Largest relative deviation of a grid's frequency from its nominal value [-] that a
+#: line is taken for one of its harmonics at (EN 50160: an interconnected grid stays
+#: within +-1 % for 99.5 % of a year).
+MAINS_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -1273,7 +1277,31 @@ def _line(t: FloatArray, r: FloatArray, f: float) -> tuple[float, float]:
     return math.hypot(a, b), math.atan2(b, a)
 
 
-def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: float) -> Hum:
+def mains_grids(frequencies: Iterable[float]) -> dict[float, float]:
+    """Return the grid frequency [Hz] per nominal one (:data:`MAINS_HZ`) of known lines.
+
+    A line at ``f`` is harmonic ``k = round(f/fm)`` of the nominal ``fm`` when ``f/k``
+    lies within :data:`MAINS_TOLERANCE` of it; the first such line gives the grid.
+    """
+    out: dict[float, float] = {}
+    for f in frequencies:
+        for fm in MAINS_HZ:
+            k = round(f / fm)
+            if (
+                fm not in out
+                and 1 <= k <= MAINS_HARMONICS
+                and abs(f / k - fm) <= MAINS_TOLERANCE * fm
+            ):
+                out[fm] = f / k
+    return out
+
+
+def identify_hum(
+    time: FloatArray,
+    residuals: Mapping[str, FloatArray],
+    alpha: float,
+    grids: Mapping[float, float] | None = None,
+) -> Hum:
     """Find the mains lines on a model's residuals (instrument, not physics).
 
     For each channel, mains frequency (:data:`MAINS_HZ`) and harmonic (up to
@@ -1285,7 +1313,9 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
     that median with probability about ``3*2^-x``. A line is taken out when the ratio
     exceeds ``log2(3*m/alpha)`` (m the lines tested: Bonferroni), so noise and a
     model mismatch's broad spectrum leave it alone; its amplitude and phase are the
-    least-squares sine through the residual.
+    least-squares sine through the residual at the grid's frequency (one per nominal
+    frequency, measured on its most significant line, :func:`_grid_frequency`: a grid
+    runs off its nominal frequency, EN 50160 allows 1 %).
 
     Parameters
     ----------
@@ -1296,6 +1326,10 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
         are set to zero for the spectrum and left out of the sine fit.
     alpha : float
         Chance that a record without hum has a line taken out [-].
+    grids : mapping of float to float or None
+        Grid frequencies [Hz] per nominal one measured before (:func:`mains_grids` of
+        the lines an earlier pass took out): used instead of measuring them again on
+        what the earlier lines left.
 
     Returns
     -------
@@ -1318,13 +1352,14 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
     limit = math.log2(3.0 * len(tests) / alpha)
     n_fft = 1 << math.ceil(math.log2(4 * time.size))
     per_t = n_fft / time.size  # bins per 1/T
-    lines: list[tuple[str, float, float, float]] = []
     power: dict[str, FloatArray] = {}
-    for c, f in tests:
+
+    def significant(c: str, f: float) -> float:
+        """Peak over level of the line at ``f`` on channel ``c`` (0: not a line there)."""
         r = residuals[c]
         ok = np.isfinite(r)
         if np.count_nonzero(ok) < 100:
-            continue
+            return 0.0
         if c not in power:
             x = np.where(ok, r - float(np.mean(r[ok])), 0.0)
             power[c] = np.abs(np.fft.rfft(x, n_fft)) ** 2
@@ -1332,13 +1367,62 @@ def identify_hum(time: FloatArray, residuals: Mapping[str, FloatArray], alpha: f
         k0 = round(f * n_fft / fs)
         near = [round(k0 + j * per_t) for j in _HUM_NEIGHBOURS]
         if k0 < 2 or max(near) >= p.size or min(near) < 0:
-            continue
+            return 0.0
         level = float(np.median(p[near]))
         peak = float(np.max(p[k0 - 1 : k0 + 2]))
         # a mains line peaks at the mains frequency: a line beside it (a stick-slip
         # harmonic within the main lobe, 1/T) has its maximum elsewhere
         lobe = p[max(0, k0 - round(per_t)) : k0 + round(per_t) + 1]
         if level > 0.0 and peak / level > limit and peak >= float(np.max(lobe)):
-            amp, phase = _line(time[ok], r[ok] - float(np.mean(r[ok])), f)
-            lines.append((c, f, amp, phase))
+            return peak / level
+        return 0.0
+
+    # one grid, one frequency: measured on the most significant line found at the
+    # nominal frequencies; the harmonics tested and fitted at its multiples
+    lines: list[tuple[str, float, float, float]] = []
+    known = dict(grids or {})
+    for fm in MAINS_HZ:
+        if fm in known:
+            grid = known[fm]
+        else:
+            mine = [(q, c, f) for c, f in tests if _harmonic(f, fm) and (q := significant(c, f))]
+            if not mine:
+                continue
+            _, c0, f0 = max(mine)
+            grid = _grid_frequency(time, residuals[c0], f0, span) / _harmonic(f0, fm)
+        for c, f in tests:
+            k = _harmonic(f, fm)
+            if k and significant(c, k * grid):
+                r = residuals[c]
+                ok = np.isfinite(r)
+                amp, phase = _line(time[ok], r[ok] - float(np.mean(r[ok])), k * grid)
+                lines.append((c, k * grid, amp, phase))
     return Hum(tuple(lines))
+
+
+def _harmonic(f: float, fm: float) -> int:
+    """Return the harmonic number of a tested line ``f`` of mains ``fm`` (0: not its)."""
+    k = round(f / fm)
+    return k if 1 <= k <= MAINS_HARMONICS and abs(f - k * fm) < 1e-9 * f else 0
+
+
+def _grid_frequency(time: FloatArray, r: FloatArray, f: float, span: float) -> float:
+    """Return the frequency of the line found at its nominal ``f`` [Hz].
+
+    The least-squares sine's frequency within half the record's resolution (1/(2T))
+    of ``f``: the line test takes a line whose peak lies within a zero-padded bin of
+    the nominal frequency, and a grid runs off it (a fifth harmonic fitted at 250 Hz
+    while the grid runs at 50.0057 Hz turns 1.3 rad against it over 7 s).
+    """
+    from scipy.optimize import minimize_scalar
+
+    ok = np.isfinite(r)
+    t, x = time[ok], r[ok] - float(np.mean(r[ok]))
+    half = 0.5 / span
+    fit = minimize_scalar(
+        lambda g: -_line(t, x, g)[0],
+        bounds=(f - half, f + half),
+        method='bounded',
+        options={'xatol': 1e-3 / span},
+    )
+    return float(fit.x) if fit.success else f

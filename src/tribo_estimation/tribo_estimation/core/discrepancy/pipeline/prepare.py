@@ -56,6 +56,7 @@ from ..fitting import (
     identify_hum,
     identify_speed_sensor,
     identify_torsion_lag,
+    mains_grids,
     speed_offset_bound,
     torsion_compensated_record,
 )
@@ -207,7 +208,9 @@ def without_hum(prep: Prepared, values: Mapping[str, float], policy: Policy) -> 
         if c in _HUM_JUDGED else np.full(sim.covered.size, np.nan)
         for c in HUM_CHANNELS
     }  # fmt: skip
-    hum = identify_hum(pb.record.time, res, policy.alpha)
+    # the grid measured by an earlier pass holds: what its lines left is no new grid
+    grids = mains_grids(f for fs in pb.hum_lines.values() for f in fs)
+    hum = identify_hum(pb.record.time, res, policy.alpha, grids)
     if not hum.lines:
         return prep
     earlier = prep.instrument.get('mains_hum')
