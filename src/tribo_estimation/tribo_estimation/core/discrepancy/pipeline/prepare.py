@@ -383,9 +383,11 @@ def fit_record_baseline(
         # valley of k for a worse one: a control with its hum taken out went from
         # k = 2.23 to 7.35 s/rad, torque statistic 1.01 -> 1.51)
         start = {**values, **{n: float(previous[n]) for n in values if n in previous}}
-        if _judged(pb, start) < _judged(pb, values):
+        noise = _white(pb, values)
+        left = _judged(pb, values, noise)
+        if _judged(pb, start, noise) < left:
             again = _final_fit(pb, start, policy)
-            if _judged(pb, one.split(again.values)[0]) < _judged(pb, values):
+            if _judged(pb, one.split(again.values)[0], noise) < left:
                 fo, values = again, one.split(again.values)[0]
             else:
                 _final_fit(pb, values, policy, fit=False)  # its drive and weights again
@@ -431,16 +433,42 @@ def _final_fit(pb: Problem, start: Mapping[str, float], policy: Policy, fit: boo
     return one.fit(one.specs(), one.join([start]), max_nfev=policy.fit_nfev)
 
 
-def _judged(pb: Problem, values: Mapping[str, float]) -> float:
-    """Return the sum of the squared torsion-moment and speed statistics of a model [-].
+def _white(pb: Problem, values: Mapping[str, float]) -> dict[str, float]:
+    """Return the judged channels' white noise on a model's residuals [unit]."""
+    from .noise import measure_noise
+    from .null import raw_residuals
 
-    The adequacy statistics the decisions judge (:func:`.null.adequacy`: each channel's
-    residual rms over its white noise), free of the fit's channel weights.
+    sim = pb.simulate(values)
+    noise = measure_noise(raw_residuals(pb, sim), sim.covered)
+    return {c: noise.channel(c).white for c in _JUDGED}
+
+
+#: The channels whose residuals choose between two fits of a baseline (the ones the
+#: adequacy statistics judge, :data:`.null.STATISTICS`).
+_JUDGED: tuple[str, ...] = ('torsion_moment', 'speed')
+
+
+def _judged(pb: Problem, values: Mapping[str, float], noise: Mapping[str, float]) -> float:
+    """Return the summed mean squares of the judged channels' residuals over ``noise`` [-].
+
+    Each channel's residual (mains lines out, :func:`.null.raw_residuals`) over the
+    simulated samples, divided by one white noise level per channel [unit] that both
+    fits compared are divided by: free of the fit's channel weights, and of a noise
+    level measured on each fit's own residual (a residual far off its record moves
+    its second differences too).
     """
-    from .null import adequacy
+    from .null import raw_residuals
 
-    a = adequacy(pb, pb.simulate(values))
-    return a['torsion_moment'] ** 2 + a['speed'] ** 2
+    sim = pb.simulate(values)
+    res = raw_residuals(pb, sim)
+    cov = sim.covered
+    total = 0.0
+    for c in _JUDGED:
+        r = res[c][cov]
+        r = r[np.isfinite(r)]
+        if r.size and noise[c] > 0.0:
+            total += float(np.mean(r * r)) / noise[c] ** 2
+    return total
 
 
 def _least_cost(
