@@ -891,10 +891,10 @@ def identify_accel_sensor(
     holds at 2 kHz as at 20 kHz. The gain is used where beyond 3 standard errors.
     The regression's intercept is not an offset to use: the switching jumps fall
     between samples the same way in every cycle of a one-way stick-slip, and their
-    error has a mean (-0.45 rad/s^2 on a Tab. 1 record at 25 rpm without any offset).
-    With ``sticks`` the offset is measured inside the stick phases instead, where the
-    pair holds without jumps, and used where beyond 3 standard errors (it integrates
-    into the chamber speed the fits compare, a ramp over every segment).
+    error has a mean (docs/physics.md). With ``sticks`` the offset is measured inside
+    the stick phases instead, where the pair holds without jumps, and used where beyond
+    3 standard errors (it integrates into the chamber speed the fits compare, a ramp
+    over every segment).
 
     Parameters
     ----------
@@ -1411,8 +1411,8 @@ def _grid_frequency(time: FloatArray, r: FloatArray, f: float, span: float) -> f
 
     The least-squares sine's frequency within half the record's resolution (1/(2T))
     of ``f``: the line test takes a line whose peak lies within a zero-padded bin of
-    the nominal frequency, and a grid runs off it (a fifth harmonic fitted at 250 Hz
-    while the grid runs at 50.0057 Hz turns 1.3 rad against it over 7 s).
+    the nominal frequency, and a grid runs off it (a line fitted at its nominal
+    frequency turns against the hum over the record).
     """
     from scipy.optimize import minimize_scalar
 

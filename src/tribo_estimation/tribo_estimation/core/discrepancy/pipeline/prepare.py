@@ -378,10 +378,8 @@ def fit_record_baseline(
     values = one.split(fo.values)[0]
     if previous is not None:
         # the earlier baseline, refitted alike, where it leaves less of the judged
-        # channels on this record (each over its noise: the screen's channel weights
-        # are not the final fit's, and under them the refit can leave the earlier
-        # valley of k for a worse one: a control with its hum taken out went from
-        # k = 2.23 to 7.35 s/rad, torque statistic 1.01 -> 1.51)
+        # channels on this record (the screen's channel weights are not the final
+        # fit's, and under them the refit can leave the earlier valley of k)
         start = {**values, **{n: float(previous[n]) for n in values if n in previous}}
         noise = _white(pb, values)
         left = _judged(pb, values, noise)
@@ -390,7 +388,7 @@ def fit_record_baseline(
             if _judged(pb, one.split(again.values)[0], noise) < left:
                 fo, values = again, one.split(again.values)[0]
             else:
-                _final_fit(pb, values, policy, fit=False)  # its drive and weights again
+                _final_setting(pb, values)
     inst = prep.instrument
     inst['chamber_I1'] = {
         'factor': values[CHAMBER_I1.name],
@@ -417,19 +415,25 @@ def fit_record_baseline(
     return values
 
 
-def _final_fit(pb: Problem, start: Mapping[str, float], policy: Policy, fit: bool = True) -> Fit:
-    """Fit the baseline with the record's free instrument terms from ``start``.
+def _final_setting(pb: Problem, values: Mapping[str, float]) -> None:
+    """Set the problem's state by a model.
 
     The drive's open step durations (:meth:`..fitting.Problem.set_transition_durations`)
-    and the channel weights (from the residuals, never above one over the channel's
-    noise) are set by ``start`` first; ``fit`` False sets them and returns ``start``.
+    and the channel weights (from its residuals, never above one over the channel's
+    noise).
     """
-    pb.set_transition_durations(start)
-    sim = pb.simulate(start)
+    pb.set_transition_durations(values)
+    sim = pb.simulate(values)
     pb.set_residual_weights(sim, channel_floors(pb, sim))
+
+
+def _final_fit(pb: Problem, start: Mapping[str, float], policy: Policy) -> Fit:
+    """Fit the baseline with the record's free instrument terms from ``start``.
+
+    The problem's state is set by ``start`` first (:func:`_final_setting`).
+    """
+    _final_setting(pb, start)
     one = Ensemble([pb])
-    if not fit:
-        return Fit(dict(one.join([start])), math.nan, 0, True, {})
     return one.fit(one.specs(), one.join([start]), max_nfev=policy.fit_nfev)
 
 
