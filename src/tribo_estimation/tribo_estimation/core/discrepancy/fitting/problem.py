@@ -739,20 +739,31 @@ class Problem:
     def _segment_residuals(self, sim: SimulatedRecord) -> FloatArray:
         """Weighted residuals per channel (rows) and sample (NaN where not covered).
 
-        The channels of :meth:`residual_vector` (each with its mains lines taken out),
-        in the record's sample order, so that they can be summed per segment.
+        The channels of :meth:`residual_vector` in the record's sample order, so that
+        they can be summed per segment.
         """
         cov = sim.covered
-        out = []
+        parts = self._weighted_parts(sim)
+        out = np.full((len(parts), cov.size), np.nan)
+        for row, part in zip(out, parts, strict=True):
+            row[cov] = part
+        return out
+
+    def _weighted_parts(self, sim: SimulatedRecord) -> list[FloatArray]:
+        """Return per weighted channel its residual times its weight over the covered samples.
+
+        Measured minus simulated, each channel's mains lines taken out
+        (:meth:`without_lines`); NaN where the simulation diverged.
+        """
+        cov = sim.covered
+        parts = []
         for c in CHANNELS:
             w = self.weights.get(c, 0.0)
-            if not w > 0:
-                continue
-            row = np.full(cov.size, np.nan)
-            src = 'angular_acceleration' if c == 'chamber_speed' else c
-            row[cov] = w * self.without_lines(src, self._meas[c][cov] - sim.channel(c)[cov], cov)
-            out.append(row)
-        return np.asarray(out)
+            if w > 0:
+                r = self._meas[c][cov] - sim.channel(c)[cov]
+                src = 'angular_acceleration' if c == 'chamber_speed' else c
+                parts.append(w * self.without_lines(src, r, cov))
+        return parts
 
     def set_transition_durations(
         self, values: Mapping[str, float]
@@ -1141,15 +1152,7 @@ class Problem:
         FloatArray
             Residuals times channel weights [-] (a diverged simulation gives 1e3).
         """
-        cov = sim.covered
-        parts = []
-        for c in CHANNELS:
-            w = self.weights.get(c, 0.0)
-            if w > 0:
-                r = self._meas[c][cov] - sim.channel(c)[cov]
-                src = 'angular_acceleration' if c == 'chamber_speed' else c
-                parts.append(w * self.without_lines(src, r, cov))
-        v = np.concatenate(parts)
+        v = np.concatenate(self._weighted_parts(sim))
         # a diverged simulation (NaN) is a very bad fit, not a crash of the optimiser
         return np.where(np.isfinite(v), v, 1e3)
 
