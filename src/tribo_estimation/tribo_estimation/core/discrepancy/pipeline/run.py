@@ -391,8 +391,9 @@ def find_missing_physics(
                     reason=f'{decision.reason}; the time budget ended before '
                     f'{", ".join(sorted(wanted - screened))} were fitted',
                 )
-            stalled = decision.kind == UNEXPLAINED and bool(added) and not decision.partial
-            decision = carried(decision, [(f, added_to[f.family]) for f in added], laws)
+            # a round that only carries the kept forms ends the search
+            kept = carried(decision, [(f, added_to[f.family]) for f in added], laws)
+            stalled, decision = kept is not decision, kept
             rounds.append(tuple(_effect(f, ens, current, laws) for f in fits))
             say(f'round {rnd + 1}: {decision.kind}: {decision.reason}')
             if decision.kind in (NAMED, CANNOT_TELL_APART) or stalled:
