@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import chi2
@@ -63,6 +64,9 @@ from ..fitting import (
 from ..stats import noise_floor
 from .ensemble import Ensemble, Fit, own
 from .policy import Policy, Progress
+
+if TYPE_CHECKING:
+    from .null import Adequacy
 
 
 @dataclass(frozen=True)
@@ -381,11 +385,11 @@ def fit_record_baseline(
         # channels on this record (the screen's channel weights are not the final
         # fit's, and under them the refit can leave the earlier valley of k)
         start = {**values, **{n: float(previous[n]) for n in values if n in previous}}
-        noise = _white(pb, values)
-        left = _judged(pb, values, noise)
-        if _judged(pb, start, noise) < left:
+        ref = _adequacy(pb, values)
+        left = _judged(ref, ref)
+        if _judged(_adequacy(pb, start), ref) < left:
             again = _final_fit(pb, start, policy)
-            if _judged(pb, one.split(again.values)[0], noise) < left:
+            if _judged(_adequacy(pb, one.split(again.values)[0]), ref) < left:
                 fo, values = again, one.split(again.values)[0]
             else:
                 _final_setting(pb, values)
@@ -437,41 +441,33 @@ def _final_fit(pb: Problem, start: Mapping[str, float], policy: Policy) -> Fit:
     return one.fit(one.specs(), one.join([start]), max_nfev=policy.fit_nfev)
 
 
-def _white(pb: Problem, values: Mapping[str, float]) -> dict[str, float]:
-    """Return the judged channels' white noise on a model's residuals [unit]."""
-    from .noise import measure_noise
-    from .null import raw_residuals
-
-    sim = pb.simulate(values)
-    noise = measure_noise(raw_residuals(pb, sim), sim.covered)
-    return {c: noise.channel(c).white for c in _JUDGED}
-
-
 #: The channels whose residuals choose between two fits of a baseline (the ones the
 #: adequacy statistics judge, :data:`.null.STATISTICS`).
 _JUDGED: tuple[str, ...] = ('torsion_moment', 'speed')
 
 
-def _judged(pb: Problem, values: Mapping[str, float], noise: Mapping[str, float]) -> float:
-    """Return the summed mean squares of the judged channels' residuals over ``noise`` [-].
+def _adequacy(pb: Problem, values: Mapping[str, float]) -> Adequacy:
+    """Return a model's adequacy statistics on the record (:func:`.null.adequacy`)."""
+    from .null import adequacy
 
-    Each channel's residual (mains lines out, :func:`.null.raw_residuals`) over the
-    simulated samples, divided by one white noise level per channel [unit] that both
-    fits compared are divided by: free of the fit's channel weights, and of a noise
-    level measured on each fit's own residual (a residual far off its record moves
-    its second differences too).
+    return adequacy(pb, pb.simulate(values))
+
+
+def _judged(fit: Adequacy, ref: Adequacy) -> float:
+    """Return the summed mean squares of a fit's judged residuals over ``ref``'s noise [-].
+
+    Each judged channel's residual rms (its statistic times the white noise it was
+    divided by) over the white noise of ``ref``, one level per channel that both fits
+    compared are divided by: free of the fit's channel weights, and of a noise level
+    measured on each fit's own residual (a residual far off its record moves its
+    second differences too).
     """
-    from .null import raw_residuals
-
-    sim = pb.simulate(values)
-    res = raw_residuals(pb, sim)
-    cov = sim.covered
     total = 0.0
     for c in _JUDGED:
-        r = res[c][cov]
-        r = r[np.isfinite(r)]
-        if r.size and noise[c] > 0.0:
-            total += float(np.mean(r * r)) / noise[c] ** 2
+        rms = fit[c] * fit.noise.channel(c).white
+        noise = ref.noise.channel(c).white
+        if math.isfinite(rms) and noise > 0.0:
+            total += (rms / noise) ** 2
     return total
 
 
