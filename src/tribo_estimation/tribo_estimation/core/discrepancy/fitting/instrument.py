@@ -856,24 +856,20 @@ def _stick_offset(
     phase both sides are smooth (no switching jump between samples), so their
     difference is the sensor's offset plus noise. Mean over the samples whose pair
     window lies inside a phase, standard error cluster-robust over the phases
-    [rad/s^2] (NaN with fewer than two phases).
+    (:func:`_cluster_lstsq`) [rad/s^2] (NaN with fewer than two phases).
     """
-    inside = np.zeros(n, dtype=bool)
-    for a, b in zip(*sticks, strict=True):
+    phase = np.full(n, -1, dtype=np.int64)
+    for j, (a, b) in enumerate(zip(*sticks, strict=True)):
         if b - 2 * h > a + 2 * h:
-            inside[a + 2 * h : b - 2 * h] = True
-    m = inside[h : n - h]
-    if not m.any():
+            phase[a + 2 * h : b - 2 * h] = j
+    phase = phase[h : n - h]
+    m = phase >= 0
+    if np.unique(phase[m]).size < 2:
         return math.nan, math.nan
-    phase = np.cumsum(np.diff(inside.astype(np.int8), prepend=np.int8(0)) == 1)[h : n - h][m]
-    r = k_a[m] - gain * d[m]
-    labels, inv, cnt = np.unique(phase, return_inverse=True, return_counts=True)
-    if labels.size < 2:
+    fit = _cluster_lstsq(np.ones((int(m.sum()), 1)), k_a[m] - gain * d[m], phase[m])
+    if fit is None:
         return math.nan, math.nan
-    means = np.bincount(inv, weights=r) / cnt
-    b = float(np.sum(means * cnt) / cnt.sum())
-    se = float(np.sqrt(np.sum((cnt * (means - b)) ** 2)) / cnt.sum())
-    return b, se * math.sqrt(labels.size / (labels.size - 1))
+    return float(fit[0][0]), float(fit[1][0])
 
 
 def identify_accel_sensor(
@@ -1341,7 +1337,7 @@ def identify_hum(
         return Hum()
     fs = (time.size - 1) / span
     tests = [
-        (c, k * fm)
+        (c, fm, k)
         for c in HUM_CHANNELS
         for fm in MAINS_HZ
         for k in range(1, MAINS_HARMONICS + 1)
@@ -1385,25 +1381,18 @@ def identify_hum(
         if fm in known:
             grid = known[fm]
         else:
-            mine = [(q, c, f) for c, f in tests if _harmonic(f, fm) and (q := significant(c, f))]
+            mine = [(q, c, k) for c, g, k in tests if g == fm and (q := significant(c, k * fm))]
             if not mine:
                 continue
-            _, c0, f0 = max(mine)
-            grid = _grid_frequency(time, residuals[c0], f0, span) / _harmonic(f0, fm)
-        for c, f in tests:
-            k = _harmonic(f, fm)
-            if k and significant(c, k * grid):
+            _, c0, k0 = max(mine)
+            grid = _grid_frequency(time, residuals[c0], k0 * fm, span) / k0
+        for c, g, k in tests:
+            if g == fm and significant(c, k * grid):
                 r = residuals[c]
                 ok = np.isfinite(r)
                 amp, phase = _line(time[ok], r[ok] - float(np.mean(r[ok])), k * grid)
                 lines.append((c, k * grid, amp, phase))
     return Hum(tuple(lines))
-
-
-def _harmonic(f: float, fm: float) -> int:
-    """Return the harmonic number of a tested line ``f`` of mains ``fm`` (0: not its)."""
-    k = round(f / fm)
-    return k if 1 <= k <= MAINS_HARMONICS and abs(f - k * fm) < 1e-9 * f else 0
 
 
 def _grid_frequency(time: FloatArray, r: FloatArray, f: float, span: float) -> float:
