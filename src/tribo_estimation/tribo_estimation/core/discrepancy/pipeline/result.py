@@ -242,7 +242,12 @@ class MissingPhysics:
         return len(self.records) > 1
 
     def finding(self) -> str:
-        """Return the verdict in one line (named effects with their values, or the set)."""
+        """Return the verdict in one line.
+
+        Named effects come with their values, a set with the experiment that would
+        decide; an unexplained set with each member's own torque residual rms and the
+        share of the excess it explains.
+        """
         rms = ', '.join(f'{r.rms_baseline:.3g} -> {r.rms_final:.3g}' for r in self.records)
         tail = f'; torque residual RMS {rms} N m'
         if self.verdict == NAMED:
@@ -257,8 +262,16 @@ class MissingPhysics:
         if self.alternatives:
             names = ', '.join(e.family for e in self.alternatives)
             extra = f'; {self.experiment} would decide' if self.experiment else ''
-            what = 'cannot tell apart' if self.verdict == CANNOT_TELL_APART else 'not explained'
-            return f'{what}: {{{names}}}{extra}{tail}'
+            if self.verdict == CANNOT_TELL_APART:
+                return f'cannot tell apart: {{{names}}}{extra}{tail}'
+            # nothing is added to the model: each member's own residual says how far it gets
+            base = ', '.join(f'{r.rms_baseline:.3g}' for r in self.records)
+            reach = ''.join(
+                f'; with {e.family} {", ".join(f"{v:.3g}" for v in e.rms)} '
+                f'({100 * e.explained:.0f} % of the excess)'
+                for e in self.alternatives
+            )
+            return f'not explained: {{{names}}}{extra}; torque residual RMS {base} N m{reach}'
         return f'{self.verdict.replace("_", " ")}: {self.reason}{tail}'
 
     def summary(self) -> dict[str, object]:
