@@ -295,6 +295,8 @@ class Problem:
         #: the speed channel's error at the sticks [rad/s] and its integral [rad], per
         #: sensor lag
         self._speed_errors: dict[float, FloatArray] = {}
+        #: the mains lines' basis last used (:meth:`_line_basis`)
+        self._lines_cache: dict[tuple[float, ...], tuple[npt.NDArray[np.bool_], FloatArray]] = {}
         self._drift_angles: dict[float, FloatArray] = {}
         self._shaft_angle = running_integral(sp, record.dt)
         self._knots = DriveKnots.from_estimate(self.drive_estimate)
@@ -1217,17 +1219,32 @@ class Problem:
         freqs = self.hum_lines.get(channel, ())
         if not freqs or residual.size < 4 * len(freqs) + 1:
             return residual
+        if not np.all(np.isfinite(residual)):
+            return residual
+        q = self._line_basis(freqs, covered)
+        return np.asarray(residual - q @ (q.T @ residual), dtype=np.float64)
+
+    def _line_basis(self, freqs: tuple[float, ...], covered: npt.NDArray[np.bool_]) -> FloatArray:
+        """Return an orthonormal basis of the sines and cosines at ``freqs`` [Hz].
+
+        Over the ``covered`` samples; projecting on it is the least-squares fit of
+        the lines (the left singular vectors above ``numpy.linalg.lstsq``'s default
+        cut-off: lines closer than the record resolves count once). The basis per
+        set of frequencies is kept for the samples it was last asked for.
+        """
+        last = self._lines_cache.get(freqs)
+        if last is not None and np.array_equal(last[0], covered):
+            return last[1]
         t = self.record.time[covered]
         cols: list[FloatArray] = []
         for f in freqs:
             w = 2.0 * math.pi * f * t
             cols.extend((np.sin(w), np.cos(w)))
-        X = np.column_stack(cols)
-        ok = np.isfinite(residual)
-        if not np.all(ok):
-            return residual
-        coef, *_ = np.linalg.lstsq(X, residual, rcond=None)
-        return np.asarray(residual - X @ coef, dtype=np.float64)
+        u, sv, _ = np.linalg.svd(np.column_stack(cols), full_matrices=False)
+        keep = sv > sv[0] * np.finfo(float).eps * max(t.size, len(cols))
+        q = np.ascontiguousarray(u[:, keep])
+        self._lines_cache[freqs] = (covered.copy(), q)
+        return q
 
     # --------------------------------------------------------------------- fit
     def fit(
