@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -306,3 +308,22 @@ def test_the_corners_of_many_transitions_are_placed_to_the_angles() -> None:
         assert np.min(np.abs(out.knot_time - corner)) < 1e-3, corner
     grid = np.arange(0.05, 5.95, 0.01)
     assert np.max(np.abs(out.speed(grid) - np.interp(grid, knots_t, knots_v))) < 0.01
+
+
+def test_the_profile_angle_is_the_integral_of_its_speed() -> None:
+    """Over a profile with a raised-cosine and a linear piece and beyond both ends, the
+    angle from the first knot is the trapezoidal integral of the speed on a 10 us grid
+    (to 1e-9 rad), zero at the first knot."""
+    from tribo_estimation.core.drive import COSINE, DriveEstimate
+
+    d = DriveEstimate(
+        np.array([0.0, 1.0, 1.5, 3.0]), np.array([1.0, 1.0, 3.0, 2.0]), math.nan, 1.0,
+        math.nan, shape=np.array([0.0, COSINE, 0.0, 0.0]),
+    )  # fmt: skip
+    t = np.linspace(-0.5, 3.5, 400_001)
+    w = d.speed(t)
+    swept = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))))
+    angle = d.angle(t)
+    assert np.max(np.abs(angle - (swept + angle[0]))) < 1e-9
+    assert float(d.angle(0.0)) == 0.0
+    assert angle[0] == pytest.approx(-0.5, abs=1e-12)

@@ -146,6 +146,33 @@ class DriveEstimate:
             w = np.where(inside, self.knot_speed[j] + dv * _cosine_rise(f), w)
         return w
 
+    def angle(self, t: npt.ArrayLike) -> FloatArray:
+        """Drive angle from the first knot, the integral of :meth:`speed` [rad].
+
+        A raised-cosine piece has its ends' mean speed, as a linear one; the kernel's
+        angle-locked ripple (:data:`..kernel.P_RIPA_ANGLE0`) counts from the same knot.
+        """
+        tt = np.asarray(t, dtype=np.float64)
+        tk, vk = self.knot_time, self.knot_speed
+        if tk.size < 2:
+            return np.asarray(float(vk[0]) * (tt - float(tk[0])), dtype=np.float64)
+        at_knot = np.concatenate(([0.0], np.cumsum(0.5 * (vk[1:] + vk[:-1]) * np.diff(tk))))
+        j = np.clip(np.searchsorted(tk, tt, side='right') - 1, 0, tk.size - 2)
+        s = tt - tk[j]
+        h = np.maximum(tk[j + 1] - tk[j], 1e-12)
+        dv = vk[j + 1] - vk[j]
+        inside = (tt >= tk[0]) & (tt <= tk[-1])
+        cos = self.shapes()[j] == COSINE
+        rise = np.where(
+            cos,
+            0.5 * dv * (s - h / np.pi * np.sin(np.pi * s / h)),
+            0.5 * dv / h * s * s,
+        )
+        out = np.where(inside, at_knot[j] + vk[j] * s + rise, 0.0)
+        out = np.where(tt < tk[0], vk[0] * (tt - tk[0]), out)
+        out = np.where(tt > tk[-1], at_knot[-1] + vk[-1] * (tt - tk[-1]), out)
+        return np.asarray(out, dtype=np.float64)
+
     def rate(self, t: npt.ArrayLike) -> FloatArray:
         """dw0/dt [rad/s^2] of the piece holding t (the later piece at a knot)."""
         tt = np.asarray(t, dtype=np.float64)

@@ -207,6 +207,9 @@ class Extensions:
       with ``delta = 1 + stribeck_shape`` (0: Equ. 8). Must be > -1.
     - ``ripple2_amp`` [rad/s], ``ripple2_phase`` [rad]: the ripple's second harmonic,
       ``w0 += A_2*sin(4 pi f t + p_2)``.
+    - ``ripple_rel`` [-], ``ripple_order`` [-], ``ripple_angle_phase`` [rad]: drive speed
+      ripple locked to the drive angle theta (``n`` = ``ripple_order`` per revolution),
+      ``w0 += r*w_n*sin(n*theta + p)`` (``w_n`` the ripple-free drive speed).
     - ``stiction_log`` [-]: logarithmic dwell-time stiction,
       ``mu_s += b*ln(1 + t_stick/stiction_tau)``.
     - ``bearing_moment`` [N m]: Coulomb moment of the chamber support, regularised as
@@ -240,6 +243,9 @@ class Extensions:
     stiction_log: float = 0.0
     torque_thermal: float = 0.0
     torque_thermal_tau: float = 0.0
+    ripple_rel: float = 0.0
+    ripple_order: float = 0.0
+    ripple_angle_phase: float = 0.0
 
     def __post_init__(self) -> None:
         """Check that every value is finite and the time constants >= 0."""
@@ -249,6 +255,7 @@ class Extensions:
             'lag_tau',
             'viscous',
             'ripple_freq',
+            'ripple_order',
             'bearing_moment',
             'torque_lag_tau',
             'torque_thermal_tau',
@@ -363,6 +370,10 @@ def pack_params(
     p[kn.P_SHAPE] = ext.stribeck_shape
     p[kn.P_RIP2_AMP] = ext.ripple2_amp
     p[kn.P_RIP2_PHASE] = ext.ripple2_phase
+    if ext.ripple_order > 0.0:  # a ripple locked to the drive angle needs an order
+        p[kn.P_RIPA_REL] = ext.ripple_rel
+        p[kn.P_RIPA_ORDER] = ext.ripple_order
+        p[kn.P_RIPA_PHASE] = ext.ripple_angle_phase
     p[kn.P_ST_LOG] = ext.stiction_log
     return p
 

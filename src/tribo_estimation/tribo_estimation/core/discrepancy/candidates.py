@@ -85,7 +85,8 @@ class StartContext:
     Arrays are the baseline's residuals (measured - simulated) over the whole
     record: ``torque`` (N m), ``speed`` (rad/s); ``time`` (s), ``fs`` (Hz);
     ``nominal_speed`` (rad/s); ``stick_durations`` (s, complete stick phases of
-    the baseline simulation); ``drive_frequencies`` (Hz) lines to avoid or use.
+    the baseline simulation); ``friction_moment_scale`` (N m); ``drive_angle`` (rad,
+    the drive profile's angle at ``time`` from its first knot).
     """
 
     time: FloatArray
@@ -95,6 +96,7 @@ class StartContext:
     nominal_speed: float
     stick_durations: FloatArray
     friction_moment_scale: float
+    drive_angle: FloatArray
 
 
 StartFn = Callable[[StartContext], list[dict[str, float]]]

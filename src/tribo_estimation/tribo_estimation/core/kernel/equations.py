@@ -43,6 +43,10 @@ from .layout import (
     P_RIP_AMP,
     P_RIP_FREQ,
     P_RIP_PHASE,
+    P_RIPA_ANGLE0,
+    P_RIPA_ORDER,
+    P_RIPA_PHASE,
+    P_RIPA_REL,
     P_SHAPE,
     P_ST_GAIN,
     P_ST_LOG,
@@ -77,7 +81,8 @@ def drive_speed(p: FloatArray, t: float) -> float:
     A linear start-up ramp to the nominal speed (``P_RAMP`` > 0), else one piece
     ``w0 + rate*(t - t_ref) + c*cos(om*(t - t_ref))`` of a measured drive profile
     (``c`` = ``P_W0_COS``, 0 for a linear piece; a raised-cosine piece has rate 0);
-    plus the ripple.
+    plus the ripple in time (``P_RIP_*``) and the ripple locked to the drive angle
+    (``P_RIPA_*``, :mod:`.layout`).
 
     Parameters
     ----------
@@ -91,17 +96,12 @@ def drive_speed(p: FloatArray, t: float) -> float:
     float
         w0(t) [rad/s].
     """
-    w0n = p[P_W0]
-    tr = p[P_RAMP]
-    if tr > 0.0:
-        w = w0n * (t / tr if t < tr else 1.0)
-        if t < 0.0:
-            w = 0.0
-    else:  # one piece of a measured drive profile (rate 0: constant)
-        w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
-        c = p[P_W0_COS]
-        if c != 0.0:
-            w += c * math.cos(p[P_W0_OMEGA] * (t - p[P_T_DRIVE]))
+    wn = piece_speed(p, t)
+    w = wn
+    rel = p[P_RIPA_REL]
+    if rel != 0.0:
+        theta = piece_angle(p, t) + p[P_RIPA_ANGLE0]
+        w += rel * wn * math.sin(p[P_RIPA_ORDER] * theta + p[P_RIPA_PHASE])
     amp = p[P_RIP_AMP]
     if amp != 0.0:
         w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
@@ -117,22 +117,33 @@ def drive_speed(p: FloatArray, t: float) -> float:
     fastmath=FASTMATH,
     inline='always',
 )
-def drive_angle(p: FloatArray, t: float) -> float:
-    """Return the drive angle phi0(t) = integral_0^t w0 dt' [rad].
+def piece_speed(p: FloatArray, t: float) -> float:
+    """Return the ripple-free drive speed of the ramp or the profile's piece [rad/s]."""
+    w0n = p[P_W0]
+    tr = p[P_RAMP]
+    if tr > 0.0:
+        w = w0n * (t / tr if t < tr else 1.0)
+        if t < 0.0:
+            w = 0.0
+    else:  # one piece of a measured drive profile (rate 0: constant)
+        w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
+        c = p[P_W0_COS]
+        if c != 0.0:
+            w += c * math.cos(p[P_W0_OMEGA] * (t - p[P_T_DRIVE]))
+    return float(w)
 
-    Closed form of :func:`drive_speed`.
 
-    Parameters
-    ----------
-    p : FloatArray
-        Parameter vector (length ``NP``, indices ``P_*``).
-    t : float
-        Test time [s].
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath=FASTMATH,
+    inline='always',
+)
+def piece_angle(p: FloatArray, t: float) -> float:
+    """Return the integral from 0 to t of :func:`piece_speed` [rad].
 
-    Returns
-    -------
-    float
-        phi0(t) [rad].
+    The piece's own angle: :data:`.layout.P_RIPA_ANGLE0` added makes it the drive
+    angle from the profile's first knot.
     """
     w0n = p[P_W0]
     tr = p[P_RAMP]
@@ -151,6 +162,39 @@ def drive_angle(p: FloatArray, t: float) -> float:
         if c != 0.0:
             om0 = p[P_W0_OMEGA]
             a += c / om0 * (math.sin(om0 * (t - tref)) + math.sin(om0 * tref))
+    return float(a)
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath=FASTMATH,
+    inline='always',
+)
+def drive_angle(p: FloatArray, t: float) -> float:
+    """Return the drive angle phi0(t) = integral_0^t w0 dt' [rad].
+
+    Closed form of :func:`drive_speed`; the ripple locked to the drive angle adds
+    ``r/n*(cos p - cos(n*theta + p))`` (its integral over ``d theta = w_n dt``).
+
+    Parameters
+    ----------
+    p : FloatArray
+        Parameter vector (length ``NP``, indices ``P_*``).
+    t : float
+        Test time [s].
+
+    Returns
+    -------
+    float
+        phi0(t) [rad].
+    """
+    a = piece_angle(p, t)
+    rel = p[P_RIPA_REL]
+    n = p[P_RIPA_ORDER]
+    if rel != 0.0 and n > 0.0:
+        ph = p[P_RIPA_PHASE]
+        a += rel / n * (math.cos(ph) - math.cos(n * (a + p[P_RIPA_ANGLE0]) + ph))
     amp = p[P_RIP_AMP]
     f = p[P_RIP_FREQ]
     if amp != 0.0 and f > 0.0:
@@ -351,7 +395,7 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     float
         Q2 [N m].
     """
-    if p[P_RIP_AMP] != 0.0:
+    if p[P_RIP_AMP] != 0.0 or p[P_RIPA_REL] != 0.0:
         w0 = drive_speed(p, t)
         phi0 = drive_angle(p, t)
     else:  # fast path without the ripple: same formulas as drive_speed/drive_angle

@@ -93,7 +93,17 @@ P_ST_LOG = 29
 #: -(v_b - v_a)/2`` [rad/s] and ``P_W0_OMEGA = pi/h`` [rad/s] (ramp time 0 only).
 P_W0_COS = 30
 P_W0_OMEGA = 31
-NP = 32
+#: A drive-speed ripple locked to the drive angle (a gear mesh, a coupling or a pulley
+#: out of round): ``w0 += r*w_n(t)*sin(n*theta + p)`` with ``r`` = ``P_RIPA_REL`` [-],
+#: ``n`` = ``P_RIPA_ORDER`` (per revolution) [-], ``p`` = ``P_RIPA_PHASE`` [rad] and
+#: ``theta`` the ripple-free drive angle from the profile's first knot [rad], which is
+#: the piece's own angle plus ``P_RIPA_ANGLE0`` [rad] (set per piece by
+#: :func:`tribo_estimation.core.shooting._piece_params`; 0 for a start-up ramp).
+P_RIPA_REL = 32
+P_RIPA_ORDER = 33
+P_RIPA_PHASE = 34
+P_RIPA_ANGLE0 = 35
+NP = 36
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``

@@ -98,8 +98,19 @@ from .segments import (
 #: keeps one placement of its corners (:meth:`Problem._fit_drive`).
 _REPLACE_LAG = 1e-4
 _REPLACE_OFFSET = 1e-2
-#: No drive ripple (amplitude, frequency, phase, second harmonic's amplitude, phase).
-_NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0)
+#: No drive ripple (amplitude, frequency, phase, second harmonic's amplitude, phase;
+#: the angle-locked ripple's relative amplitude, order, phase).
+_NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+def _ripple_of(ext: Extensions) -> tuple[float, ...]:
+    """Return the model's drive ripple in the order of :data:`_NO_RIPPLE`."""
+    return (
+        ext.ripple_amp, ext.ripple_freq, ext.ripple_phase, ext.ripple2_amp, ext.ripple2_phase,
+        ext.ripple_rel, ext.ripple_order, ext.ripple_angle_phase,
+    )  # fmt: skip
+
+
 #: Fewest drive angles the profile is fitted to [-] (fewer: the smoothed speed).
 _MIN_ANGLES = 20
 #: Durations a transition's search tries (:meth:`Problem.set_transition_durations`),
@@ -554,7 +565,7 @@ class Problem:
             float(values.get('speed_lag_tau', 0.0)),
             float(values.get('speed_offset', 0.0)),
             float(values.get('speed_lag_shape', 0.0)),
-            (ext.ripple_amp, ext.ripple_freq, ext.ripple_phase, ext.ripple2_amp, ext.ripple2_phase),
+            _ripple_of(ext),
             (ext.torque_offset, ext.torque_offset_drift),
         )
         dk = self._knots
@@ -831,8 +842,9 @@ class Problem:
             chosen.append((mid, best_d))
         self.durations = tuple(chosen)
         if self.drive_estimate is not drive:  # the trials left theirs: the cell's, timed
-            key = self._instrument
-            self._fit_drive(key[0], key[1], key[3:8], (key[8], key[9]))
+            key = self._instrument  # (tau, offset, shape, *ripple, *torque)
+            end = 3 + len(_NO_RIPPLE)
+            self._fit_drive(key[0], key[1], key[3:end], (key[end], key[end + 1]))
         return self.durations
 
     def _durations_cost(
@@ -867,7 +879,7 @@ class Problem:
         tau: float,
         offset: float,
         shape: float = 0.0,
-        ripple: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0),
+        ripple: tuple[float, ...] = _NO_RIPPLE,
         torque: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         """Invert the speed sensor (lag ``tau`` [s], offset [rad/s]) at the segment starts.
@@ -893,7 +905,8 @@ class Problem:
             The sensor's second order (:data:`.records.SPEED_SHAPE`) [-].
         ripple : tuple of float
             The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad],
-            second harmonic's amplitude [rad/s] and phase [rad]).
+            second harmonic's amplitude [rad/s] and phase [rad]; the angle-locked
+            ripple's relative amplitude [-], order [-] and phase [rad]).
         torque : tuple of float
             The model's torque offset [N m] and drift [N m/s].
         """
@@ -996,7 +1009,8 @@ class Problem:
             Speed-sensor offset [rad/s].
         ripple : tuple of float
             Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad], second
-            harmonic's amplitude [rad/s] and phase [rad]).
+            harmonic's amplitude [rad/s] and phase [rad]; the angle-locked ripple's
+            relative amplitude [-], order [-] and phase [rad]).
         torque : tuple of float
             Torque offset [N m] and drift [N m/s].
         drive : DriveEstimate
@@ -1041,7 +1055,7 @@ class Problem:
             + tau * (y - float(self._smooth_speed[0]))
             - self._drift_angle(tau)[j]
         )
-        amp, freq, phase, amp2, phase2 = ripple
+        amp, freq, phase, amp2, phase2, rel, order, aphase = ripple
         ripple_angle = np.zeros_like(t)
         if amp2 != 0.0 and freq > 0.0:  # the second harmonic's angle (kernel.drive_angle)
             om2 = 4.0 * math.pi * freq
@@ -1060,9 +1074,15 @@ class Problem:
         # step over 150 ms, so its angles bias the corners: they are placed again
         # (locally) with the angles of the first placement
         for it in range(2):
-            defl = -(q2 + rig.K2 * (w - drive.speed(t))) / rig.C2
+            w0 = drive.speed(t)
+            locked = np.zeros_like(t)
+            if rel != 0.0 and order > 0.0:  # kernel.drive_angle, on the profile's angle
+                theta = order * drive.angle(t) + aphase
+                w0 = w0 * (1.0 + rel * np.sin(theta))
+                locked = rel / order * (math.cos(aphase) - np.cos(theta))
+            defl = -(q2 + rig.K2 * (w - w0)) / rig.C2
             drive = refine_with_angles(
-                drive, t, phi2 - defl - ripple_angle, hints, place=place,
+                drive, t, phi2 - defl - ripple_angle - locked, hints, place=place,
                 start_speed=start, keep_corners=local or it > 0,
                 prior=self._drive_speed0,
             )  # fmt: skip

@@ -169,7 +169,8 @@ def start_context(ens: Ensemble, current: Model) -> StartContext:
     Returns
     -------
     StartContext
-        Residuals, drive speed level, stick durations and the friction-moment scale.
+        Residuals, drive speed level and angle, stick durations and the
+        friction-moment scale.
     """
     pb = ens.problems[0]
     sim = pb.simulate(ens.split(current.values)[0])
@@ -184,6 +185,7 @@ def start_context(ens: Ensemble, current: Model) -> StartContext:
         nominal_speed=pb.drive_estimate.level,
         stick_durations=stick_durations(stick[cov], rec.fs),
         friction_moment_scale=float(np.median(np.abs(rec.torsion_moment))),
+        drive_angle=pb.drive_estimate.angle(rec.time[cov]),
     )
 
 
