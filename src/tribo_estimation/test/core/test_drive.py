@@ -327,3 +327,18 @@ def test_the_profile_angle_is_the_integral_of_its_speed() -> None:
     assert np.max(np.abs(angle - (swept + angle[0]))) < 1e-9
     assert float(d.angle(0.0)) == 0.0
     assert angle[0] == pytest.approx(-0.5, abs=1e-12)
+
+
+def test_a_duration_with_a_shape_shapes_its_pair_only() -> None:
+    from tribo_estimation.core.drive import COSINE, transitions
+
+    drive = _stepped([0.0, 1.0, 1.03, 1.5, 3.0])
+    assert transitions(drive) == [1]
+    # the pair 1.0-1.03 s becomes a raised cosine of 20 ms about its mid-time; the other
+    # pieces stay linear, the speeds are kept
+    d = with_durations(drive, ((1.015, 0.02, COSINE),))
+    assert d.knot_time == pytest.approx([0.0, 1.005, 1.025, 1.5, 3.0], abs=1e-12)
+    assert d.shapes().tolist() == [0.0, COSINE, 0.0, 0.0, 0.0]
+    assert np.array_equal(d.knot_speed, drive.knot_speed)
+    # and back to a line
+    assert with_durations(d, ((1.015, 0.02, 0.0),)).shapes().tolist() == [0.0] * 5

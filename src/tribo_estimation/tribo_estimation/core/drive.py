@@ -473,6 +473,7 @@ __all__ = [
     'cycle_groups',
     'estimate_drive',
     'tolerance',
+    'transitions',
     'untimed_transitions',
     'with_durations',
 ]
@@ -1415,6 +1416,42 @@ TRANSITION_MAX = 2.0 * SMOOTH_TIME
 _TIMED_ANGLES = 3
 
 
+def transitions(drive: DriveEstimate) -> list[int]:
+    """Return the transitions of a placed profile: adjacent interior knots close together.
+
+    A transition is a pair of adjacent interior knots at most :data:`TRANSITION_MAX`
+    apart (a speed step, the end of a start-up or a stop); pairs do not overlap.
+
+    Parameters
+    ----------
+    drive : DriveEstimate
+        The placed profile.
+
+    Returns
+    -------
+    list of int
+        The index of each transition's first knot.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = DriveEstimate(np.array([0.0, 1.0, 1.03, 1.5, 3.0]),
+    ...                   np.array([2.0, 2.0, 1.0, 1.0, 1.0]), float('nan'), 1.5, float('nan'))
+    >>> transitions(d)
+    [1]
+    """
+    tk = drive.knot_time
+    out: list[int] = []
+    j = 1
+    while j + 2 < tk.size:
+        if float(tk[j + 1] - tk[j]) <= TRANSITION_MAX:
+            out.append(j)
+            j += 2
+            continue
+        j += 1
+    return out
+
+
 def untimed_transitions(drive: DriveEstimate, angle_times: FloatArray) -> list[int]:
     """Return the transitions whose duration the drive angles leave open.
 
@@ -1453,23 +1490,22 @@ def untimed_transitions(drive: DriveEstimate, angle_times: FloatArray) -> list[i
     return out
 
 
-def with_durations(
-    drive: DriveEstimate, durations: tuple[tuple[float, float], ...]
-) -> DriveEstimate:
+def with_durations(drive: DriveEstimate, durations: tuple[tuple[float, ...], ...]) -> DriveEstimate:
     """Return the profile with transitions of the given durations at their mid-times.
 
-    Each ``(mid-time, duration)`` applies to the pair of adjacent interior knots at
-    most :data:`TRANSITION_MAX` apart whose mid-time is nearest and within
-    :data:`SMOOTH_TIME` of it; the pair keeps its own mid-time (the drive angles')
-    and takes the duration, within its neighbouring knots less the shortest piece.
-    The knot speeds are kept.
+    Each ``(mid-time, duration)`` or ``(mid-time, duration, shape)`` applies to the
+    pair of adjacent interior knots at most :data:`TRANSITION_MAX` apart whose
+    mid-time is nearest and within :data:`SMOOTH_TIME` of it; the pair keeps its own
+    mid-time (the drive angles') and takes the duration, within its neighbouring
+    knots less the shortest piece, and the shape if one is given (0 linear,
+    :data:`COSINE`). The knot speeds are kept.
 
     Parameters
     ----------
     drive : DriveEstimate
         The placed profile.
-    durations : tuple of (float, float)
-        Mid-time [s] and duration [s] per transition.
+    durations : tuple of tuple of float
+        Mid-time [s], duration [s] and optionally shape [-] per transition.
 
     Returns
     -------
@@ -1485,10 +1521,11 @@ def with_durations(
     [0.0, 0.991, 1.011, 3.0]
     """
     tk = drive.knot_time.copy()
+    sk = drive.shapes().copy()
     if tk.size < 4:  # no interior pair of knots
         return drive
     changed = False
-    for mid, duration in durations:
+    for mid, duration, *shape in durations:
         j_all = np.arange(1, tk.size - 2)
         gap = tk[j_all + 1] - tk[j_all]
         mids = 0.5 * (tk[j_all] + tk[j_all + 1])
@@ -1502,5 +1539,11 @@ def with_durations(
         if half < 0.5 * MIN_PIECE:
             continue
         tk[j], tk[j + 1] = m - half, m + half
+        if shape:
+            sk[j] = shape[0]
         changed = True
-    return replace(drive, knot_time=tk) if changed else drive
+    if not changed:
+        return drive
+    if drive.shape is None and not sk.any():
+        return replace(drive, knot_time=tk)
+    return replace(drive, knot_time=tk, shape=sk)

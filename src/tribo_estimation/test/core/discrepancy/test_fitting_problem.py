@@ -250,9 +250,12 @@ def test_a_short_speed_step_is_timed_by_the_torsion_moment(
     prep = prepare(rec, rig, drv, k=TRUTH['k'], policy=pol)
     values = fit_record_baseline(prep, pol, quiet)
     pb = prep.problem
-    ((mid, duration),) = pb.durations
+    ((mid, duration, shape),) = pb.durations
     assert duration == pytest.approx(length, rel=0.1)
-    assert drive_report(pb)['timed_steps'] == [{'mid': mid, 'duration': duration, 'unit': 's'}]
+    assert shape == 0.0  # the generator's step is linear
+    assert drive_report(pb)['timed_steps'] == [
+        {'mid': mid, 'duration': duration, 'shape': 'linear', 'unit': 's'}
+    ]
     assert mid == pytest.approx(1.2 + 0.5 * length, abs=1e-3)
     sim = pb.simulate(values)
     r = rec.torsion_moment - sim.torsion_moment

@@ -26,8 +26,8 @@ regression's ``value``, and ``used`` with ``from`` when the baseline identified 
 accelerometer gain and offset, the stick kinematics' drift. ``drive`` the drive speed
 measured from the record (``level``, ``nominal`` [rad/s], ``mismatch`` [-], ``warning``,
 the profile's ``knot_time`` [s] / ``knot_speed`` [rad/s], the speed steps whose duration
-the torsion moment chose, ``timed_steps`` (``mid``, ``duration`` [s]), per time block
-``blocks``).
+and shape the torsion moment chose, ``timed_steps`` (``mid``, ``duration`` [s],
+``shape``: linear or raised cosine), per time block ``blocks``).
 """
 
 from __future__ import annotations

@@ -24,12 +24,14 @@ import numpy.typing as npt
 
 from tribo_estimation.core import kernel as kn
 from tribo_estimation.core.drive import (
+    COSINE,
     MIN_PIECE,
     SMOOTH_TIME,
     TRANSITION_MAX,
     DriveEstimate,
     estimate_drive,
     refine_with_angles,
+    transitions,
     untimed_transitions,
     with_durations,
 )
@@ -392,9 +394,9 @@ class Problem:
         self._sensor_start: tuple[FloatArray, FloatArray] = (self._speed_start, np.zeros(0))
         #: the drive profile placed once per speed-sensor cell (:meth:`_fit_drive`)
         self._placed: dict[tuple[int, int], DriveEstimate] = {}
-        #: durations of the transitions the angles leave open, (mid-time, duration) [s]
-        #: (:meth:`set_transition_durations`)
-        self.durations: tuple[tuple[float, float], ...] = ()
+        #: the transitions chosen by the torsion moment, (mid-time [s], duration [s],
+        #: shape [-]) (:meth:`set_transition_durations`)
+        self.durations: tuple[tuple[float, float, float], ...] = ()
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
@@ -780,20 +782,25 @@ class Problem:
 
     def set_transition_durations(
         self, values: Mapping[str, float]
-    ) -> tuple[tuple[float, float], ...]:
-        """Choose the duration of each drive transition that the angles leave open.
+    ) -> tuple[tuple[float, float, float], ...]:
+        """Choose the duration and shape of each drive transition by the torsion moment.
 
         The drive angles at the stick phases on either side of a speed step fix its
-        mid-time but not its duration (:func:`~tribo_estimation.core.drive.untimed_transitions`);
-        the belt moment ``C2*(phi0 - phi2) + K2*(w0 - w2)`` (Equ. 2) that drives the
-        shaft while it lasts does. Per such transition of the placed profile, the
+        mid-time; its duration and shape (linear or raised cosine) they fix only
+        through the angles of stick phases inside it, which may be few or none
+        (:func:`~tribo_estimation.core.drive.untimed_transitions`). The belt moment
+        ``C2*(phi0 - phi2) + K2*(w0 - w2)`` (Equ. 2) that drives the shaft while it
+        lasts decides them. Per transition of the placed profile
+        (:func:`~tribo_estimation.core.drive.transitions`), for either shape the
         duration whose model ``values`` fits the torsion moment of the segments
         spanning it best (least squares): a grid from the shortest piece
         (:data:`~tribo_estimation.core.drive.MIN_PIECE`) to the room between the
         neighbouring knots (at most
         :data:`~tribo_estimation.core.drive.TRANSITION_MAX`), then golden-section
-        steps around the best, at the mid-time the angles give. The durations hold
-        for every speed-sensor cell from then on (:attr:`durations`).
+        steps around the best, at the mid-time the angles give; a transition that
+        angles inside time keeps its placed duration and shape unless one of these
+        fits better. The choice holds for every speed-sensor cell from then on
+        (:attr:`durations`).
 
         Parameters
         ----------
@@ -802,8 +809,9 @@ class Problem:
 
         Returns
         -------
-        tuple of (float, float)
-            Mid-time [s] and duration [s] of each transition timed.
+        tuple of (float, float, float)
+            Mid-time [s], duration [s] and shape (0 linear,
+            :data:`~tribo_estimation.core.drive.COSINE`) of each transition.
         """
         self.durations = ()
         self._drive_stale()
@@ -814,10 +822,11 @@ class Problem:
         seg = self.segments
         rec = self.record
         angles = rec.time[np.concatenate((self._stick_samples, self._slip_samples))]
+        open_ = set(untimed_transitions(drive, angles))
         t_start = rec.time[seg.start]
         t_stop = rec.time[np.minimum(seg.stop, rec.time.size) - 1]
-        chosen: list[tuple[float, float]] = []
-        for j in untimed_transitions(drive, angles):
+        chosen: list[tuple[float, float, float]] = []
+        for j in transitions(drive):
             tk = drive.knot_time
             mid = 0.5 * float(tk[j] + tk[j + 1])
             room = min(mid - float(tk[j - 1]), float(tk[j + 2]) - mid)
@@ -826,20 +835,30 @@ class Problem:
             mask = (t_stop >= mid - 0.5 * longest) & (t_start <= mid + 0.5 * longest)
             if longest <= MIN_PIECE or not mask.any():
                 continue
-
-            cost = functools.partial(self._durations_cost, values, drive, tuple(chosen), mid, mask)
+            best: tuple[float, float, float] = (math.inf, math.nan, math.nan)
+            if j not in open_:  # timed by angles inside: the placed transition competes
+                placed = (float(tk[j + 1] - tk[j]), float(drive.shapes()[j]))
+                best = (self._durations_cost(values, drive, tuple(chosen), mid, mask, *placed),
+                        *placed)  # fmt: skip
             n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / MIN_PIECE))
             grid = np.geomspace(MIN_PIECE, longest, max(n, 2))
-            costs = [cost(float(d)) for d in grid]
-            k = int(np.argmin(costs))
-            # golden section in log(duration) between the best's grid neighbours
-            best_d, best_c = _golden_log(
-                cost, float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]),
-                _DURATION_GOLDEN,
-            )  # fmt: skip
-            if costs[k] <= best_c:
-                best_d = float(grid[k])
-            chosen.append((mid, best_d))
+            for shape in (0.0, COSINE):
+                cost = functools.partial(
+                    self._durations_cost, values, drive, tuple(chosen), mid, mask, shape=shape
+                )
+                costs = [cost(float(d)) for d in grid]
+                k = int(np.argmin(costs))
+                # golden section in log(duration) between the best's grid neighbours
+                best_d, best_c = _golden_log(
+                    cost, float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]),
+                    _DURATION_GOLDEN,
+                )  # fmt: skip
+                if costs[k] <= best_c:
+                    best_d, best_c = float(grid[k]), costs[k]
+                if best_c < best[0]:
+                    best = (best_c, best_d, shape)
+            if math.isfinite(best[0]):
+                chosen.append((mid, best[1], best[2]))
         self.durations = tuple(chosen)
         if self.drive_estimate is not drive:  # the trials left theirs: the cell's, timed
             key = self._instrument  # (tau, offset, shape, *ripple, *torque)
@@ -851,18 +870,19 @@ class Problem:
         self,
         values: Mapping[str, float],
         drive: DriveEstimate,
-        fixed: tuple[tuple[float, float], ...],
+        fixed: tuple[tuple[float, float, float], ...],
         mid: float,
         mask: npt.NDArray[np.bool_],
         duration: float,
+        shape: float,
     ) -> float:
         """Return the torsion moment's squared residual [N^2 m^2] of the masked segments.
 
         Simulated with ``drive`` given the transitions ``fixed`` and one of ``duration``
-        [s] at ``mid`` [s] (its knot speeds kept) and the model ``values``, whose
-        speed-sensor cell is the current one.
+        [s] and ``shape`` [-] at ``mid`` [s] (its knot speeds kept) and the model
+        ``values``, whose speed-sensor cell is the current one.
         """
-        trial = with_durations(drive, (*fixed, (mid, duration)))
+        trial = with_durations(drive, (*fixed, (mid, duration, shape)))
         self.drive_estimate = trial
         self._knots = DriveKnots.from_estimate(trial)
         sim = self.simulate(values, mask)

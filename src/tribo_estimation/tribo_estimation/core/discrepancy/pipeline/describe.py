@@ -124,7 +124,10 @@ def drive_report(pb: Problem) -> dict[str, object]:
         'from_record': de.from_record,
         'knot_time': [float(x) for x in de.knot_time],
         'knot_speed': [float(x) for x in de.knot_speed],
-        'timed_steps': [{'mid': m, 'duration': d, 'unit': 's'} for m, d in pb.durations],
+        'timed_steps': [
+            {'mid': m, 'duration': d, 'shape': 'raised cosine' if sh else 'linear', 'unit': 's'}
+            for m, d, sh in pb.durations
+        ],
         'blocks': blocks,
     }
 
