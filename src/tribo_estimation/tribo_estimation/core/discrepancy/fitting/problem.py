@@ -65,7 +65,7 @@ from tribo_estimation.errors import InvalidParameterError
 
 from .. import candidates as cand_lib
 from ..candidates import ParamSpec
-from ..stats import FloatArray
+from ..stats import FloatArray, noise_floor
 from .instrument import (
     FIRST_ORDER_A2,
     rig_chamber_speed,
@@ -121,6 +121,13 @@ _MIN_ANGLES = 20
 #: best's two grid neighbours, a factor 2 apart, the bracket ends 2.4 % wide).
 _DURATION_PER_OCTAVE = 2
 _DURATION_GOLDEN = 6
+#: Share of the excess over the white noise, in the segments spanning a transition
+#: that angles inside time, that a transition tried by the torsion moment must
+#: remove to replace the placed one [-]: more than half, so the transition is the
+#: larger part of what misfits there; otherwise the misfit is the model's (an effect
+#: it lacks acts at the step too) and the placement by the angles, which does not
+#: depend on the model, is kept (:meth:`Problem.set_transition_durations`).
+_TRANSITION_SHARE = 0.5
 
 
 def _golden_log(
@@ -799,7 +806,8 @@ class Problem:
         :data:`~tribo_estimation.core.drive.TRANSITION_MAX`), then golden-section
         steps around the best, at the mid-time the angles give; a transition that
         angles inside time keeps its placed duration and shape unless one of these
-        fits better. The choice holds for every speed-sensor cell from then on
+        removes more than half of the excess over the noise there
+        (:data:`_TRANSITION_SHARE`). The choice holds for every speed-sensor cell from then on
         (:attr:`durations`).
 
         Parameters
@@ -836,10 +844,15 @@ class Problem:
             if longest <= MIN_PIECE or not mask.any():
                 continue
             best: tuple[float, float, float] = (math.inf, math.nan, math.nan)
+            bar = math.inf  # what a tried transition's cost must come under
             if j not in open_:  # timed by angles inside: the placed transition competes
                 placed = (float(tk[j + 1] - tk[j]), float(drive.shapes()[j]))
-                best = (self._durations_cost(values, drive, tuple(chosen), mid, mask, *placed),
-                        *placed)  # fmt: skip
+                r = self._transition_residual(values, drive, tuple(chosen), mid, mask, *placed)
+                c_placed = float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+                best = (c_placed, *placed)
+                if math.isfinite(c_placed):
+                    excess = max(c_placed - r.size * noise_floor(r) ** 2, 0.0)
+                    bar = c_placed - _TRANSITION_SHARE * excess
             n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / MIN_PIECE))
             grid = np.geomspace(MIN_PIECE, longest, max(n, 2))
             for shape in (0.0, COSINE):
@@ -855,7 +868,7 @@ class Problem:
                 )  # fmt: skip
                 if costs[k] <= best_c:
                     best_d, best_c = float(grid[k]), costs[k]
-                if best_c < best[0]:
+                if best_c < min(best[0], bar):
                     best = (best_c, best_d, shape)
             if math.isfinite(best[0]):
                 chosen.append((mid, best[1], best[2]))
@@ -882,13 +895,26 @@ class Problem:
         [s] and ``shape`` [-] at ``mid`` [s] (its knot speeds kept) and the model
         ``values``, whose speed-sensor cell is the current one.
         """
+        r = self._transition_residual(values, drive, fixed, mid, mask, duration, shape)
+        return float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+
+    def _transition_residual(
+        self,
+        values: Mapping[str, float],
+        drive: DriveEstimate,
+        fixed: tuple[tuple[float, float, float], ...],
+        mid: float,
+        mask: npt.NDArray[np.bool_],
+        duration: float,
+        shape: float,
+    ) -> FloatArray:
+        """Return the torsion moment's residual [N m] of :meth:`_durations_cost`."""
         trial = with_durations(drive, (*fixed, (mid, duration, shape)))
         self.drive_estimate = trial
         self._knots = DriveKnots.from_estimate(trial)
         sim = self.simulate(values, mask)
         cov = sim.covered
-        r = self.record.torsion_moment[cov] - sim.torsion_moment[cov]
-        return float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+        return np.asarray(self.record.torsion_moment[cov] - sim.torsion_moment[cov])
 
     def _drive_stale(self) -> None:
         """Make the next simulation fit the drive profile again (same sensor state)."""
