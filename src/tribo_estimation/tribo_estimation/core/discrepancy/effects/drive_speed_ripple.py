@@ -34,7 +34,7 @@ CANDIDATE = register(
         'periodic drive speed disturbance w0 = w_nom + a*sin(2*pi*f*t + p) (f fitted)',
         (
             ParamSpec('ripple_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
-            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0),
+            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0, log=True),
             ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),
         'spectrum',

@@ -66,7 +66,7 @@ CANDIDATE = register(
         'n per revolution',
         (
             ParamSpec('ripple_rel', '-', 0.0, 0.5, 0.01, 0.0),
-            ParamSpec('ripple_order', '-', 0.2, 500.0, 1.0, 1.0),
+            ParamSpec('ripple_order', '-', 0.2, 500.0, 1.0, 1.0, log=True),
             ParamSpec('ripple_angle_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),
         'spectrum',

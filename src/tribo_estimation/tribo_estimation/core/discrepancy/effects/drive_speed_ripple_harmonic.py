@@ -25,7 +25,7 @@ CANDIDATE = register(
         'w0 = w_nom + a*sin(2 pi f t + p) + a2*sin(4 pi f t + p2)',
         (
             ParamSpec('ripple_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
-            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0),
+            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0, log=True),
             ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
             ParamSpec('ripple2_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
             ParamSpec('ripple2_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
