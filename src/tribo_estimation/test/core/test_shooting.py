@@ -240,14 +240,16 @@ def test_a_raised_cosine_piece_drives_as_its_dense_linear_approximation() -> Non
 
 
 def test_the_angle_locked_ripple_counts_the_drive_angle_across_pieces() -> None:
-    """A ripple locked to the drive angle (5 %, 7 per revolution) on a speed step
+    """A ripple locked to the drive angle (5 %, 7 per revolution, its second harmonic
+    2 %) on a speed step
     (0.6 -> 1.8 rad/s, a linear piece of 0.2 s; Tab. 1, 10 kHz): the same profile as 4
     pieces and as 61 pieces (every piece cut in 20) drives the rig alike, to 1e-6 N m,
     because each piece's angle is counted from the first knot; the ripple itself moves
     the torsion moment by more than 1 N m."""
     from tribo_estimation.core.model import Extensions
 
-    ext = Extensions(ripple_rel=0.05, ripple_order=7.0, ripple_angle_phase=0.3)
+    ext = Extensions(ripple_rel=0.05, ripple_order=7.0, ripple_angle_phase=0.3,
+                     ripple2_rel=0.02, ripple2_angle_phase=1.1)  # fmt: skip
     p = pack_params(CFG.rig, CFG.friction, DriveProfile(0.6, 0.0), ext)
     p0 = pack_params(CFG.rig, CFG.friction, DriveProfile(0.6, 0.0))
     tk = np.array([0.0, 0.3, 0.5, 1.0])
@@ -277,7 +279,8 @@ def test_the_angle_locked_ripple_speed_is_the_rate_of_its_angle() -> None:
     from tribo_estimation.core.model import Extensions
     from tribo_estimation.core.shooting import _piece_params
 
-    ext = Extensions(ripple_rel=0.1, ripple_order=3.5, ripple_angle_phase=-1.0)
+    ext = Extensions(ripple_rel=0.1, ripple_order=3.5, ripple_angle_phase=-1.0,
+                     ripple2_rel=0.04, ripple2_angle_phase=0.7)  # fmt: skip
     p = pack_params(CFG.rig, CFG.friction, DriveProfile(0.6, 0.0), ext)
     tk = np.array([0.0, 0.3, 0.5, 1.0])
     vk = np.array([0.6, 0.6, 1.8, 1.2])

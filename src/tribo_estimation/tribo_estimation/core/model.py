@@ -209,7 +209,9 @@ class Extensions:
       ``w0 += A_2*sin(4 pi f t + p_2)``.
     - ``ripple_rel`` [-], ``ripple_order`` [-], ``ripple_angle_phase`` [rad]: drive speed
       ripple locked to the drive angle theta (``n`` = ``ripple_order`` per revolution),
-      ``w0 += r*w_n*sin(n*theta + p)`` (``w_n`` the ripple-free drive speed).
+      ``w0 += r*w_n*sin(n*theta + p)`` (``w_n`` the ripple-free drive speed);
+      ``ripple2_rel`` [-], ``ripple2_angle_phase`` [rad] its second harmonic,
+      ``w0 += r2*w_n*sin(2n*theta + p2)``.
     - ``stiction_log`` [-]: logarithmic dwell-time stiction,
       ``mu_s += b*ln(1 + t_stick/stiction_tau)``.
     - ``bearing_moment`` [N m]: Coulomb moment of the chamber support, regularised as
@@ -246,6 +248,8 @@ class Extensions:
     ripple_rel: float = 0.0
     ripple_order: float = 0.0
     ripple_angle_phase: float = 0.0
+    ripple2_rel: float = 0.0
+    ripple2_angle_phase: float = 0.0
 
     def __post_init__(self) -> None:
         """Check that every value is finite and the time constants >= 0."""
@@ -374,6 +378,8 @@ def pack_params(
         p[kn.P_RIPA_REL] = ext.ripple_rel
         p[kn.P_RIPA_ORDER] = ext.ripple_order
         p[kn.P_RIPA_PHASE] = ext.ripple_angle_phase
+        p[kn.P_RIPA2_REL] = ext.ripple2_rel
+        p[kn.P_RIPA2_PHASE] = ext.ripple2_angle_phase
     p[kn.P_ST_LOG] = ext.stiction_log
     return p
 

@@ -160,7 +160,7 @@ def _piece_params(
         q[kn.P_W0] = vk[j]
         q[kn.P_W0_RATE] = (vk[j + 1] - vk[j]) / max(tk[j + 1] - tk[j], 1e-12)
         q[kn.P_T_DRIVE] = tk[j]
-    if q[kn.P_RIPA_REL] != 0.0:
+    if q[kn.P_RIPA_REL] != 0.0 or q[kn.P_RIPA2_REL] != 0.0:
         # the drive angle from the first knot at the piece's reference time (a raised
         # cosine's mean speed is its ends' mean, as a line's), less the piece's own
         theta = 0.0

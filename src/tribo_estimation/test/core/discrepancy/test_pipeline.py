@@ -149,9 +149,11 @@ def test_a_ripple_locked_to_the_drive_angle_is_found_through_a_speed_step() -> N
     found = [*res.named, *res.partial]
     assert [e.family for e in found] == ['drive_speed_ripple'], res.finding()
     (e,) = found
-    assert e.form == 'drive_speed_ripple_angle', res.finding()
+    # either angle-locked form; the one with a harmonic finds hardly any
+    assert e.form.startswith('drive_speed_ripple_angle'), res.finding()
     assert e.params['ripple_order'] == pytest.approx(6.0, rel=5e-3)
     assert e.params['ripple_rel'] == pytest.approx(0.02, rel=0.1)
+    assert e.params.get('ripple2_rel', 0.0) < 0.25 * e.params['ripple_rel']
     assert e.explained >= 0.95
 
 

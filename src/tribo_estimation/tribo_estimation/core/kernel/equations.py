@@ -43,6 +43,8 @@ from .layout import (
     P_RIP_AMP,
     P_RIP_FREQ,
     P_RIP_PHASE,
+    P_RIPA2_PHASE,
+    P_RIPA2_REL,
     P_RIPA_ANGLE0,
     P_RIPA_ORDER,
     P_RIPA_PHASE,
@@ -99,9 +101,11 @@ def drive_speed(p: FloatArray, t: float) -> float:
     wn = piece_speed(p, t)
     w = wn
     rel = p[P_RIPA_REL]
-    if rel != 0.0:
-        theta = piece_angle(p, t) + p[P_RIPA_ANGLE0]
-        w += rel * wn * math.sin(p[P_RIPA_ORDER] * theta + p[P_RIPA_PHASE])
+    rel2 = p[P_RIPA2_REL]
+    if rel != 0.0 or rel2 != 0.0:
+        n_theta = p[P_RIPA_ORDER] * (piece_angle(p, t) + p[P_RIPA_ANGLE0])
+        w += rel * wn * math.sin(n_theta + p[P_RIPA_PHASE])
+        w += rel2 * wn * math.sin(2.0 * n_theta + p[P_RIPA2_PHASE])
     amp = p[P_RIP_AMP]
     if amp != 0.0:
         w += amp * math.sin(2.0 * math.pi * p[P_RIP_FREQ] * t + p[P_RIP_PHASE])
@@ -175,7 +179,8 @@ def drive_angle(p: FloatArray, t: float) -> float:
     """Return the drive angle phi0(t) = integral_0^t w0 dt' [rad].
 
     Closed form of :func:`drive_speed`; the ripple locked to the drive angle adds
-    ``r/n*(cos p - cos(n*theta + p))`` (its integral over ``d theta = w_n dt``).
+    ``r/n*(cos p - cos(n*theta + p))`` (its integral over ``d theta = w_n dt``), its
+    second harmonic ``r2/(2n)*(cos p2 - cos(2n*theta + p2))``.
 
     Parameters
     ----------
@@ -191,10 +196,14 @@ def drive_angle(p: FloatArray, t: float) -> float:
     """
     a = piece_angle(p, t)
     rel = p[P_RIPA_REL]
+    rel2 = p[P_RIPA2_REL]
     n = p[P_RIPA_ORDER]
-    if rel != 0.0 and n > 0.0:
+    if (rel != 0.0 or rel2 != 0.0) and n > 0.0:
+        n_theta = n * (a + p[P_RIPA_ANGLE0])
         ph = p[P_RIPA_PHASE]
-        a += rel / n * (math.cos(ph) - math.cos(n * (a + p[P_RIPA_ANGLE0]) + ph))
+        ph2 = p[P_RIPA2_PHASE]
+        a += rel / n * (math.cos(ph) - math.cos(n_theta + ph))
+        a += rel2 / (2.0 * n) * (math.cos(ph2) - math.cos(2.0 * n_theta + ph2))
     amp = p[P_RIP_AMP]
     f = p[P_RIP_FREQ]
     if amp != 0.0 and f > 0.0:
@@ -395,7 +404,7 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     float
         Q2 [N m].
     """
-    if p[P_RIP_AMP] != 0.0 or p[P_RIPA_REL] != 0.0:
+    if p[P_RIP_AMP] != 0.0 or p[P_RIPA_REL] != 0.0 or p[P_RIPA2_REL] != 0.0:
         w0 = drive_speed(p, t)
         phi0 = drive_angle(p, t)
     else:  # fast path without the ripple: same formulas as drive_speed/drive_angle

@@ -103,7 +103,11 @@ P_RIPA_REL = 32
 P_RIPA_ORDER = 33
 P_RIPA_PHASE = 34
 P_RIPA_ANGLE0 = 35
-NP = 36
+#: The angle-locked ripple's second harmonic: ``w0 += r2*w_n(t)*sin(2*n*theta + p2)``
+#: with ``r2`` = ``P_RIPA2_REL`` [-] and ``p2`` = ``P_RIPA2_PHASE`` [rad].
+P_RIPA2_REL = 36
+P_RIPA2_PHASE = 37
+NP = 38
 
 #: Default regularisation speed of the bearing Coulomb moment [rad/s]:
 #: ``M_b(w1) = bearing_moment * w1 / sqrt(w1^2 + w_reg^2)``. With ``w_reg = 0.01 rad/s``

@@ -22,13 +22,15 @@ from ..stats import fit_sinusoid, spectral_lines
 _MIN_TURNS = 0.5
 
 
-def _starts(ctx: StartContext) -> list[dict[str, float]]:
+def angle_starts(ctx: StartContext, *, harmonic: bool = False) -> list[dict[str, float]]:
     """Orders, relative amplitudes and phases from the residuals' lines over the drive angle.
 
     The residuals are resampled on an even grid of the drive angle (where the drive
     turns: above a tenth of its level); a line there at ``f`` cycles per radian is the
     order ``n = 2*pi*f`` per revolution. The speed residual's sinusoid over the angle
-    gives the amplitude, relative to the drive level, and the phase.
+    gives the amplitude, relative to the drive level, and the phase; with
+    ``harmonic`` its sinusoid at ``2n`` those of the second harmonic
+    (``ripple2_rel``, ``ripple2_angle_phase``).
     """
     theta = np.asarray(ctx.drive_angle, dtype=np.float64)
     level = abs(ctx.nominal_speed)
@@ -54,8 +56,12 @@ def _starts(ctx: StartContext) -> list[dict[str, float]]:
                                    fmin=0.0):  # fmt: skip
             f, a, p = fit_sinusoid(grid, speed, line.frequency)
             rel = a / level if a > 0 else 0.01
-            out.append({'ripple_rel': rel, 'ripple_order': 2.0 * math.pi * f,
-                        'ripple_angle_phase': p})  # fmt: skip
+            start = {'ripple_rel': rel, 'ripple_order': 2.0 * math.pi * f,
+                     'ripple_angle_phase': p}  # fmt: skip
+            if harmonic:
+                _, a2, p2 = fit_sinusoid(grid, speed, 2.0 * f)
+                start |= {'ripple2_rel': a2 / level, 'ripple2_angle_phase': p2}
+            out.append(start)
     return out
 
 
@@ -70,7 +76,7 @@ CANDIDATE = register(
             ParamSpec('ripple_angle_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),
         'spectrum',
-        _starts,
+        angle_starts,
         equation=(
             '`w0 = w_n*(1 + r*sin(n theta + p))`, `phi0 += r/n*(cos p - cos(n theta + p))` '
             '(r, n, p = `ripple_rel`, `ripple_order`, `ripple_angle_phase`; theta the '

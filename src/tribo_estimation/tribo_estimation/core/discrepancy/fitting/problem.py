@@ -101,15 +101,17 @@ from .segments import (
 _REPLACE_LAG = 1e-4
 _REPLACE_OFFSET = 1e-2
 #: No drive ripple (amplitude, frequency, phase, second harmonic's amplitude, phase;
-#: the angle-locked ripple's relative amplitude, order, phase).
-_NO_RIPPLE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+#: the angle-locked ripple's relative amplitude, order, phase, its second harmonic's
+#: relative amplitude and phase).
+_NO_RIPPLE = (0.0,) * 10
 
 
 def _ripple_of(ext: Extensions) -> tuple[float, ...]:
     """Return the model's drive ripple in the order of :data:`_NO_RIPPLE`."""
     return (
         ext.ripple_amp, ext.ripple_freq, ext.ripple_phase, ext.ripple2_amp, ext.ripple2_phase,
-        ext.ripple_rel, ext.ripple_order, ext.ripple_angle_phase,
+        ext.ripple_rel, ext.ripple_order, ext.ripple_angle_phase, ext.ripple2_rel,
+        ext.ripple2_angle_phase,
     )  # fmt: skip
 
 
@@ -952,7 +954,8 @@ class Problem:
         ripple : tuple of float
             The model's drive ripple (amplitude [rad/s], frequency [Hz], phase [rad],
             second harmonic's amplitude [rad/s] and phase [rad]; the angle-locked
-            ripple's relative amplitude [-], order [-] and phase [rad]).
+            ripple's relative amplitude [-], order [-] and phase [rad], its second
+            harmonic's relative amplitude [-] and phase [rad]).
         torque : tuple of float
             The model's torque offset [N m] and drift [N m/s].
         """
@@ -1056,7 +1059,8 @@ class Problem:
         ripple : tuple of float
             Drive ripple (amplitude [rad/s], frequency [Hz], phase [rad], second
             harmonic's amplitude [rad/s] and phase [rad]; the angle-locked ripple's
-            relative amplitude [-], order [-] and phase [rad]).
+            relative amplitude [-], order [-] and phase [rad], its second harmonic's
+            relative amplitude [-] and phase [rad]).
         torque : tuple of float
             Torque offset [N m] and drift [N m/s].
         drive : DriveEstimate
@@ -1101,7 +1105,7 @@ class Problem:
             + tau * (y - float(self._smooth_speed[0]))
             - self._drift_angle(tau)[j]
         )
-        amp, freq, phase, amp2, phase2, rel, order, aphase = ripple
+        amp, freq, phase, amp2, phase2, rel, order, aphase, rel2, aphase2 = ripple
         ripple_angle = np.zeros_like(t)
         if amp2 != 0.0 and freq > 0.0:  # the second harmonic's angle (kernel.drive_angle)
             om2 = 4.0 * math.pi * freq
@@ -1122,10 +1126,14 @@ class Problem:
         for it in range(2):
             w0 = drive.speed(t)
             locked = np.zeros_like(t)
-            if rel != 0.0 and order > 0.0:  # kernel.drive_angle, on the profile's angle
-                theta = order * drive.angle(t) + aphase
-                w0 = w0 * (1.0 + rel * np.sin(theta))
-                locked = rel / order * (math.cos(aphase) - np.cos(theta))
+            if (rel != 0.0 or rel2 != 0.0) and order > 0.0:  # kernel.drive_angle
+                n_theta = order * drive.angle(t)  # on the profile's angle
+                w0 = w0 * (
+                    1.0 + rel * np.sin(n_theta + aphase) + rel2 * np.sin(2.0 * n_theta + aphase2)
+                )
+                locked = rel / order * (math.cos(aphase) - np.cos(n_theta + aphase)) + rel2 / (
+                    2.0 * order
+                ) * (math.cos(aphase2) - np.cos(2.0 * n_theta + aphase2))
             defl = -(q2 + rig.K2 * (w - w0)) / rig.C2
             drive = refine_with_angles(
                 drive, t, phi2 - defl - ripple_angle - locked, hints, place=place,
