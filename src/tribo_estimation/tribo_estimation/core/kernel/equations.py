@@ -407,29 +407,9 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     if p[P_RIP_AMP] != 0.0 or p[P_RIPA_REL] != 0.0 or p[P_RIPA2_REL] != 0.0:
         w0 = drive_speed(p, t)
         phi0 = drive_angle(p, t)
-    else:  # fast path without the ripple: same formulas as drive_speed/drive_angle
-        w0n = p[P_W0]
-        tr = p[P_RAMP]
-        if tr > 0.0:
-            if t >= tr:
-                w0 = w0n
-                phi0 = w0n * (t - 0.5 * tr)
-            elif t > 0.0:
-                w0 = w0n * (t / tr)
-                phi0 = 0.5 * w0n * t * t / tr
-            else:
-                w0 = 0.0
-                phi0 = 0.0
-        else:
-            rate = p[P_W0_RATE]
-            dtr = t - p[P_T_DRIVE]
-            w0 = w0n + rate * dtr
-            phi0 = w0n * t + 0.5 * rate * (dtr * dtr - p[P_T_DRIVE] * p[P_T_DRIVE])
-            c = p[P_W0_COS]
-            if c != 0.0:
-                om0 = p[P_W0_OMEGA]
-                w0 += c * math.cos(om0 * dtr)
-                phi0 += c / om0 * (math.sin(om0 * dtr) + math.sin(om0 * p[P_T_DRIVE]))
+    else:  # without a ripple: the ramp's or the piece's own speed and angle
+        w0 = piece_speed(p, t)
+        phi0 = piece_angle(p, t)
     return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
 
 

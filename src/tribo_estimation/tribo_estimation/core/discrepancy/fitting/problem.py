@@ -106,6 +106,11 @@ _REPLACE_OFFSET = 1e-2
 _NO_RIPPLE = (0.0,) * 10
 
 
+def _squares(r: FloatArray) -> float:
+    """Return the sum of squares of a residual (inf if it is empty or not finite)."""
+    return float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+
+
 def _ripple_of(ext: Extensions) -> tuple[float, ...]:
     """Return the model's drive ripple in the order of :data:`_NO_RIPPLE`."""
     return (
@@ -850,7 +855,7 @@ class Problem:
             if j not in open_:  # timed by angles inside: the placed transition competes
                 placed = (float(tk[j + 1] - tk[j]), float(drive.shapes()[j]))
                 r = self._transition_residual(values, drive, tuple(chosen), mid, mask, *placed)
-                c_placed = float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
+                c_placed = _squares(r)
                 best = (c_placed, *placed)
                 if math.isfinite(c_placed):
                     excess = max(c_placed - r.size * noise_floor(r) ** 2, 0.0)
@@ -858,9 +863,13 @@ class Problem:
             n = 1 + int(_DURATION_PER_OCTAVE * math.log2(longest / MIN_PIECE))
             grid = np.geomspace(MIN_PIECE, longest, max(n, 2))
             for shape in (0.0, COSINE):
-                cost = functools.partial(
-                    self._durations_cost, values, drive, tuple(chosen), mid, mask, shape=shape
+                trial = functools.partial(
+                    self._transition_residual, values, drive, tuple(chosen), mid, mask, shape=shape
                 )
+
+                def cost(d: float, trial: Callable[..., FloatArray] = trial) -> float:
+                    return _squares(trial(d))
+
                 costs = [cost(float(d)) for d in grid]
                 k = int(np.argmin(costs))
                 # golden section in log(duration) between the best's grid neighbours
@@ -881,25 +890,6 @@ class Problem:
             self._fit_drive(key[0], key[1], key[3:end], (key[end], key[end + 1]))
         return self.durations
 
-    def _durations_cost(
-        self,
-        values: Mapping[str, float],
-        drive: DriveEstimate,
-        fixed: tuple[tuple[float, float, float], ...],
-        mid: float,
-        mask: npt.NDArray[np.bool_],
-        duration: float,
-        shape: float,
-    ) -> float:
-        """Return the torsion moment's squared residual [N^2 m^2] of the masked segments.
-
-        Simulated with ``drive`` given the transitions ``fixed`` and one of ``duration``
-        [s] and ``shape`` [-] at ``mid`` [s] (its knot speeds kept) and the model
-        ``values``, whose speed-sensor cell is the current one.
-        """
-        r = self._transition_residual(values, drive, fixed, mid, mask, duration, shape)
-        return float(r @ r) if r.size and bool(np.all(np.isfinite(r))) else math.inf
-
     def _transition_residual(
         self,
         values: Mapping[str, float],
@@ -910,7 +900,12 @@ class Problem:
         duration: float,
         shape: float,
     ) -> FloatArray:
-        """Return the torsion moment's residual [N m] of :meth:`_durations_cost`."""
+        """Return the torsion moment's residual [N m] of the segments ``mask``.
+
+        Simulated with ``drive`` given the transitions ``fixed`` and one of ``duration``
+        [s] and ``shape`` [-] at ``mid`` [s] (its knot speeds kept) and the model
+        ``values``, whose speed-sensor cell is the current one.
+        """
         trial = with_durations(drive, (*fixed, (mid, duration, shape)))
         self.drive_estimate = trial
         self._knots = DriveKnots.from_estimate(trial)
