@@ -1478,16 +1478,9 @@ def untimed_transitions(drive: DriveEstimate, angle_times: FloatArray) -> list[i
     """
     tk = drive.knot_time
     ts = np.sort(np.asarray(angle_times, dtype=np.float64))
-    out: list[int] = []
-    j = 1
-    while j + 2 < tk.size:
-        a, b = float(tk[j]), float(tk[j + 1])
-        if b - a <= TRANSITION_MAX and not _shaped_by_angles(ts, a, b):
-            out.append(j)
-            j += 2
-            continue
-        j += 1
-    return out
+    return [
+        j for j in transitions(drive) if not _shaped_by_angles(ts, float(tk[j]), float(tk[j + 1]))
+    ]
 
 
 def with_durations(drive: DriveEstimate, durations: tuple[tuple[float, ...], ...]) -> DriveEstimate:

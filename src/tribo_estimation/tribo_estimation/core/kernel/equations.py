@@ -404,12 +404,8 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     float
         Q2 [N m].
     """
-    if p[P_RIP_AMP] != 0.0 or p[P_RIPA_REL] != 0.0 or p[P_RIPA2_REL] != 0.0:
-        w0 = drive_speed(p, t)
-        phi0 = drive_angle(p, t)
-    else:  # without a ripple: the ramp's or the piece's own speed and angle
-        w0 = piece_speed(p, t)
-        phi0 = piece_angle(p, t)
+    w0 = drive_speed(p, t)
+    phi0 = drive_angle(p, t)
     return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
 
 

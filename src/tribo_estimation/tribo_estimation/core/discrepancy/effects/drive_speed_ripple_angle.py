@@ -46,13 +46,17 @@ def angle_starts(ctx: StartContext, *, harmonic: bool = False) -> list[dict[str,
         return []
     grid = np.linspace(float(th[0]), float(th[-1]), th.size)
     per_rad = (th.size - 1) / span  # grid points per radian
-    speed = np.interp(grid, th, ctx.speed[turning])
+    on_grid = {
+        name: np.interp(grid, th, resid[turning])
+        for name, resid in (('speed', ctx.speed), ('torque', ctx.torque))
+        if resid.size == theta.size and np.all(np.isfinite(resid))
+    }
+    speed = on_grid.get('speed')
+    if speed is None:
+        return []
     out: list[dict[str, float]] = []
-    for resid in (ctx.speed, ctx.torque):
-        if resid.size != theta.size or not np.all(np.isfinite(resid)):
-            continue
-        on_grid = np.interp(grid, th, resid[turning])
-        for line in spectral_lines(grid, on_grid, per_rad, max_lines=2, min_prominence=10.0,
+    for residual in on_grid.values():
+        for line in spectral_lines(grid, residual, per_rad, max_lines=2, min_prominence=10.0,
                                    fmin=0.0):  # fmt: skip
             f, a, p = fit_sinusoid(grid, speed, line.frequency)
             rel = a / level if a > 0 else 0.01

@@ -850,11 +850,12 @@ class Problem:
             mask = (t_stop >= mid - 0.5 * longest) & (t_start <= mid + 0.5 * longest)
             if longest <= MIN_PIECE or not mask.any():
                 continue
+            fixed = tuple(chosen)
             best: tuple[float, float, float] = (math.inf, math.nan, math.nan)
             bar = math.inf  # what a tried transition's cost must come under
             if j not in open_:  # timed by angles inside: the placed transition competes
                 placed = (float(tk[j + 1] - tk[j]), float(drive.shapes()[j]))
-                r = self._transition_residual(values, drive, tuple(chosen), mid, mask, *placed)
+                r = self._transition_residual(values, drive, fixed, mid, mask, *placed)
                 c_placed = _squares(r)
                 best = (c_placed, *placed)
                 if math.isfinite(c_placed):
@@ -864,7 +865,7 @@ class Problem:
             grid = np.geomspace(MIN_PIECE, longest, max(n, 2))
             for shape in (0.0, COSINE):
                 trial = functools.partial(
-                    self._transition_residual, values, drive, tuple(chosen), mid, mask, shape=shape
+                    self._transition_residual, values, drive, fixed, mid, mask, shape=shape
                 )
 
                 def cost(d: float, trial: Callable[..., FloatArray] = trial) -> float:
