@@ -955,7 +955,7 @@ def _corners(inner: FloatArray) -> FloatArray:
 #: Most corners whose pieces' shapes :func:`_choose_shapes` chooses [-] (its greedy
 #: moves cost about the cube of the count); more (several transitions, or the smoothed
 #: speed following slow stick-slip cycles) are placed and stay linear.
-_MAX_PLACED = 8
+_MAX_PLACED = 12
 #: Most drive angles the corner placement fits [-] (the knot speeds of the final
 #: profile are solved on all of them).
 _PLACE_SAMPLES = 3000
@@ -1061,7 +1061,10 @@ def _polish_corners(
     From there a trust-region least squares over the free times (the knot speeds
     solved at every evaluation, a variable projection) reaches the joint minimum.
     Each time stays within half the gap to its neighbours (less :data:`MIN_PIECE`),
-    so the knots keep their order.
+    so the knots keep their order; a time that ends at such a bound is polished again
+    from there (at most :data:`_POLISH_ROUNDS` rounds), so a corner the grids left
+    farther off than the gaps allow (an S-ramp from rest, whose blurred knots start a
+    tenth of a second early) still reaches the minimum.
 
     Parameters
     ----------
@@ -1086,25 +1089,38 @@ def _polish_corners(
     idx = np.flatnonzero(free)
     if idx.size == 0 or tt.size <= tk.size + 2:
         return tk
-    gap = np.diff(tk)
-    lo = tk[idx] - 0.5 * (gap[idx - 1] - MIN_PIECE)
-    hi = tk[idx] + 0.5 * (gap[np.minimum(idx, gap.size - 1)] - MIN_PIECE)
-    if not np.all(hi > lo):
-        return tk
-    x0 = np.clip(tk[idx], lo, hi)
+    for _ in range(_POLISH_ROUNDS):
+        gap = np.diff(tk)
+        lo = tk[idx] - 0.5 * (gap[idx - 1] - MIN_PIECE)
+        hi = tk[idx] + 0.5 * (gap[np.minimum(idx, gap.size - 1)] - MIN_PIECE)
+        if not np.all(hi > lo):
+            return tk
+        x0 = np.clip(tk[idx], lo, hi)
 
-    def residuals(x: FloatArray) -> FloatArray:
-        trial = tk.copy()
-        trial[idx] = x
-        return _knot_fit(trial, tt, ph, start, prior, True, sk)[1]
+        def residuals(x: FloatArray, tk: FloatArray = tk) -> FloatArray:
+            trial = tk.copy()
+            trial[idx] = x
+            return _knot_fit(trial, tt, ph, start, prior, True, sk)[1]
 
-    r0 = residuals(x0)
-    sol = least_squares(residuals, x0, bounds=(lo, hi), x_scale=1e-3, diff_step=1e-7, max_nfev=50)
-    if not float(sol.fun @ sol.fun) < float(r0 @ r0):
-        return tk
-    out = tk.copy()
-    out[idx] = sol.x
-    return out
+        r0 = residuals(x0)
+        sol = least_squares(
+            residuals, x0, bounds=(lo, hi), x_scale=1e-3, diff_step=1e-7, max_nfev=50
+        )
+        if not float(sol.fun @ sol.fun) < float(r0 @ r0):
+            return tk
+        tk = tk.copy()
+        tk[idx] = sol.x
+        room = np.minimum(sol.x - lo, hi - sol.x)
+        if not np.any(room < _POLISH_BOUND * (hi - lo)):
+            break
+    return tk
+
+
+#: Most rounds of :func:`_polish_corners` [-]: each lets a time move half the gap to
+#: its neighbours.
+_POLISH_ROUNDS = 6
+#: A polished time within this fraction of its bounds' span of a bound is at it [-].
+_POLISH_BOUND = 0.01
 
 
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
@@ -1184,9 +1200,10 @@ def _choose_shapes(
     lowers the angles' sum of squares most first, until none does: a piece changes
     its shape (as many parameters), or up to :data:`_SPANNED_CORNERS`
     consecutive removable knots go and the pieces they joined become one raised
-    cosine (fewer parameters). A piece's shape is decided only by angles inside it
-    (:func:`_shaped_by_angles`); the angles around a short step fix its mid-time, not
-    its shape.
+    cosine (fewer parameters), whose removable ends are spread about its mid-time
+    and then polished (:func:`_polish_corners`). A piece's shape is decided only by
+    angles inside it (:func:`_shaped_by_angles`); the angles around a short step fix
+    its mid-time, not its shape.
 
     Parameters
     ----------
@@ -1238,11 +1255,18 @@ def _choose_shapes(
                     continue
                 keep = np.ones(tk.size, dtype=bool)
                 keep[i + 1 : j] = False
-                tk2, sk2 = tk[keep], sk[keep]
+                tk2, sk2, rm2 = tk[keep], sk[keep], removable[keep]
                 sk2[i] = COSINE
+                if rm2[i] or rm2[i + 1]:
+                    # the cosine's ends sit wider apart than the corners it replaces
+                    # (an S-ramp of a second from rest): spread, then polished jointly
+                    tk2, _ = _spread_search(tk2, rm2, i, tt, ph, start, prior, sk2)
+                    ends = np.zeros(tk2.size, dtype=bool)
+                    ends[i : i + 2] = rm2[i : i + 2]
+                    tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2)
                 _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
                 if sse < best:
-                    best, move = sse, (tk2, sk2, removable[keep])
+                    best, move = sse, (tk2, sk2, rm2)
         if move is None:
             return tk, sk, removable
         tk, sk, removable = move
