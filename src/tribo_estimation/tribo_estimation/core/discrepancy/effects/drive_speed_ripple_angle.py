@@ -81,6 +81,7 @@ CANDIDATE = register(
         ),
         'spectrum',
         angle_starts,
+        demo_effects={'ripple_rel': 0.03, 'ripple_order': 6.0, 'ripple_angle_phase': 0.5},
         equation=(
             '`w0 = w_n*(1 + r*sin(n theta + p))`, `phi0 += r/n*(cos p - cos(n theta + p))` '
             '(r, n, p = `ripple_rel`, `ripple_order`, `ripple_angle_phase`; theta the '

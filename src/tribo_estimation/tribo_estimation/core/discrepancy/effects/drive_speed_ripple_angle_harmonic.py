@@ -36,6 +36,13 @@ CANDIDATE = register(
         ),
         'spectrum',
         _starts,
+        demo_effects={
+            'ripple_rel': 0.03,
+            'ripple_order': 6.0,
+            'ripple_angle_phase': 0.5,
+            'ripple2_rel': 0.012,
+            'ripple2_angle_phase': 1.0,
+        },
         equation=(
             '`w0 = w_n*(1 + r*sin(n theta + p) + r_2*sin(2n theta + p_2))` (r_2, p_2 = '
             '`ripple2_rel`, `ripple2_angle_phase`), the drive angle its integral'

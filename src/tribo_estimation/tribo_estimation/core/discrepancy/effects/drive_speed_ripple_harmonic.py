@@ -32,6 +32,13 @@ CANDIDATE = register(
         ),
         'spectrum',
         _starts,
+        demo_effects={
+            'ripple_amp': 0.1,
+            'ripple_freq': 13.0,
+            'ripple_phase': 0.5,
+            'ripple2_amp': 0.04,
+            'ripple2_phase': 1.0,
+        },
         equation=(
             '`w0 += A_r*sin(2 pi f_r t + p) + A_2*sin(4 pi f_r t + p_2)` (A_2, p_2 = '
             '`ripple2_amp`, `ripple2_phase`), the drive angle its integral'

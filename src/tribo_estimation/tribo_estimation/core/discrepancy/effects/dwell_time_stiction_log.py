@@ -27,6 +27,7 @@ CANDIDATE = register(
         ),
         'preceding_stick_duration',
         _starts,
+        demo_effects={'stiction_log': 0.01, 'stiction_tau': 0.005},
         equation=(
             '`mu_s = mu0 + b*ln(1 + t_stick/t0)` (b = `stiction_log`, t0 = `stiction_tau`); '
             'enters the breakaway test (Equ. 6 vs F_N*R*mu_s)'

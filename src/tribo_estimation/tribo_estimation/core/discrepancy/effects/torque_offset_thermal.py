@@ -20,6 +20,7 @@ CANDIDATE = register(
         ),
         'test_time',
         lambda _ctx: [{'torque_thermal_tau': tau} for tau in (0.3, 1.0, 10.0)],
+        demo_effects={'torque_thermal': 0.5, 'torque_thermal_tau': 3.0},
         equation='`M_t,meas = M_t + D*(1 - exp(-t/tau))` (D = `torque_thermal`, '
         'tau = `torque_thermal_tau`)',
         suggest=SUGGEST_LONGER,
