@@ -1125,6 +1125,8 @@ _POLISH_BOUND = 0.01
 
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
 _SPANNED_CORNERS = 3
+#: Merges into one raised cosine whose ends are polished, the best by their spread [-].
+_POLISHED_MERGES = 4
 #: Spreads of a piece's placed corners about its mid-time tried with its other shape:
 #: a grid of factors [-], then two finer grids (steps of a fifth) around the best.
 _SPREADS = np.linspace(0.6, 1.6, 11)
@@ -1247,6 +1249,7 @@ def _choose_shapes(
                 _, sse = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=trial)
             if sse < best:
                 best, move = sse, (tk2, trial, removable)
+        merges: list[tuple[float, int, FloatArray, FloatArray, npt.NDArray[np.bool_]]] = []
         for i in range(tk.size - 2):
             for j in range(i + 2, min(i + 2 + _SPANNED_CORNERS, tk.size)):
                 if not removable[i + 1 : j].all():
@@ -1259,14 +1262,21 @@ def _choose_shapes(
                 sk2[i] = COSINE
                 if rm2[i] or rm2[i + 1]:
                     # the cosine's ends sit wider apart than the corners it replaces
-                    # (an S-ramp of a second from rest): spread, then polished jointly
-                    tk2, _ = _spread_search(tk2, rm2, i, tt, ph, start, prior, sk2)
-                    ends = np.zeros(tk2.size, dtype=bool)
-                    ends[i : i + 2] = rm2[i : i + 2]
-                    tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2)
+                    # (an S-ramp of a second from rest): spread about its mid-time
+                    tk2, sse = _spread_search(tk2, rm2, i, tt, ph, start, prior, sk2)
+                else:
+                    _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
+                merges.append((sse, i, tk2, sk2, rm2))
+        # the best spread merges, their ends then polished jointly
+        merges.sort(key=lambda m: m[0])
+        for k, (sse, i, tk2, sk2, rm2) in enumerate(merges):
+            if k < _POLISHED_MERGES and (rm2[i] or rm2[i + 1]):
+                ends = np.zeros(tk2.size, dtype=bool)
+                ends[i : i + 2] = rm2[i : i + 2]
+                tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2)
                 _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
-                if sse < best:
-                    best, move = sse, (tk2, sk2, rm2)
+            if sse < best:
+                best, move = sse, (tk2, sk2, rm2)
         if move is None:
             return tk, sk, removable
         tk, sk, removable = move
