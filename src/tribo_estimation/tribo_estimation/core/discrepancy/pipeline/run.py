@@ -110,6 +110,85 @@ def detection_limit(stat: float, bound: float, noise: float) -> float:
     return noise * math.sqrt(max(bound * bound - stat * stat, 0.0))
 
 
+def null_verdict(
+    stats: Sequence[float],
+    laws: Sequence[NullLaw],
+    noises: Sequence[float],
+    fails: bool,
+    say: Progress = quiet,
+) -> Decision | None:
+    """Return the verdict the null laws give before any family is screened.
+
+    Unexplained when a law is not self-consistent (:meth:`.null.NullLaw.self_consistent`),
+    or when a record's torque statistic lies beyond the noise (above
+    :data:`.null.SELF_ERROR_LIMIT`) but within a bound that only replicas refitted
+    beyond their own noise reach: the workflow's own error, not the noise, covers it.
+    Nothing missing when no statistic fails; otherwise None (the families are screened).
+
+    Parameters
+    ----------
+    stats : sequence of float
+        Each record's torque statistic [-].
+    laws : sequence of NullLaw
+        Each record's null law.
+    noises : sequence of float
+        Each record's torque noise [N m].
+    fails : bool
+        Some statistic of the baseline lies beyond its law's bound.
+    say : callable
+        Progress messages.
+
+    Returns
+    -------
+    Decision or None
+        The verdict, or None when the baseline is inadequate and the laws usable.
+    """
+    lost = [law.centre('torsion_moment') for law in laws if not law.self_consistent()]
+    covered = [
+        (s, law.bound('torsion_moment'))
+        for s, law in zip(stats, laws, strict=True)
+        if min(s, law.bound('torsion_moment')) > SELF_ERROR_LIMIT
+    ]
+    if lost:
+        say(f'null law not self-consistent: replicas refitted to {max(lost):.3g} x their noise')
+        return Decision(
+            UNEXPLAINED, None, (), (),
+            'the fit does not recover its own model from this record: records simulated '
+            f'from the fitted model are refitted to {max(lost):.3g} x their white noise '
+            f'(above {SELF_ERROR_LIMIT:.3g}: the workflow\'s own error exceeds the noise), '
+            'so no statistic here can tell a missing effect from the fit\'s error',
+        )  # fmt: skip
+    if fails:
+        return None
+    if covered:
+        stat, bound = max(covered)
+        say(f"null law reached by the fit's error: record {stat:.3g}, replicas up to {bound:.3g}")
+        return Decision(
+            UNEXPLAINED, None, (), (),
+            f'the torque residual, {stat:.3g} x the white noise, lies beyond the noise '
+            f'(above {SELF_ERROR_LIMIT:.3g}) but within what the fit leaves on records '
+            f'simulated from its own model (up to {bound:.3g} x): the workflow\'s own error, '
+            'not the noise, covers it, so no statistic here can tell a missing effect from '
+            'the fit\'s error',
+        )  # fmt: skip
+    # how far "nothing missing" reaches: the record's torque statistic, the largest its
+    # own replicas allow, and the smallest residual an effect would have to add
+    # (independent of the rest) to cross that bound
+    stat = max(stats)
+    bound = max(law.bound('torsion_moment') for law in laws)
+    limit = max(
+        detection_limit(s, law.bound('torsion_moment'), n)
+        for s, law, n in zip(stats, laws, noises, strict=True)
+    )
+    return Decision(
+        NOTHING_MISSING, None, (), (),
+        "the paper's model explains the record as well as records simulated from "
+        f'itself (torque residual {stat:.3g} x the white noise; its replicas up to '
+        f'{bound:.3g} x: an effect adding less than {limit:.2g} N m rms to the '
+        'torque residual would not show)',
+    )  # fmt: skip
+
+
 def _single_speed(ens: Ensemble) -> bool:
     """Tell whether every record ran at one drive speed (within 10 % of the mean)."""
     speeds: list[float] = []
@@ -333,34 +412,12 @@ def find_missing_physics(
     decision: Decision
     added: list[FormFit] = []
     added_to: dict[str, Model] = {}  # per family kept tentatively, the model it was added to
-    lost = [law.centre('torsion_moment') for law in laws if not law.self_consistent()]
-    if lost:
-        say(f'null law not self-consistent: replicas refitted to {max(lost):.3g} x their noise')
-        decision = Decision(
-            UNEXPLAINED, None, (), (),
-            'the fit does not recover its own model from this record: records simulated '
-            f'from the fitted model are refitted to {max(lost):.3g} x their white noise '
-            f'(above {SELF_ERROR_LIMIT:.3g}: the workflow\'s own error exceeds the noise), '
-            'so no statistic here can tell a missing effect from the fit\'s error',
-        )  # fmt: skip
-    elif not fails:
-        # how far "nothing missing" reaches: the record's torque statistic, the largest
-        # its own replicas allow, and the smallest residual an effect would have to add
-        # (independent of the rest) to cross that bound
-        stat = max(a['torsion_moment'] for a in baseline.adequacy)
-        bound = max(law.bound('torsion_moment') for law in laws)
-        limit = max(
-            detection_limit(a['torsion_moment'], law.bound('torsion_moment'),
-                            a.noise.torsion_moment.total)
-            for a, law in zip(baseline.adequacy, laws, strict=True)
-        )  # fmt: skip
-        decision = Decision(
-            NOTHING_MISSING, None, (), (),
-            "the paper's model explains the record as well as records simulated from "
-            f'itself (torque residual {stat:.3g} x the white noise; its replicas up to '
-            f'{bound:.3g} x: an effect adding less than {limit:.2g} N m rms to the '
-            'torque residual would not show)',
-        )  # fmt: skip
+    verdict = null_verdict(
+        [a['torsion_moment'] for a in baseline.adequacy], laws,
+        [a.noise.torsion_moment.total for a in baseline.adequacy], bool(fails), say,
+    )  # fmt: skip
+    if verdict is not None:
+        decision = verdict
     else:
         say(f'baseline inadequate: {", ".join(fails)}')
         decision = Decision(UNEXPLAINED, None, (), (), 'no family screened')
