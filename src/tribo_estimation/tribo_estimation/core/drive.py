@@ -1052,6 +1052,8 @@ def _polish_corners(
     start: float | None,
     prior: Prior | None,
     sk: FloatArray | None,
+    rounds: int = 6,
+    nfev: int = 50,
 ) -> FloatArray:
     """Move the free knot times jointly to the nearest least-squares angle fit.
 
@@ -1089,7 +1091,7 @@ def _polish_corners(
     idx = np.flatnonzero(free)
     if idx.size == 0 or tt.size <= tk.size + 2:
         return tk
-    for _ in range(_POLISH_ROUNDS):
+    for _ in range(rounds):
         gap = np.diff(tk)
         lo = tk[idx] - 0.5 * (gap[idx - 1] - MIN_PIECE)
         hi = tk[idx] + 0.5 * (gap[np.minimum(idx, gap.size - 1)] - MIN_PIECE)
@@ -1104,7 +1106,7 @@ def _polish_corners(
 
         r0 = residuals(x0)
         sol = least_squares(
-            residuals, x0, bounds=(lo, hi), x_scale=1e-3, diff_step=1e-7, max_nfev=50
+            residuals, x0, bounds=(lo, hi), x_scale=1e-3, diff_step=1e-7, max_nfev=nfev
         )
         if not float(sol.fun @ sol.fun) < float(r0 @ r0):
             return tk
@@ -1125,8 +1127,9 @@ _POLISH_BOUND = 0.01
 
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
 _SPANNED_CORNERS = 3
-#: Merges into one raised cosine whose ends are polished, the best by their spread [-].
-_POLISHED_MERGES = 4
+#: Rounds and evaluations per round of the brief polish a merge into one raised cosine is
+#: judged by (:func:`_choose_shapes`; the chosen merge is then polished fully) [-].
+_MERGE_POLISH = (2, 12)
 #: Spreads of a piece's placed corners about its mid-time tried with its other shape:
 #: a grid of factors [-], then two finer grids (steps of a fifth) around the best.
 _SPREADS = np.linspace(0.6, 1.6, 11)
@@ -1234,6 +1237,7 @@ def _choose_shapes(
     _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=sk)
     while True:
         move: tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]] | None = None
+        chosen = -1  # the first knot of a chosen merge's raised cosine
         for j in range(tk.size - 1):
             if not _shaped_by_angles(tt, float(tk[j]), float(tk[j + 1])):
                 continue
@@ -1267,19 +1271,22 @@ def _choose_shapes(
                 else:
                     _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
                 merges.append((sse, i, tk2, sk2, rm2))
-        # the best spread merges, their ends then polished jointly
-        merges.sort(key=lambda m: m[0])
-        for k, (sse, i, tk2, sk2, rm2) in enumerate(merges):
-            if k < _POLISHED_MERGES and (rm2[i] or rm2[i + 1]):
+        for sse, i, tk2, sk2, rm2 in merges:
+            if rm2[i] or rm2[i + 1]:  # the ends polished jointly, briefly
                 ends = np.zeros(tk2.size, dtype=bool)
                 ends[i : i + 2] = rm2[i : i + 2]
-                tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2)
+                tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2, *_MERGE_POLISH)
                 _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
             if sse < best:
                 best, move = sse, (tk2, sk2, rm2)
+                chosen = i
         if move is None:
             return tk, sk, removable
         tk, sk, removable = move
+        if chosen >= 0:  # the chosen merge's ends polished to the end
+            ends = np.zeros(tk.size, dtype=bool)
+            ends[chosen : chosen + 2] = removable[chosen : chosen + 2]
+            tk = _polish_corners(tk, ends, tt, ph, start, prior, sk)
 
 
 def refine_with_angles(
