@@ -1044,6 +1044,15 @@ def _place(
     return _polish_corners(tk, free, tt, ph, start, prior, sk)
 
 
+#: Most rounds of :func:`_polish_corners` [-]: each lets a time move half the gap to
+#: its neighbours.
+_POLISH_ROUNDS = 6
+#: Most evaluations of one round of :func:`_polish_corners` [-].
+_POLISH_NFEV = 50
+#: A polished time within this fraction of its bounds' span of a bound is at it [-].
+_POLISH_BOUND = 0.01
+
+
 def _polish_corners(
     tk: FloatArray,
     free: npt.NDArray[np.bool_],
@@ -1052,8 +1061,8 @@ def _polish_corners(
     start: float | None,
     prior: Prior | None,
     sk: FloatArray | None,
-    rounds: int = 6,
-    nfev: int = 50,
+    rounds: int = _POLISH_ROUNDS,
+    nfev: int = _POLISH_NFEV,
 ) -> FloatArray:
     """Move the free knot times jointly to the nearest least-squares angle fit.
 
@@ -1118,13 +1127,6 @@ def _polish_corners(
     return tk
 
 
-#: Most rounds of :func:`_polish_corners` [-]: each lets a time move half the gap to
-#: its neighbours.
-_POLISH_ROUNDS = 6
-#: A polished time within this fraction of its bounds' span of a bound is at it [-].
-_POLISH_BOUND = 0.01
-
-
 #: Most placed corners one raised-cosine piece replaces [-] (:func:`_choose_shapes`).
 _SPANNED_CORNERS = 3
 #: Rounds and evaluations per round of the brief polish a merge into one raised cosine is
@@ -1175,6 +1177,24 @@ def _spread_search(
         step /= 5.0
         grid = np.asarray(centre + step * np.arange(-5, 6), dtype=np.float64)
     return best_tk, best
+
+
+def _polish_piece(
+    tk: FloatArray,
+    removable: npt.NDArray[np.bool_],
+    j: int,
+    tt: FloatArray,
+    ph: FloatArray,
+    start: float | None,
+    prior: Prior | None,
+    sk: FloatArray,
+    rounds: int = _POLISH_ROUNDS,
+    nfev: int = _POLISH_NFEV,
+) -> FloatArray:
+    """Polish the removable ends of piece ``j`` (:func:`_polish_corners`), the rest kept."""
+    ends = np.zeros(tk.size, dtype=bool)
+    ends[j : j + 2] = removable[j : j + 2]
+    return _polish_corners(tk, ends, tt, ph, start, prior, sk, rounds, nfev)
 
 
 def _shaped_by_angles(ts: FloatArray, a: float, b: float) -> bool:
@@ -1253,7 +1273,6 @@ def _choose_shapes(
                 _, sse = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=trial)
             if sse < best:
                 best, move = sse, (tk2, trial, removable)
-        merges: list[tuple[float, int, FloatArray, FloatArray, npt.NDArray[np.bool_]]] = []
         for i in range(tk.size - 2):
             for j in range(i + 2, min(i + 2 + _SPANNED_CORNERS, tk.size)):
                 if not removable[i + 1 : j].all():
@@ -1266,27 +1285,19 @@ def _choose_shapes(
                 sk2[i] = COSINE
                 if rm2[i] or rm2[i + 1]:
                     # the cosine's ends sit wider apart than the corners it replaces
-                    # (an S-ramp of a second from rest): spread about its mid-time
-                    tk2, sse = _spread_search(tk2, rm2, i, tt, ph, start, prior, sk2)
-                else:
-                    _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
-                merges.append((sse, i, tk2, sk2, rm2))
-        for sse, i, tk2, sk2, rm2 in merges:
-            if rm2[i] or rm2[i + 1]:  # the ends polished jointly, briefly
-                ends = np.zeros(tk2.size, dtype=bool)
-                ends[i : i + 2] = rm2[i : i + 2]
-                tk2 = _polish_corners(tk2, ends, tt, ph, start, prior, sk2, *_MERGE_POLISH)
+                    # (an S-ramp of a second from rest): spread about its mid-time, then
+                    # polished jointly, briefly
+                    tk2, _ = _spread_search(tk2, rm2, i, tt, ph, start, prior, sk2)
+                    tk2 = _polish_piece(tk2, rm2, i, tt, ph, start, prior, sk2, *_MERGE_POLISH)
                 _, sse = _solve_speeds(tk2, tt, ph, start, prior, tt_sorted=True, sk=sk2)
-            if sse < best:
-                best, move = sse, (tk2, sk2, rm2)
-                chosen = i
+                if sse < best:
+                    best, move = sse, (tk2, sk2, rm2)
+                    chosen = i
         if move is None:
             return tk, sk, removable
         tk, sk, removable = move
         if chosen >= 0:  # the chosen merge's ends polished to the end
-            ends = np.zeros(tk.size, dtype=bool)
-            ends[chosen : chosen + 2] = removable[chosen : chosen + 2]
-            tk = _polish_corners(tk, ends, tt, ph, start, prior, sk)
+            tk = _polish_piece(tk, removable, chosen, tt, ph, start, prior, sk)
 
 
 def refine_with_angles(

@@ -144,11 +144,8 @@ def null_verdict(
         The verdict, or None when the baseline is inadequate and the laws usable.
     """
     lost = [law.centre('torsion_moment') for law in laws if not law.self_consistent()]
-    covered = [
-        (s, law.bound('torsion_moment'))
-        for s, law in zip(stats, laws, strict=True)
-        if min(s, law.bound('torsion_moment')) > SELF_ERROR_LIMIT
-    ]
+    bounds = [law.bound('torsion_moment') for law in laws]
+    covered = [(s, b) for s, b in zip(stats, bounds, strict=True) if min(s, b) > SELF_ERROR_LIMIT]
     if lost:
         say(f'null law not self-consistent: replicas refitted to {max(lost):.3g} x their noise')
         return Decision(
@@ -175,11 +172,8 @@ def null_verdict(
     # own replicas allow, and the smallest residual an effect would have to add
     # (independent of the rest) to cross that bound
     stat = max(stats)
-    bound = max(law.bound('torsion_moment') for law in laws)
-    limit = max(
-        detection_limit(s, law.bound('torsion_moment'), n)
-        for s, law, n in zip(stats, laws, noises, strict=True)
-    )
+    bound = max(bounds)
+    limit = max(detection_limit(s, b, n) for s, b, n in zip(stats, bounds, noises, strict=True))
     return Decision(
         NOTHING_MISSING, None, (), (),
         "the paper's model explains the record as well as records simulated from "
