@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, StartContext, register
+from .drive_speed_ripple_angle import CANDIDATE as SINGLE
 from .drive_speed_ripple_angle import angle_starts
 
 
@@ -28,9 +29,7 @@ CANDIDATE = register(
         'drive speed ripple locked to the drive angle with its second harmonic: '
         'w0 = w_n*(1 + r*sin(n*theta + p) + r2*sin(2n*theta + p2))',
         (
-            ParamSpec('ripple_rel', '-', 0.0, 0.5, 0.01, 0.0),
-            ParamSpec('ripple_order', '-', 0.2, 500.0, 1.0, 1.0, log=True),
-            ParamSpec('ripple_angle_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
+            *SINGLE.params,  # the single form's, then the harmonic's
             ParamSpec('ripple2_rel', '-', 0.0, 0.5, 0.01, 0.0),
             ParamSpec('ripple2_angle_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),

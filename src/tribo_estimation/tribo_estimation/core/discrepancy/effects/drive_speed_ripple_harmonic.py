@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from ..candidates import SUGGEST_MORE, Candidate, ParamSpec, StartContext, register
+from .drive_speed_ripple import CANDIDATE as SINGLE
 from .drive_speed_ripple import ripple_starts
 
 
@@ -24,9 +25,7 @@ CANDIDATE = register(
         'periodic drive speed disturbance with its second harmonic: '
         'w0 = w_nom + a*sin(2 pi f t + p) + a2*sin(4 pi f t + p2)',
         (
-            ParamSpec('ripple_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
-            ParamSpec('ripple_freq', 'Hz', 0.05, 2000.0, 1.0, 1.0, log=True),
-            ParamSpec('ripple_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
+            *SINGLE.params,  # the single form's, then the harmonic's
             ParamSpec('ripple2_amp', 'rad/s', 0.0, 100.0, 0.01, 0.0),
             ParamSpec('ripple2_phase', 'rad', -4 * math.pi, 4 * math.pi, 1.0, 0.0),
         ),
