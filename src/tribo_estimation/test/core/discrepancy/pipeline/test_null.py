@@ -10,12 +10,14 @@ import pytest
 from discrepancy_scenarios import NOISE as LEVELS
 from discrepancy_scenarios import constant, record, rpm
 from scipy.stats import t as student_t
+from tribo_scenarios.spec import DriveSpec, Transition
 
 from tribo_estimation.core.discrepancy.fitting import K_DECAY, MU0, MU_INF
 from tribo_estimation.core.discrepancy.pipeline.noise import ChannelNoise, NoiseModel
-from tribo_estimation.core.discrepancy.pipeline.null import Adequacy, NullLaw, null_law
+from tribo_estimation.core.discrepancy.pipeline.null import Adequacy, NullLaw, null_law, replica
 from tribo_estimation.core.discrepancy.pipeline.policy import Policy
 from tribo_estimation.core.discrepancy.pipeline.prepare import prepare
+from tribo_estimation.core.model import DriveProfile
 
 NOISE = NoiseModel(ChannelNoise(0.05), ChannelNoise(2.0), ChannelNoise(0.005))
 
@@ -114,3 +116,30 @@ def test_the_replicas_are_weighted_by_their_own_residuals() -> None:
     for name, got in again.samples.items():
         assert got == pytest.approx(first.samples[name], rel=1e-9), name
     assert first.centre('torsion_moment') < 1.2  # replicas of the true model
+
+
+def test_a_replica_of_a_record_from_the_drive_start_begins_there() -> None:
+    # a record from the drive's start (a 0.3 s start-up ramp to 25 rpm in RIG.yaml, at
+    # rest at its first sample, 5 kHz): its replica begins at the first sample too,
+    # holding the model's first segment state until then. Its problem then starts the
+    # drive profile from rest at t = 0 and a segment at the initial stick from rest, as
+    # the record's does (begun at the first segment, 3 ms later and moving, its profile
+    # began at 0.026 rad/s and its first segment came after the initial stick, 0.115 s
+    # later); its replicas refit their own model at the noise (median below 1.05x)
+    speed = rpm(25)
+    drive = DriveSpec('startup', (Transition(0.0, 0.3, speed, 'linear'),), 0.0, speed, 0.3,
+                      ('startup',))  # fmt: skip
+    rec, rig, _ = record(3, drive, fs=5000.0, duration=2.0)
+    pb = prepare(rec, rig, DriveProfile(speed, 0.3), k=2.0, policy=Policy(shaft=False)).problem
+    assert pb.begins_at_drive_start
+    values = {'mu0': 0.13, 'mu_inf': 0.10, 'k': 2.0}
+    rep = pb.like(replica(pb, values, NOISE, np.random.default_rng(0)))
+    assert rep.record.time[0] == rec.time[0] == 0.0
+    assert rep.begins_at_drive_start
+    # the same first segments (samples) and the profile from rest at t = 0
+    assert rep.segments.start[:3].tolist() == pb.segments.start[:3].tolist()
+    assert rep.drive_estimate.knot_time[0] == 0.0
+    assert rep.drive_estimate.knot_speed[0] == 0.0
+    law = null_law(pb, values, [MU0, MU_INF, K_DECAY], NOISE, replicas=4, alpha=0.01, seed=2,
+                   max_nfev=20)  # fmt: skip
+    assert float(np.median(law.samples['torsion_moment'])) < 1.05, law.samples

@@ -414,6 +414,15 @@ class Problem:
         self._set_instrument(0.0, 0.0)
         self.weights: dict[str, float] = dict(weights) if weights else self.signal_weights()
 
+    @property
+    def begins_at_drive_start(self) -> bool:
+        """True when the record begins at rest at the drive's start (RIG.yaml's ramp).
+
+        Its drive profile then starts from rest at the first sample
+        (:func:`.segments.begins_at_drive_start`).
+        """
+        return self._start_speed is not None
+
     def like(self, record: Record) -> Problem:
         """Return the problem of another record with this one's rig, drive and settings.
 

@@ -155,15 +155,26 @@ def replica(
     Returns
     -------
     Record
-        The replica, from the first segment's start to the record's end.
+        The replica, from the first segment's start (from the record's first sample
+        when it begins at the drive's start and that segment in its initial stick) to
+        the record's end.
     """
     sim = problem.simulate(values, continuous=True)
     i0 = int(np.flatnonzero(sim.covered)[0])
     rec = problem.record
-    n = rec.time.size - i0
-    chans = {c: sim.channel(c)[i0:] + noise.channel(c).draw(rng, n, rec.dt) for c in RAW_CHANNELS}
+    # a record that begins at the drive's start with its first segment in the initial
+    # stick from rest: so does its replica, the samples before that segment holding the
+    # model's state there (the discs stuck, at rest), so that its profile starts from
+    # rest at the drive's start and its initial stick starts a segment, as the record's
+    first = 0 if problem.begins_at_drive_start and sim.stick[i0] > 0.5 else i0
+    n = rec.time.size - first
+    chans = {
+        c: np.concatenate([np.full(i0 - first, sim.channel(c)[i0]), sim.channel(c)[i0:]])
+        + noise.channel(c).draw(rng, n, rec.dt)
+        for c in RAW_CHANNELS
+    }
     return Record(
-        rec.time[i0:].copy(),
+        rec.time[first:].copy(),
         chans['torsion_moment'],
         chans['angular_acceleration'],
         chans['speed'],
