@@ -1298,6 +1298,7 @@ def _choose_shapes(
         tk, sk, removable = move
         if chosen >= 0:  # the chosen merge's ends polished to the end
             tk = _polish_piece(tk, removable, chosen, tt, ph, start, prior, sk)
+            _, best = _solve_speeds(tk, tt, ph, start, prior, tt_sorted=True, sk=sk)
 
 
 def refine_with_angles(
