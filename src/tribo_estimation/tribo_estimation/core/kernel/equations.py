@@ -121,20 +121,47 @@ def drive_speed(p: FloatArray, t: float) -> float:
     fastmath=FASTMATH,
     inline='always',
 )
-def piece_speed(p: FloatArray, t: float) -> float:
-    """Return the ripple-free drive speed of the ramp or the profile's piece [rad/s]."""
+def piece_drive(p: FloatArray, t: float) -> tuple[float, float]:
+    """Return the ripple-free drive speed [rad/s] and angle [rad] of the ramp or the piece.
+
+    A linear start-up ramp to ``P_W0`` over ``P_RAMP`` (> 0), else one piece
+    ``w0 + rate*(t - t_ref) + c*cos(om*(t - t_ref))`` of a measured drive profile; the
+    angle is the speed's integral from 0 to t (the piece's own angle:
+    :data:`.layout.P_RIPA_ANGLE0` added makes it the drive angle from the profile's
+    first knot). Speed and angle share their terms: the kernel needs both at every
+    stage (:func:`shaft_moment`).
+    """
     w0n = p[P_W0]
     tr = p[P_RAMP]
     if tr > 0.0:
-        w = w0n * (t / tr if t < tr else 1.0)
-        if t < 0.0:
-            w = 0.0
-    else:  # one piece of a measured drive profile (rate 0: constant)
-        w = w0n + p[P_W0_RATE] * (t - p[P_T_DRIVE])
-        c = p[P_W0_COS]
-        if c != 0.0:
-            w += c * math.cos(p[P_W0_OMEGA] * (t - p[P_T_DRIVE]))
-    return float(w)
+        if t >= tr:
+            return w0n, w0n * (t - 0.5 * tr)
+        if t > 0.0:
+            return w0n * (t / tr), 0.5 * w0n * t * t / tr
+        return 0.0, 0.0
+    # one piece of a measured drive profile (rate 0: constant)
+    rate = p[P_W0_RATE]
+    tref = p[P_T_DRIVE]
+    dtr = t - tref
+    w = w0n + rate * dtr
+    a = w0n * t + 0.5 * rate * (dtr * dtr - tref * tref)
+    c = p[P_W0_COS]
+    if c != 0.0:
+        om0 = p[P_W0_OMEGA]
+        w += c * math.cos(om0 * dtr)
+        a += c / om0 * (math.sin(om0 * dtr) + math.sin(om0 * tref))
+    return w, a
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath=FASTMATH,
+    inline='always',
+)
+def piece_speed(p: FloatArray, t: float) -> float:
+    """Return the ripple-free drive speed of the ramp or the profile's piece [rad/s]."""
+    return float(piece_drive(p, t)[0])
 
 
 @njit(
@@ -144,29 +171,8 @@ def piece_speed(p: FloatArray, t: float) -> float:
     inline='always',
 )
 def piece_angle(p: FloatArray, t: float) -> float:
-    """Return the integral from 0 to t of :func:`piece_speed` [rad].
-
-    The piece's own angle: :data:`.layout.P_RIPA_ANGLE0` added makes it the drive
-    angle from the profile's first knot.
-    """
-    w0n = p[P_W0]
-    tr = p[P_RAMP]
-    if tr > 0.0:
-        if t <= 0.0:
-            a = 0.0
-        elif t < tr:
-            a = 0.5 * w0n * t * t / tr
-        else:
-            a = w0n * (t - 0.5 * tr)
-    else:
-        rate = p[P_W0_RATE]
-        tref = p[P_T_DRIVE]
-        a = w0n * t + 0.5 * rate * ((t - tref) * (t - tref) - tref * tref)
-        c = p[P_W0_COS]
-        if c != 0.0:
-            om0 = p[P_W0_OMEGA]
-            a += c / om0 * (math.sin(om0 * (t - tref)) + math.sin(om0 * tref))
-    return float(a)
+    """Return the integral from 0 to t of :func:`piece_speed` [rad] (:func:`piece_drive`)."""
+    return float(piece_drive(p, t)[1])
 
 
 @njit(
@@ -404,8 +410,13 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     float
         Q2 [N m].
     """
-    w0 = drive_speed(p, t)
-    phi0 = drive_angle(p, t)
+    if (
+        p[P_RIP_AMP] != 0.0 or p[P_RIP2_AMP] != 0.0 or p[P_RIPA_REL] != 0.0 or p[P_RIPA2_REL] != 0.0
+    ):  # a ripple in time or locked to the angle
+        w0 = drive_speed(p, t)
+        phi0 = drive_angle(p, t)
+    else:  # the ramp's or the piece's own speed and angle, their terms shared
+        w0, phi0 = piece_drive(p, t)
     return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
 
 
