@@ -98,12 +98,27 @@ def drive_speed(p: FloatArray, t: float) -> float:
     float
         w0(t) [rad/s].
     """
-    wn = piece_speed(p, t)
+    wn, an = piece_drive(p, t)
+    return with_speed_ripple(p, t, wn, an)
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath=FASTMATH,
+    inline='always',
+)
+def with_speed_ripple(p: FloatArray, t: float, wn: float, an: float) -> float:
+    """Return the drive speed [rad/s] from the piece's speed ``wn`` and angle ``an``.
+
+    Adds the ripple locked to the drive angle and the ripple in time to the ramp's or
+    the piece's own speed (:func:`piece_drive`), as :func:`drive_speed` describes.
+    """
     w = wn
     rel = p[P_RIPA_REL]
     rel2 = p[P_RIPA2_REL]
     if rel != 0.0 or rel2 != 0.0:
-        n_theta = p[P_RIPA_ORDER] * (piece_angle(p, t) + p[P_RIPA_ANGLE0])
+        n_theta = p[P_RIPA_ORDER] * (an + p[P_RIPA_ANGLE0])
         w += rel * wn * math.sin(n_theta + p[P_RIPA_PHASE])
         w += rel2 * wn * math.sin(2.0 * n_theta + p[P_RIPA2_PHASE])
     amp = p[P_RIP_AMP]
@@ -200,7 +215,22 @@ def drive_angle(p: FloatArray, t: float) -> float:
     float
         phi0(t) [rad].
     """
-    a = piece_angle(p, t)
+    return with_angle_ripple(p, t, piece_angle(p, t))
+
+
+@njit(
+    cache=True,
+    error_model='numpy',
+    fastmath=FASTMATH,
+    inline='always',
+)
+def with_angle_ripple(p: FloatArray, t: float, an: float) -> float:
+    """Return the drive angle [rad] from the piece's own angle ``an``.
+
+    Adds the integrals of both ripples to the ramp's or the piece's angle
+    (:func:`piece_drive`), as :func:`drive_angle` describes.
+    """
+    a = an
     rel = p[P_RIPA_REL]
     rel2 = p[P_RIPA2_REL]
     n = p[P_RIPA_ORDER]
@@ -410,13 +440,10 @@ def shaft_moment(p: FloatArray, t: float, phi2: float, w2: float) -> float:
     float
         Q2 [N m].
     """
-    if (
-        p[P_RIP_AMP] != 0.0 or p[P_RIP2_AMP] != 0.0 or p[P_RIPA_REL] != 0.0 or p[P_RIPA2_REL] != 0.0
-    ):  # a ripple in time or locked to the angle
-        w0 = drive_speed(p, t)
-        phi0 = drive_angle(p, t)
-    else:  # the ramp's or the piece's own speed and angle, their terms shared
-        w0, phi0 = piece_drive(p, t)
+    # the piece computed once for both (the kernel's every stage), its ripples added
+    wn, an = piece_drive(p, t)
+    w0 = with_speed_ripple(p, t, wn, an)
+    phi0 = with_angle_ripple(p, t, an)
     return float(-p[P_K2] * (w2 - w0) - p[P_C2] * (phi2 - phi0))
 
 
