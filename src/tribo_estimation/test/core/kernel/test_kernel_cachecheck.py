@@ -1,4 +1,4 @@
-"""Stale numba caches are dropped when the kernel layout changes (and only then)."""
+"""Stale numba caches are dropped when compiled code or the layout changes (and only then)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ def _tree(root: Path) -> tuple[Path, Path]:
     kernel = root / 'tribo_estimation' / 'core' / 'kernel'
     kernel.mkdir(parents=True)
     (kernel / 'layout.py').write_text('NS = 12\n')
-    (kernel / 'state.py').write_text('# tuple builders\n')
+    (kernel / 'state.py').write_text('# tuple builders\n@njit\ndef f(): pass\n')
+    (kernel / 'equations.py').write_text('@njit(inline="always")\ndef g(): return 1\n')
+    (kernel / 'notes.py').write_text('# no compiled code\n')
     cache = root / 'tribo_estimation' / 'core' / 'sticks' / '__pycache__'
     cache.mkdir(parents=True)
     return kernel, cache
@@ -40,3 +42,22 @@ def test_caches_dropped_on_a_layout_change_only(tmp_path: Path) -> None:
     (kernel / 'state.py').write_text('# changed\n')
     purge_stale_caches(kernel)
     assert keep.exists()
+
+
+def test_caches_dropped_when_an_inlined_function_changes(tmp_path: Path) -> None:
+    # a function compiled into shooting's (kernel.equations, inline='always') changes:
+    # shooting's cache, keyed on its own file, would hold the old machine code
+    kernel, cache = _tree(tmp_path)
+    files = [cache / 'shoot.f-10.py311.nbi', cache / 'shoot.f-10.py311.1.nbc']
+    purge_stale_caches(kernel)
+    for f in files:
+        f.write_bytes(b'x')
+    (kernel / 'equations.py').write_text('@njit(inline="always")\ndef g(): return 2\n')
+    assert purge_stale_caches(kernel)
+    assert not any(f.exists() for f in files)
+    # a source without compiled code changes: the caches stay
+    for f in files:
+        f.write_bytes(b'x')
+    (kernel / 'notes.py').write_text('# edited\n')
+    assert not purge_stale_caches(kernel)
+    assert all(f.exists() for f in files)

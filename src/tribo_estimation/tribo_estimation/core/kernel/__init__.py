@@ -35,8 +35,8 @@ gives every name):
 - :mod:`.step`: the RK4 step and its step-size control,
 - :mod:`.events`: switching events and their location,
 - :mod:`.integrate`: the integrator (:func:`integrate`, :func:`integrate_logged`),
-- :mod:`.cachecheck`: drops the package's numba caches when ``layout.py``/``state.py``
-  changed (their constants are compiled into functions of other files).
+- :mod:`.cachecheck`: drops the package's numba caches when ``layout.py`` or a source
+  holding compiled code changed (both are compiled into functions of other files).
 
 Flat-array interface (no Python objects, callable from other ``@njit`` code):
 

@@ -1,13 +1,15 @@
-"""Drop numba's on-disk caches of the package when the kernel's layout changed.
+"""Drop numba's on-disk caches of the package when compiled code changed.
 
 numba's cache (``cache=True``) keys a compiled function on its own source file only.
 The kernel's layout constants (:mod:`.layout`: indices and sizes of the parameter,
-state and output vectors) and its tuple builders (:mod:`.state`) are compiled *into*
-every function that uses them, in other files: after an edit of ``layout.py`` (a new
-state slot, a new parameter) those functions would load stale machine code with the
-old indices. So the package's caches are deleted when the two files' hash differs
-from the one stamped at the last check. Runs once per process, before any compiled
-function is loaded; a read-only install is left alone.
+state and output vectors) and every compiled function are compiled *into* the
+functions that use them, in other files (``inline='always'``, or a call the compiler
+resolves at compile time): after an edit of ``layout.py`` (a new state slot) or of a
+compiled function (``kernel.equations``' drive, say), the functions of other files
+would load stale machine code. So the package's caches are deleted when the hash of
+``layout.py`` and of every source holding compiled code (its text names ``njit``)
+differs from the one stamped at the last check. Runs once per process, before any
+compiled function is loaded (about 5 ms); a read-only install is left alone.
 """
 
 from __future__ import annotations
@@ -16,9 +18,11 @@ import hashlib
 import os
 from pathlib import Path
 
-#: Files whose content is compiled into functions defined elsewhere.
-_SHARED = ('layout.py', 'state.py')
-_STAMP = 'layout.sha256'
+#: Kernel files compiled into functions defined elsewhere that hold no compiled code.
+_SHARED = ('layout.py',)
+#: The text that marks a source holding compiled code.
+_COMPILED = b'njit'
+_STAMP = 'compiled.sha256'
 _STAMP_ALL = 'sources.sha256'
 
 
@@ -31,7 +35,7 @@ def _digest(files: list[Path], base: Path) -> str:
 
 
 def purge_stale_caches(kernel_dir: Path | None = None, *, every_source: bool = False) -> bool:
-    """Delete the package's numba cache files if the kernel layout changed.
+    """Delete the package's numba cache files if compiled code changed.
 
     Parameters
     ----------
@@ -39,19 +43,28 @@ def purge_stale_caches(kernel_dir: Path | None = None, *, every_source: bool = F
         The kernel package's folder (default: this one); the package whose caches
         are deleted is two levels up (``tribo_estimation/``).
     every_source : bool
-        Hash every ``.py`` file of the package instead of the layout files (the
+        Hash every ``.py`` file of the package instead of the compiled ones (the
         set-up's warm-up: any change of a source drops the caches; own stamp).
 
     Returns
     -------
     bool
-        True if cache files were deleted (the layout changed since the last check).
+        True if cache files were deleted (compiled code changed since the last
+        check).
     """
     here = kernel_dir if kernel_dir is not None else Path(__file__).resolve().parent
     package = here.parents[1]  # tribo_estimation/
     stamp = here / '__pycache__' / (_STAMP_ALL if every_source else _STAMP)
     try:
-        files = sorted(package.rglob('*.py')) if every_source else [here / n for n in _SHARED]
+        sources = sorted(package.rglob('*.py'))
+        files = (
+            sources
+            if every_source
+            else [
+                f for f in sources
+                if (f.parent == here and f.name in _SHARED) or _COMPILED in f.read_bytes()
+            ]
+        )  # fmt: skip
         digest = _digest(files, package)
         if stamp.is_file() and stamp.read_text().strip() == digest:
             return False
