@@ -174,19 +174,8 @@ def piece_drive(p: FloatArray, t: float) -> tuple[float, float]:
     fastmath=FASTMATH,
     inline='always',
 )
-def piece_speed(p: FloatArray, t: float) -> float:
-    """Return the ripple-free drive speed of the ramp or the profile's piece [rad/s]."""
-    return float(piece_drive(p, t)[0])
-
-
-@njit(
-    cache=True,
-    error_model='numpy',
-    fastmath=FASTMATH,
-    inline='always',
-)
 def piece_angle(p: FloatArray, t: float) -> float:
-    """Return the integral from 0 to t of :func:`piece_speed` [rad] (:func:`piece_drive`)."""
+    """Return the ripple-free drive angle of the ramp or the piece [rad] (:func:`piece_drive`)."""
     return float(piece_drive(p, t)[1])
 
 
