@@ -26,11 +26,11 @@ _STAMP = 'compiled.sha256'
 _STAMP_ALL = 'sources.sha256'
 
 
-def _digest(files: list[Path], base: Path) -> str:
+def _digest(files: list[tuple[Path, bytes]], base: Path) -> str:
     h = hashlib.sha256()
-    for src in files:
+    for src, text in files:
         h.update(str(src.relative_to(base)).encode())
-        h.update(src.read_bytes())
+        h.update(text)
     return h.hexdigest()
 
 
@@ -56,13 +56,13 @@ def purge_stale_caches(kernel_dir: Path | None = None, *, every_source: bool = F
     package = here.parents[1]  # tribo_estimation/
     stamp = here / '__pycache__' / (_STAMP_ALL if every_source else _STAMP)
     try:
-        sources = sorted(package.rglob('*.py'))
+        sources = [(f, f.read_bytes()) for f in sorted(package.rglob('*.py'))]
         files = (
             sources
             if every_source
             else [
-                f for f in sources
-                if (f.parent == here and f.name in _SHARED) or _COMPILED in f.read_bytes()
+                (f, text) for f, text in sources
+                if (f.parent == here and f.name in _SHARED) or _COMPILED in text
             ]
         )  # fmt: skip
         digest = _digest(files, package)
